@@ -1,0 +1,22 @@
+//! physics-mcp: an MCP server for deterministic, replayable rigid-body simulations.
+//!
+//! # Layout
+//! - `value`   — parsing tool arguments (vectors, quaternions, numbers) with clear refusals.
+//! - `command` — `Command`, the validated form of every state-changing call, and its checks.
+//! - `world`   — the deterministic state machine over rapier3d: `apply`, `state_hash`,
+//!   `snapshot`/`restore`. No I/O, no clock, no randomness.
+//! - `outputs` — the structured results of the tools (with JSON schemas).
+//! - `store`   — the SQLite event log of one simulation: events, head, snapshots, blobs.
+//! - `sim`     — `Sim` = log + world (decide → apply → append → reply) and the `Registry`.
+//! - `mcp`     — rmcp adapters: JSON arguments → `Command` → `Sim` → MCP result; HTTP, stdio.
+//! - `limits`  — the CLI limits every request is checked against.
+#![warn(missing_docs)]
+
+pub mod command;
+pub mod limits;
+pub mod outputs;
+pub mod value;
+pub mod world;
+pub mod sim;
+pub mod store;
+pub mod mcp;

@@ -1,0 +1,203 @@
+//! Input schemas of the tools. These types only *describe* parameters (their `///` comments
+//! become the schema descriptions); arguments arrive as a raw JSON object and are parsed by
+//! `value.rs`, so that a wrong type is a clear tool error (isError), not a JSON-RPC failure,
+//! and the raw arguments can be logged exactly as sent.
+#![allow(dead_code)]
+
+use schemars::JsonSchema;
+
+/// No parameters.
+#[derive(JsonSchema)]
+pub struct NoParams {}
+
+/// create_simulation parameters.
+#[derive(JsonSchema)]
+pub struct CreateSimulation {
+    /// Gravity [gx, gy, gz] in m/s² (z-up; default [0, 0, -9.81]). A single number g or [g]
+    /// means [0, 0, g].
+    pub gravity: Option<[f64; 3]>,
+    /// Show this simulation in the built-in web viewer (default false).
+    pub gui: Option<bool>,
+}
+
+/// Parameters naming just a simulation.
+#[derive(JsonSchema)]
+pub struct SimRef {
+    /// Simulation id (from create_simulation or list_simulations).
+    pub sim_id: String,
+}
+
+/// step_simulation parameters.
+#[derive(JsonSchema)]
+pub struct Step {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Number of fixed timesteps to take (default 1, at most --max-steps).
+    pub steps: Option<u64>,
+}
+
+/// set_timestep parameters.
+#[derive(JsonSchema)]
+pub struct SetTimestep {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Seconds per step (> 0; PyBullet's default is 1/240).
+    pub timestep: f64,
+}
+
+/// add_box parameters.
+#[derive(JsonSchema)]
+pub struct AddBox {
+    /// Simulation id.
+    pub sim_id: String,
+    /// HALF-extents [hx, hy, hz] in metres (each > 0).
+    pub dimensions: [f64; 3],
+    /// World position [x, y, z] of the box centre.
+    pub position: [f64; 3],
+    /// Mass in kg (default 1; 0 = static).
+    pub mass: Option<f64>,
+    /// RGBA (or RGB) color, components in [0, 1].
+    pub color: Option<Vec<f64>>,
+    /// Orientation quaternion [x, y, z, w] (default identity).
+    pub orientation: Option<[f64; 4]>,
+}
+
+/// add_sphere parameters.
+#[derive(JsonSchema)]
+pub struct AddSphere {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Radius in metres (> 0).
+    pub radius: f64,
+    /// World position [x, y, z] of the centre.
+    pub position: [f64; 3],
+    /// Mass in kg (default 1; 0 = static).
+    pub mass: Option<f64>,
+    /// RGBA (or RGB) color, components in [0, 1].
+    pub color: Option<Vec<f64>>,
+    /// Orientation quaternion [x, y, z, w] (default identity).
+    pub orientation: Option<[f64; 4]>,
+}
+
+/// add_cylinder / add_capsule parameters.
+#[derive(JsonSchema)]
+pub struct AddRound {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Radius in metres (> 0).
+    pub radius: f64,
+    /// Height in metres (> 0): full height for a cylinder, the cylindrical part for a capsule.
+    /// The axis is the body's local z.
+    pub height: f64,
+    /// World position [x, y, z] of the centre.
+    pub position: [f64; 3],
+    /// Mass in kg (default 1; 0 = static).
+    pub mass: Option<f64>,
+    /// RGBA (or RGB) color, components in [0, 1].
+    pub color: Option<Vec<f64>>,
+    /// Orientation quaternion [x, y, z, w] (default identity).
+    pub orientation: Option<[f64; 4]>,
+}
+
+/// Parameters naming an object.
+#[derive(JsonSchema)]
+pub struct ObjectRef {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id (from add_* or load_urdf).
+    pub object_id: u32,
+}
+
+/// set_object_pose parameters.
+#[derive(JsonSchema)]
+pub struct SetPose {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id.
+    pub object_id: u32,
+    /// New world position [x, y, z].
+    pub position: [f64; 3],
+    /// New orientation quaternion [x, y, z, w] (normalised; default identity).
+    pub orientation: Option<[f64; 4]>,
+}
+
+/// apply_force parameters.
+#[derive(JsonSchema)]
+pub struct ApplyForce {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id.
+    pub object_id: u32,
+    /// Force [fx, fy, fz] in newtons, world frame.
+    pub force: [f64; 3],
+    /// World point where the force acts (default: the centre of mass, so no torque).
+    pub position: Option<[f64; 3]>,
+    /// Link index (-1 = base, the only link of a primitive).
+    pub link_index: Option<i64>,
+}
+
+/// apply_torque parameters.
+#[derive(JsonSchema)]
+pub struct ApplyTorque {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id.
+    pub object_id: u32,
+    /// Torque [tx, ty, tz] in N·m, world frame.
+    pub torque: [f64; 3],
+    /// Link index (-1 = base).
+    pub link_index: Option<i64>,
+}
+
+/// set_object_velocity parameters.
+#[derive(JsonSchema)]
+pub struct SetVelocity {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id.
+    pub object_id: u32,
+    /// Linear velocity [vx, vy, vz] in m/s.
+    pub linear_velocity: Option<[f64; 3]>,
+    /// Angular velocity [wx, wy, wz] in rad/s (world frame).
+    pub angular_velocity: Option<[f64; 3]>,
+}
+
+/// change_dynamics parameters: give at least one property; each must be ≥ 0.
+#[derive(JsonSchema)]
+pub struct ChangeDynamics {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id.
+    pub object_id: u32,
+    /// Link index (-1 = base).
+    pub link_index: Option<i64>,
+    /// Mass in kg (0 makes the body static).
+    pub mass: Option<f64>,
+    /// Coulomb friction coefficient (combined by multiplying, as in Bullet).
+    pub lateral_friction: Option<f64>,
+    /// Spinning friction (stored and reported; rapier does not simulate it).
+    pub spinning_friction: Option<f64>,
+    /// Rolling friction (stored and reported; rapier does not simulate it).
+    pub rolling_friction: Option<f64>,
+    /// Restitution (combined by multiplying: a ball bounces only if the ground's is > 0 too).
+    pub restitution: Option<f64>,
+    /// Linear damping (PyBullet default 0.04).
+    pub linear_damping: Option<f64>,
+    /// Angular damping (PyBullet default 0.04).
+    pub angular_damping: Option<f64>,
+    /// Contact stiffness (stored and reported; rapier's contact softness is global).
+    pub contact_stiffness: Option<f64>,
+    /// Contact damping (stored and reported; rapier's contact softness is global).
+    pub contact_damping: Option<f64>,
+}
+
+/// get_dynamics_info parameters.
+#[derive(JsonSchema)]
+pub struct DynamicsRef {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id.
+    pub object_id: u32,
+    /// Link index (-1 = base).
+    pub link_index: Option<i64>,
+}

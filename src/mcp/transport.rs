@@ -1,0 +1,121 @@
+//! Serving the MCP server: streamable HTTP at `/mcp` (axum) and stdio.
+//!
+//! HTTP binds loopback by default, validates `Host` and `Origin` against DNS rebinding (only
+//! loopback unless `--allow-origin` adds more) and, with `--token`, requires
+//! `Authorization: Bearer <token>` on every request.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+
+use axum::extract::{Request, State};
+use axum::http::{header, StatusCode};
+use axum::middleware::{self, Next};
+use axum::response::{IntoResponse, Response};
+use rmcp::transport::streamable_http_server::session::local::LocalSessionManager;
+use rmcp::transport::streamable_http_server::{StreamableHttpServerConfig, StreamableHttpService};
+use rmcp::ServiceExt;
+use tokio_util::sync::CancellationToken;
+
+use super::PhysicsServer;
+use crate::sim::Registry;
+
+/// HTTP serving options (from the CLI).
+#[derive(Clone, Debug)]
+pub struct HttpOptions {
+    /// Address to bind (port 0 picks a free one; the chosen address is printed on stderr).
+    pub bind: SocketAddr,
+    /// Bearer token required on every request, if set.
+    pub token: Option<String>,
+    /// Extra browser origins allowed besides loopback ones.
+    pub allow_origin: Vec<String>,
+}
+
+async fn require_token(State(token): State<Option<Arc<str>>>, req: Request, next: Next) -> Response {
+    if let Some(token) = token {
+        let ok = req
+            .headers()
+            .get(header::AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "))
+            .is_some_and(|given| constant_time_eq(given.as_bytes(), token.as_bytes()));
+        if !ok {
+            return (StatusCode::UNAUTHORIZED, "missing or wrong bearer token (--token)\n")
+                .into_response();
+        }
+    }
+    next.run(req).await
+}
+
+/// Compares secrets without an early exit that would leak how many bytes matched.
+fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+async fn shutdown_signal(ct: CancellationToken) {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(s) => s,
+            Err(_) => {
+                let _ = ctrl_c.await;
+                ct.cancel();
+                return;
+            }
+        };
+        tokio::select! {
+            _ = ctrl_c => {},
+            _ = term.recv() => {},
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = ctrl_c.await;
+    ct.cancel();
+}
+
+/// Serves MCP over streamable HTTP until SIGINT/SIGTERM, then commits buffered events.
+pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result<()> {
+    let listener = tokio::net::TcpListener::bind(opts.bind).await?;
+    let local = listener.local_addr()?;
+    let mut hosts: Vec<String> = vec!["localhost".into(), "127.0.0.1".into(), "::1".into()];
+    if !local.ip().is_loopback() {
+        hosts.push(local.ip().to_string());
+    }
+    let mut origins: Vec<String> = vec![
+        "http://localhost:*".into(),
+        "http://127.0.0.1:*".into(),
+        "http://[::1]:*".into(),
+    ];
+    origins.extend(opts.allow_origin.iter().cloned());
+    let ct = CancellationToken::new();
+    let config = StreamableHttpServerConfig::default()
+        .with_allowed_hosts(hosts)
+        .with_allowed_origins(origins)
+        .with_cancellation_token(ct.child_token());
+    let server_reg = reg.clone();
+    let service = StreamableHttpService::new(
+        move || Ok(PhysicsServer::new(server_reg.clone())),
+        LocalSessionManager::default().into(),
+        config,
+    );
+    let token: Option<Arc<str>> = opts.token.as_deref().map(Arc::from);
+    let app = axum::Router::new()
+        .nest_service("/mcp", service)
+        .layer(middleware::from_fn_with_state(token, require_token));
+    eprintln!("physics-mcp listening on http://{local}/mcp");
+    axum::serve(listener, app)
+        .with_graceful_shutdown(shutdown_signal(ct))
+        .await?;
+    reg.flush_all();
+    Ok(())
+}
+
+/// Serves MCP over stdin/stdout (logs go to stderr) until stdin closes.
+pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
+    let service = PhysicsServer::new(reg.clone())
+        .serve(rmcp::transport::stdio())
+        .await?;
+    service.waiting().await?;
+    reg.flush_all();
+    Ok(())
+}

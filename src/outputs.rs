@@ -1,0 +1,186 @@
+//! Tool results: the `structuredContent` of every tool, with the field names of the old
+//! PyBullet server. Each type derives `JsonSchema` so the MCP layer can declare it as the
+//! tool's `outputSchema`. Floats are f64 holding the shortest decimal of the engine's f32
+//! (see `value::r32`), so `0.1` reads as `0.1`.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// A plain confirmation for tools whose old result was a bare string.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Message {
+    /// What happened, in one sentence.
+    pub message: String,
+}
+
+impl Message {
+    /// A message result.
+    pub fn new(message: impl Into<String>) -> Self {
+        Self {
+            message: message.into(),
+        }
+    }
+}
+
+/// Result of create_simulation.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Created {
+    /// The new simulation's id (a UUID).
+    pub simulation_id: String,
+    /// Gravity [gx, gy, gz] in m/s².
+    pub gravity: [f64; 3],
+    /// Whether the web viewer follows this simulation.
+    pub gui_enabled: bool,
+    /// Where the viewer page is, when gui is on.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub viewer_url: Option<String>,
+}
+
+/// One row of list_simulations.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct SimulationSummary {
+    /// Simulation id.
+    pub simulation_id: String,
+    /// Number of objects.
+    pub objects: usize,
+    /// Simulated time in seconds.
+    pub simulation_time: f64,
+}
+
+/// Result of list_simulations.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct SimulationList {
+    /// The live simulations, ordered by id.
+    pub simulations: Vec<SimulationSummary>,
+}
+
+/// Result of step_simulation.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Stepped {
+    /// Simulation id.
+    pub simulation_id: String,
+    /// Steps actually taken (fewer than asked only if the call was cancelled).
+    pub steps_taken: u64,
+    /// Simulated time after the steps, in seconds.
+    pub current_time: f64,
+}
+
+/// Result of set_timestep.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct TimestepSet {
+    /// Confirmation.
+    pub message: String,
+    /// The new timestep in seconds.
+    pub timestep: f64,
+}
+
+/// Result of add_box / add_sphere / add_cylinder / add_capsule.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ObjectAdded {
+    /// The new object's id.
+    pub object_id: u32,
+    /// box, sphere, cylinder or capsule.
+    pub shape: String,
+    /// Where it was placed.
+    pub position: [f64; 3],
+}
+
+/// Result of get_object_state.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ObjectState {
+    /// World position of the body origin (m).
+    pub position: [f64; 3],
+    /// Orientation quaternion [x, y, z, w].
+    pub orientation: [f64; 4],
+    /// Linear velocity (m/s).
+    pub linear_velocity: [f64; 3],
+    /// Angular velocity (rad/s, world frame).
+    pub angular_velocity: [f64; 3],
+}
+
+/// Result of change_dynamics.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct DynamicsChanged {
+    /// Confirmation.
+    pub message: String,
+    /// Names of the properties that were set.
+    pub changed: Vec<String>,
+}
+
+/// Result of get_dynamics_info: the values in force.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct DynamicsInfo {
+    /// Mass in kg (0 for a static body).
+    pub mass: f64,
+    /// Coulomb friction coefficient.
+    pub lateral_friction: f64,
+    /// Principal moments of inertia (kg·m²) about the centre of mass.
+    pub local_inertia_diagonal: [f64; 3],
+    /// Centre of mass in the body frame.
+    pub local_inertia_pos: [f64; 3],
+    /// Orientation of the principal inertia axes in the body frame [x, y, z, w].
+    pub local_inertia_orn: [f64; 4],
+    /// Coefficient of restitution.
+    pub restitution: f64,
+    /// Rolling friction (stored; not simulated by rapier).
+    pub rolling_friction: f64,
+    /// Spinning friction (stored; not simulated by rapier).
+    pub spinning_friction: f64,
+    /// Contact damping (−1 = engine default).
+    pub contact_damping: f64,
+    /// Contact stiffness (−1 = engine default).
+    pub contact_stiffness: f64,
+    /// dynamic, static or kinematic.
+    pub body_type: String,
+    /// Collision margin (rapier's contact skin, m).
+    pub collision_margin: f64,
+    /// Linear damping.
+    pub linear_damping: f64,
+    /// Angular damping.
+    pub angular_damping: f64,
+}
+
+/// One object in get_simulation_info.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ObjectSummary {
+    /// Object id.
+    pub object_id: u32,
+    /// primitive (or urdf).
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// Shape name.
+    pub shape: String,
+    /// Shape dimensions (box half-extents, [radius], [radius, height]).
+    pub dimensions: Vec<f64>,
+    /// Mass in kg (0 = static).
+    pub mass: f64,
+    /// Current position.
+    pub position: [f64; 3],
+}
+
+/// Result of get_simulation_info.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct SimulationInfo {
+    /// Simulation id.
+    pub simulation_id: String,
+    /// Gravity [gx, gy, gz].
+    pub gravity: [f64; 3],
+    /// Seconds per step.
+    pub timestep: f64,
+    /// Simulated time in seconds.
+    pub current_time: f64,
+    /// Steps taken since creation.
+    pub steps: u64,
+    /// Whether the viewer follows this simulation.
+    pub gui_enabled: bool,
+    /// The objects, by id.
+    pub objects: Vec<ObjectSummary>,
+    /// The constraints, by id.
+    pub constraints: Vec<serde_json::Value>,
+    /// The state-changing event the world reflects.
+    pub head_seq: u64,
+    /// The last event appended, of any kind.
+    pub last_seq: u64,
+    /// blake3 of the state.
+    pub state_hash: String,
+}

@@ -1,0 +1,496 @@
+//! `Sim` = one simulation's log + its world; `Registry` = the simulations of a data directory.
+//!
+//! Every tool call on a simulation goes through `Sim::change` (decide → check → apply →
+//! commit → reply) or `Sim::read` (compute → buffer the event → reply). A refusal is logged
+//! and changes nothing. On start, `Registry::open` locks the data directory and recovers every
+//! simulation from its nearest snapshot on the head's chain plus the events after it, checking
+//! every recorded state hash.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use serde::Serialize;
+use serde_json::Value;
+
+use crate::command::{Command, EVENT_VERSION};
+use crate::limits::Limits;
+use crate::outputs::{Message, SimulationInfo, SimulationList, SimulationSummary};
+use crate::store::{Event, Kind, Log, StoreError, SyncMode};
+use crate::value::{r32, r32s, Args, Refusal};
+use crate::world::{StepControl, World};
+
+/// A snapshot is taken after this many simulated steps since the last one…
+pub const SNAPSHOT_EVERY_STEPS: u64 = 2400;
+/// …or after this many state-changing events since the last one.
+pub const SNAPSHOT_EVERY_CHANGES: u32 = 64;
+
+/// The standard "simulation not found" sentence (SPEC).
+pub fn sim_not_found(id: &str) -> Refusal {
+    format!("Simulation {id} not found")
+}
+
+fn result_hash(json: &str) -> String {
+    blake3::hash(json.as_bytes()).to_hex().to_string()
+}
+
+/// One simulation: its log and the world the log folds to.
+pub struct Sim {
+    world: World,
+    log: Log,
+    sync: SyncMode,
+    steps_since_snapshot: u64,
+    changes_since_snapshot: u32,
+}
+
+impl Sim {
+    /// Creates a simulation from a root command, committing the root event and a snapshot.
+    pub fn create(path: &Path, root: Command, args: &Args, sync: SyncMode) -> Result<(Sim, Value), String> {
+        let (world, result) = World::create(&root).ok_or("not a root command")?;
+        let mut log = Log::create(path, world.simulation_id(), sync).map_err(|e| e.to_string())?;
+        let args_json = log
+            .store_arguments(Value::Object(args.clone()).to_string())
+            .map_err(|e| e.to_string())?;
+        let result_json = result.to_string();
+        let snapshot = world.snapshot();
+        let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
+        let event = Event {
+            seq: log.next_seq(),
+            kind: Kind::Root,
+            parent: None,
+            tool: "create_simulation".into(),
+            arguments: args_json,
+            command: Some(serde_json::to_string(&root).map_err(|e| e.to_string())?),
+            version: EVENT_VERSION,
+            ok: true,
+            mutates: true,
+            inherited: false,
+            result_hash: Some(result_hash(&result_json)),
+            result: Some(result_json),
+            state_hash: world.state_hash(),
+        };
+        log.append_durable(event, Some((&snapshot, &snap_hash)))
+            .map_err(|e| e.to_string())?;
+        Ok((
+            Sim {
+                world,
+                log,
+                sync,
+                steps_since_snapshot: 0,
+                changes_since_snapshot: 0,
+            },
+            result,
+        ))
+    }
+
+    /// Reopens a simulation from its log: nearest snapshot on the head's chain, then the
+    /// chain's later events, verifying every snapshot and state hash on the way.
+    pub fn recover(path: &Path, sync: SyncMode) -> Result<Sim, StoreError> {
+        let log = Log::open(path, sync)?;
+        let id = log.simulation_id()?;
+        let chain = log.chain_to(log.head_seq())?;
+        let root = chain
+            .first()
+            .ok_or_else(|| StoreError::Corrupt("the log has no root event".into()))?;
+        let gui = decode(root)?.map_or(false, |c| match c {
+            Command::CreateSimulation { gui, .. } => gui,
+            _ => false,
+        });
+        // Find the latest snapshot on the chain.
+        let mut start = None;
+        for (i, e) in chain.iter().enumerate().rev() {
+            if let Some((bytes, hash)) = log.snapshot_at(e.seq)? {
+                if blake3::hash(&bytes).to_hex().as_str() != hash {
+                    return Err(StoreError::Corrupt(format!(
+                        "snapshot at seq {} does not match its hash",
+                        e.seq
+                    )));
+                }
+                let world = World::restore(&id, gui, &bytes).map_err(StoreError::Corrupt)?;
+                start = Some((i, world));
+                break;
+            }
+        }
+        let (i0, mut world) =
+            start.ok_or_else(|| StoreError::Corrupt("no snapshot on the head's chain".into()))?;
+        check_hash(&world, &chain[i0])?;
+        let mut steps_since_snapshot = 0;
+        let mut changes_since_snapshot = 0;
+        for e in &chain[i0 + 1..] {
+            let cmd = decode(e)?.ok_or_else(|| {
+                StoreError::Corrupt(format!("event {} has no command", e.seq))
+            })?;
+            world.apply(&cmd, &mut |_| true);
+            check_hash(&world, e)?;
+            if let Command::StepSimulation { steps } = cmd {
+                steps_since_snapshot += steps;
+            }
+            changes_since_snapshot += 1;
+        }
+        Ok(Sim {
+            world,
+            log,
+            sync,
+            steps_since_snapshot,
+            changes_since_snapshot,
+        })
+    }
+
+    /// The simulation id.
+    pub fn id(&self) -> &str {
+        self.world.simulation_id()
+    }
+
+    /// The world (read-only).
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// The log (read-only).
+    pub fn log(&self) -> &Log {
+        &self.log
+    }
+
+    fn event(&mut self, kind: Kind, tool: &str, args: &Args) -> Event {
+        let raw = Value::Object(args.clone()).to_string();
+        let arguments = self.log.store_arguments(raw.clone()).unwrap_or(raw);
+        Event {
+            seq: self.log.next_seq(),
+            kind,
+            parent: None,
+            tool: tool.into(),
+            arguments,
+            command: None,
+            version: EVENT_VERSION,
+            ok: kind != Kind::Refused,
+            mutates: kind.is_state_changing(),
+            inherited: false,
+            result: None,
+            result_hash: None,
+            state_hash: String::new(),
+        }
+    }
+
+    /// Records a refusal (nothing changes) and hands the sentence back.
+    pub fn refuse(&mut self, tool: &str, args: &Args, why: Refusal) -> Refusal {
+        let mut e = self.event(Kind::Refused, tool, args);
+        e.result = Some(why.clone());
+        e.state_hash = self.world.state_hash();
+        if let Err(err) = self.log.append_lazy(e) {
+            tracing::warn!("could not record a refused call: {err}");
+        }
+        why
+    }
+
+    /// A state-changing call: `decided` is the adapter's parse of the arguments. The command is
+    /// checked against the world, applied, committed (with a snapshot when due), then answered.
+    pub fn change(
+        &mut self,
+        tool: &str,
+        args: &Args,
+        decided: Result<Command, Refusal>,
+        limits: &Limits,
+        control: StepControl,
+    ) -> Result<Value, Refusal> {
+        let cmd = match decided.and_then(|c| c.check(&self.world, limits).map(|()| c)) {
+            Ok(c) => c,
+            Err(why) => return Err(self.refuse(tool, args, why)),
+        };
+        let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
+        let result = self.world.apply(&cmd, control);
+        if let Command::StepSimulation { steps } = cmd {
+            self.steps_since_snapshot += steps;
+        }
+        self.changes_since_snapshot += 1;
+        let result_json = result.to_string();
+        let mut e = self.event(Kind::Change, tool, args);
+        e.parent = Some(self.log.head_seq());
+        e.command = Some(command_json);
+        e.result_hash = Some(result_hash(&result_json));
+        e.result = Some(result_json);
+        e.state_hash = self.world.state_hash();
+        let due = self.steps_since_snapshot >= SNAPSHOT_EVERY_STEPS
+            || self.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES;
+        let snapshot = due.then(|| {
+            let bytes = self.world.snapshot();
+            let hash = blake3::hash(&bytes).to_hex().to_string();
+            (bytes, hash)
+        });
+        let committed = self
+            .log
+            .append_durable(e, snapshot.as_ref().map(|(b, h)| (b.as_slice(), h.as_str())));
+        if let Err(err) = committed {
+            // The world moved but the log did not: fold the log again so they agree.
+            self.reload();
+            return Err(format!("The call could not be recorded and was undone: {err}"));
+        }
+        if due {
+            self.steps_since_snapshot = 0;
+            self.changes_since_snapshot = 0;
+        }
+        Ok(result)
+    }
+
+    /// A read-only call: computes the answer from the world and records the event.
+    pub fn read<T: Serialize>(
+        &mut self,
+        tool: &str,
+        args: &Args,
+        f: impl FnOnce(&Sim) -> Result<T, Refusal>,
+    ) -> Result<T, Refusal> {
+        match f(self) {
+            Ok(out) => {
+                let json = serde_json::to_string(&out).unwrap_or_default();
+                let mut e = self.event(Kind::Read, tool, args);
+                e.result_hash = Some(result_hash(&json));
+                e.state_hash = self.world.state_hash();
+                if let Err(err) = self.log.append_lazy(e) {
+                    tracing::warn!("could not record a read: {err}");
+                }
+                Ok(out)
+            }
+            Err(why) => Err(self.refuse(tool, args, why)),
+        }
+    }
+
+    /// get_simulation_info.
+    pub fn info(&self) -> SimulationInfo {
+        let w = &self.world;
+        SimulationInfo {
+            simulation_id: self.id().to_string(),
+            gravity: r32s(w.physics.gravity.to_array()),
+            timestep: r32(w.timestep()),
+            current_time: w.tables.time_s,
+            steps: w.tables.steps,
+            gui_enabled: w.gui(),
+            objects: w.object_summaries(),
+            constraints: Vec::new(),
+            head_seq: self.log.head_seq(),
+            last_seq: self.log.last_seq(),
+            state_hash: w.state_hash(),
+        }
+    }
+
+    /// Rebuilds this simulation from its log (after a failed commit or a panic mid-call), so
+    /// the world never holds a change the log does not.
+    fn reload(&mut self) {
+        self.flush();
+        let path = self.log.path().to_path_buf();
+        match Sim::recover(&path, self.sync) {
+            Ok(again) => *self = again,
+            Err(e) => tracing::error!("could not reload {}: {e}", path.display()),
+        }
+    }
+
+    /// Commits buffered read/refused events (on shutdown).
+    pub fn flush(&mut self) {
+        if let Err(e) = self.log.flush() {
+            tracing::warn!("could not flush simulation {}: {e}", self.id());
+        }
+    }
+}
+
+fn decode(e: &Event) -> Result<Option<Command>, StoreError> {
+    e.command
+        .as_deref()
+        .map(|c| {
+            serde_json::from_str(c)
+                .map_err(|err| StoreError::Corrupt(format!("event {} does not decode: {err}", e.seq)))
+        })
+        .transpose()
+}
+
+fn check_hash(world: &World, e: &Event) -> Result<(), StoreError> {
+    let actual = world.state_hash();
+    if actual != e.state_hash {
+        return Err(StoreError::Corrupt(format!(
+            "state hash diverges at seq {} ({}): expected {}, got {actual}",
+            e.seq, e.tool, e.state_hash
+        )));
+    }
+    Ok(())
+}
+
+/// Locks a simulation. If an earlier call panicked while holding it, the world is first
+/// rebuilt from the log, so a half-applied change is never served.
+pub fn lock_sim(sim: &SharedSim) -> MutexGuard<'_, Sim> {
+    match sim.lock() {
+        Ok(g) => g,
+        Err(poisoned) => {
+            let mut g = poisoned.into_inner();
+            g.reload();
+            sim.clear_poison();
+            g
+        }
+    }
+}
+
+/// Where a server keeps things and how much it allows.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Directory of simulation logs (one SQLite file each) and the MAC key.
+    pub data_dir: PathBuf,
+    /// Directory user files (URDF, saves) are confined to.
+    pub workspace: PathBuf,
+    /// Request limits.
+    pub limits: Limits,
+    /// Commit durability.
+    pub sync: SyncMode,
+}
+
+/// A simulation shared between requests; one call at a time.
+pub type SharedSim = Arc<Mutex<Sim>>;
+
+/// All simulations of a data directory, which this process holds an exclusive lock on.
+pub struct Registry {
+    sims: Mutex<BTreeMap<String, SharedSim>>,
+    config: Config,
+    _lock: File,
+}
+
+/// Refuses directories that are `/` or the home directory (MCP clients often start stdio
+/// servers with the working directory at `/`).
+fn prepare_dir(flag: &str, dir: &Path) -> anyhow::Result<PathBuf> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow::anyhow!("cannot create {flag} {}: {e}", dir.display()))?;
+    let canon = dir.canonicalize()?;
+    let home = std::env::var_os("HOME").map(PathBuf::from).and_then(|h| h.canonicalize().ok());
+    if canon == Path::new("/") || Some(&canon) == home.as_ref() {
+        anyhow::bail!(
+            "{flag} resolves to {}, which is / or the home directory; pass an absolute {flag} \
+             for physics-mcp's own files (MCP clients often start servers with the working \
+             directory at /)",
+            canon.display()
+        );
+    }
+    Ok(canon)
+}
+
+impl Registry {
+    /// Locks the data directory and recovers every simulation in it. A corrupt log is
+    /// reported on stderr and skipped (left on disk, not served).
+    pub fn open(mut config: Config) -> anyhow::Result<Registry> {
+        config.data_dir = prepare_dir("--data", &config.data_dir)?;
+        config.workspace = prepare_dir("--workspace", &config.workspace)?;
+        let lock_path = config.data_dir.join(".lock");
+        let lock = File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)?;
+        if lock.try_lock().is_err() {
+            anyhow::bail!(
+                "another physics-mcp process is using the data directory {} (it holds {}); \
+                 stop it or pass a different --data",
+                config.data_dir.display(),
+                lock_path.display()
+            );
+        }
+        let mut sims = BTreeMap::new();
+        let mut paths: Vec<PathBuf> = std::fs::read_dir(&config.data_dir)?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+            .collect();
+        paths.sort();
+        for path in paths {
+            match Sim::recover(&path, config.sync) {
+                Ok(sim) => {
+                    tracing::info!("recovered simulation {} from {}", sim.id(), path.display());
+                    sims.insert(sim.id().to_string(), Arc::new(Mutex::new(sim)));
+                }
+                Err(e) => eprintln!(
+                    "physics-mcp: skipping {}: {e} (the file is left as it is)",
+                    path.display()
+                ),
+            }
+        }
+        Ok(Registry {
+            sims: Mutex::new(sims),
+            config,
+            _lock: lock,
+        })
+    }
+
+    /// The server's configuration (resolved directories).
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The limits in force.
+    pub fn limits(&self) -> &Limits {
+        &self.config.limits
+    }
+
+    fn table(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, SharedSim>> {
+        self.sims.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn path_for(&self, id: &str) -> PathBuf {
+        self.config.data_dir.join(format!("{id}.sqlite"))
+    }
+
+    /// Creates a simulation from a root command whose id the caller generated.
+    pub fn create(&self, root: Command, args: &Args) -> Result<Value, Refusal> {
+        let Command::CreateSimulation { simulation_id, .. } = &root else {
+            return Err("not a root command".into());
+        };
+        let id = simulation_id.clone();
+        let mut table = self.table();
+        if table.len() >= self.config.limits.max_sims {
+            return Err(format!(
+                "Simulation limit reached: {} simulations (--max-sims)",
+                self.config.limits.max_sims
+            ));
+        }
+        let (sim, result) = Sim::create(&self.path_for(&id), root, args, self.config.sync)?;
+        table.insert(id, Arc::new(Mutex::new(sim)));
+        Ok(result)
+    }
+
+    /// The simulation with this id.
+    pub fn get(&self, id: &str) -> Result<SharedSim, Refusal> {
+        self.table().get(id).cloned().ok_or_else(|| sim_not_found(id))
+    }
+
+    /// Removes a simulation and deletes its log.
+    pub fn destroy(&self, id: &str) -> Result<Message, Refusal> {
+        let sim = self.table().remove(id).ok_or_else(|| sim_not_found(id))?;
+        // Wait for any call in flight, then close the log before deleting it.
+        let path = {
+            let guard = lock_sim(&sim);
+            guard.log().path().to_path_buf()
+        };
+        drop(sim);
+        for suffix in ["", "-wal", "-shm"] {
+            let mut p = path.clone().into_os_string();
+            p.push(suffix);
+            let _ = std::fs::remove_file(PathBuf::from(p));
+        }
+        Ok(Message::new(format!("Simulation {id} destroyed")))
+    }
+
+    /// list_simulations.
+    pub fn list(&self) -> SimulationList {
+        let sims: Vec<SharedSim> = self.table().values().cloned().collect();
+        let simulations = sims
+            .iter()
+            .map(|s| {
+                let s = lock_sim(s);
+                SimulationSummary {
+                    simulation_id: s.id().to_string(),
+                    objects: s.world().object_count(),
+                    simulation_time: s.world().tables.time_s,
+                }
+            })
+            .collect();
+        SimulationList { simulations }
+    }
+
+    /// Commits every simulation's buffered events (graceful shutdown).
+    pub fn flush_all(&self) {
+        for sim in self.table().values() {
+            lock_sim(sim).flush();
+        }
+    }
+}

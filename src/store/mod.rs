@@ -1,0 +1,420 @@
+//! The event log of one simulation: a SQLite file (WAL) holding events, the head, snapshots
+//! and blobs. All SQL text lives in this module.
+//!
+//! State-changing events (root, change, move) are committed — together with any buffered read
+//! and refused events, the head and an optional snapshot — in one transaction before the call
+//! replies. Read and refused events are buffered and committed with the next write, every
+//! `LAZY_FLUSH_AT` events, or on `flush` (they may be lost if the process is killed; SPEC
+//! allows that). `--sync normal` survives a killed process (WAL); `--sync full` also fsyncs
+//! every commit, for power loss.
+
+use std::path::{Path, PathBuf};
+
+use rusqlite::{params, Connection, OptionalExtension};
+
+/// Schema migrations, applied in order; `PRAGMA user_version` counts those applied.
+const MIGRATIONS: &[&str] = &[include_str!("../../migrations/0001_init.sql")];
+
+/// Buffered read/refused events are committed once this many are waiting.
+const LAZY_FLUSH_AT: usize = 256;
+
+/// Arguments longer than this are stored as a blob and referenced from the event.
+pub const INLINE_ARGS_MAX: usize = 64 * 1024;
+
+/// Durability of commits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Default)]
+pub enum SyncMode {
+    /// Survives a killed process (WAL, synchronous=NORMAL).
+    #[default]
+    Normal,
+    /// Also survives power loss: fsync on every commit (synchronous=FULL).
+    Full,
+}
+
+/// What an event is (SPEC "Events, heads and hashes").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// create/load/fork: the first state of this simulation.
+    Root,
+    /// An accepted state-changing call.
+    Change,
+    /// An accepted undo/redo.
+    Move,
+    /// Any other accepted call.
+    Read,
+    /// Any rejected call.
+    Refused,
+}
+
+impl Kind {
+    /// The name stored in the log.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Kind::Root => "root",
+            Kind::Change => "change",
+            Kind::Move => "move",
+            Kind::Read => "read",
+            Kind::Refused => "refused",
+        }
+    }
+
+    fn parse(s: &str) -> Option<Kind> {
+        Some(match s {
+            "root" => Kind::Root,
+            "change" => Kind::Change,
+            "move" => Kind::Move,
+            "read" => Kind::Read,
+            "refused" => Kind::Refused,
+            _ => return None,
+        })
+    }
+
+    /// Root and change events change the world and form the tree.
+    pub fn is_state_changing(self) -> bool {
+        matches!(self, Kind::Root | Kind::Change)
+    }
+}
+
+/// One event row.
+#[derive(Clone, Debug)]
+pub struct Event {
+    /// Position in the log (1, 2, …).
+    pub seq: u64,
+    /// What kind of event it is.
+    pub kind: Kind,
+    /// For root/change: the head it was applied on.
+    pub parent: Option<u64>,
+    /// The tool called.
+    pub tool: String,
+    /// The client's arguments (JSON text, or a blob reference).
+    pub arguments: String,
+    /// The validated command (JSON text) for root/change events.
+    pub command: Option<String>,
+    /// Event encoding version.
+    pub version: u32,
+    /// Accepted or refused.
+    pub ok: bool,
+    /// Whether it changed the world (root/change).
+    pub mutates: bool,
+    /// Copied from an ancestor simulation.
+    pub inherited: bool,
+    /// Result JSON (state-changing) or refusal sentence.
+    pub result: Option<String>,
+    /// blake3 of the result JSON.
+    pub result_hash: Option<String>,
+    /// The state hash after this event.
+    pub state_hash: String,
+}
+
+/// Errors of the log layer (I/O and SQLite), reported to clients as one sentence.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// SQLite failed.
+    #[error("log database error: {0}")]
+    Sql(#[from] rusqlite::Error),
+    /// The file's contents are not a valid log.
+    #[error("log is corrupt: {0}")]
+    Corrupt(String),
+}
+
+/// The open log of one simulation.
+pub struct Log {
+    conn: Connection,
+    path: PathBuf,
+    last_seq: u64,
+    head_seq: u64,
+    pending: Vec<Event>,
+}
+
+fn open_conn(path: &Path, sync: SyncMode) -> Result<Connection, StoreError> {
+    let conn = Connection::open(path)?;
+    conn.pragma_update(None, "journal_mode", "WAL")?;
+    let level = match sync {
+        SyncMode::Normal => "NORMAL",
+        SyncMode::Full => "FULL",
+    };
+    conn.pragma_update(None, "synchronous", level)?;
+    conn.pragma_update(None, "foreign_keys", "ON")?;
+    Ok(conn)
+}
+
+fn migrate(conn: &mut Connection) -> Result<(), StoreError> {
+    let applied: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+    let applied = usize::try_from(applied).unwrap_or(usize::MAX);
+    if applied > MIGRATIONS.len() {
+        return Err(StoreError::Corrupt(format!(
+            "schema version {applied} is newer than this server knows ({})",
+            MIGRATIONS.len()
+        )));
+    }
+    for (i, sql) in MIGRATIONS.iter().enumerate().skip(applied) {
+        let tx = conn.transaction()?;
+        tx.execute_batch(sql)?;
+        tx.pragma_update(None, "user_version", (i + 1) as i64)?;
+        tx.commit()?;
+    }
+    Ok(())
+}
+
+fn row_to_event(r: &rusqlite::Row) -> rusqlite::Result<Event> {
+    let kind: String = r.get(1)?;
+    Ok(Event {
+        seq: r.get::<_, i64>(0)? as u64,
+        kind: Kind::parse(&kind).unwrap_or(Kind::Refused),
+        parent: r.get::<_, Option<i64>>(2)?.map(|p| p as u64),
+        tool: r.get(3)?,
+        arguments: r.get(4)?,
+        command: r.get(5)?,
+        version: r.get::<_, i64>(6)? as u32,
+        ok: r.get::<_, i64>(7)? != 0,
+        mutates: r.get::<_, i64>(8)? != 0,
+        inherited: r.get::<_, i64>(9)? != 0,
+        result: r.get(10)?,
+        result_hash: r.get(11)?,
+        state_hash: r.get(12)?,
+    })
+}
+
+const EVENT_COLUMNS: &str = "seq, kind, parent, tool, arguments, command, version, ok, mutates, \
+                             inherited, result, result_hash, state_hash";
+
+fn insert_event(tx: &rusqlite::Transaction, e: &Event) -> Result<(), StoreError> {
+    tx.prepare_cached(&format!(
+        "INSERT INTO events ({EVENT_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)"
+    ))?
+    .execute(params![
+        e.seq as i64,
+        e.kind.as_str(),
+        e.parent.map(|p| p as i64),
+        e.tool,
+        e.arguments,
+        e.command,
+        e.version as i64,
+        e.ok as i64,
+        e.mutates as i64,
+        e.inherited as i64,
+        e.result,
+        e.result_hash,
+        e.state_hash,
+    ])?;
+    Ok(())
+}
+
+impl Log {
+    /// Creates a new log file (refusing to overwrite one) for simulation `sim_id`.
+    pub fn create(path: &Path, sim_id: &str, sync: SyncMode) -> Result<Log, StoreError> {
+        if path.exists() {
+            return Err(StoreError::Corrupt(format!("{} already exists", path.display())));
+        }
+        let mut conn = open_conn(path, sync)?;
+        migrate(&mut conn)?;
+        conn.execute(
+            "INSERT INTO meta (key, value) VALUES ('simulation_id', ?1), ('format', 'physics-mcp-log/1')",
+            params![sim_id],
+        )?;
+        conn.execute("INSERT INTO head (id, head_seq) VALUES (1, 0)", [])?;
+        Ok(Log {
+            conn,
+            path: path.to_path_buf(),
+            last_seq: 0,
+            head_seq: 0,
+            pending: Vec::new(),
+        })
+    }
+
+    /// Opens an existing log.
+    pub fn open(path: &Path, sync: SyncMode) -> Result<Log, StoreError> {
+        let mut conn = open_conn(path, sync)?;
+        migrate(&mut conn)?;
+        let head_seq: i64 = conn
+            .query_row("SELECT head_seq FROM head WHERE id = 1", [], |r| r.get(0))
+            .optional()?
+            .ok_or_else(|| StoreError::Corrupt("no head".into()))?;
+        let last_seq: i64 =
+            conn.query_row("SELECT COALESCE(MAX(seq), 0) FROM events", [], |r| r.get(0))?;
+        Ok(Log {
+            conn,
+            path: path.to_path_buf(),
+            last_seq: last_seq as u64,
+            head_seq: head_seq as u64,
+            pending: Vec::new(),
+        })
+    }
+
+    /// The file this log lives in.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The simulation id recorded in the file.
+    pub fn simulation_id(&self) -> Result<String, StoreError> {
+        Ok(self.conn.query_row(
+            "SELECT value FROM meta WHERE key = 'simulation_id'",
+            [],
+            |r| r.get(0),
+        )?)
+    }
+
+    /// The seq of the last event appended (committed or buffered).
+    pub fn last_seq(&self) -> u64 {
+        self.last_seq
+    }
+
+    /// The state-changing event the world reflects.
+    pub fn head_seq(&self) -> u64 {
+        self.head_seq
+    }
+
+    /// The seq the next event will get.
+    pub fn next_seq(&self) -> u64 {
+        self.last_seq + 1
+    }
+
+    /// Stores arguments inline, or as a blob when they are over 64 KB (returns the reference).
+    pub fn store_arguments(&mut self, args_json: String) -> Result<String, StoreError> {
+        if args_json.len() <= INLINE_ARGS_MAX {
+            return Ok(args_json);
+        }
+        let hash = blake3::hash(args_json.as_bytes()).to_hex().to_string();
+        self.conn.execute(
+            "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
+            params![hash, args_json.as_bytes()],
+        )?;
+        Ok(serde_json::json!({"blob": hash, "bytes": args_json.len()}).to_string())
+    }
+
+    /// Commits a state-changing event (with buffered events, the new head and an optional
+    /// snapshot) in one transaction. Returns only once it is durable per the sync mode.
+    pub fn append_durable(
+        &mut self,
+        event: Event,
+        snapshot: Option<(&[u8], &str)>,
+    ) -> Result<(), StoreError> {
+        let new_head = if event.kind.is_state_changing() {
+            event.seq
+        } else {
+            self.head_seq
+        };
+        let tx = self.conn.transaction()?;
+        for e in &self.pending {
+            insert_event(&tx, e)?;
+        }
+        insert_event(&tx, &event)?;
+        tx.execute("UPDATE head SET head_seq = ?1 WHERE id = 1", params![new_head as i64])?;
+        if let Some((bytes, hash)) = snapshot {
+            tx.execute(
+                "INSERT OR REPLACE INTO snapshots (seq, hash, bytes) VALUES (?1, ?2, ?3)",
+                params![event.seq as i64, hash, bytes],
+            )?;
+        }
+        tx.commit()?;
+        self.pending.clear();
+        self.last_seq = event.seq;
+        self.head_seq = new_head;
+        Ok(())
+    }
+
+    /// Buffers a read or refused event; committed with the next write or when many wait.
+    pub fn append_lazy(&mut self, event: Event) -> Result<(), StoreError> {
+        self.last_seq = event.seq;
+        self.pending.push(event);
+        if self.pending.len() >= LAZY_FLUSH_AT {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Commits buffered events.
+    pub fn flush(&mut self) -> Result<(), StoreError> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let tx = self.conn.transaction()?;
+        for e in &self.pending {
+            insert_event(&tx, e)?;
+        }
+        tx.commit()?;
+        self.pending.clear();
+        Ok(())
+    }
+
+    /// All events with seq > `since`, ascending, at most `limit`, buffered ones included.
+    pub fn events_since(&self, since: u64, limit: usize) -> Result<Vec<Event>, StoreError> {
+        let mut stmt = self.conn.prepare_cached(&format!(
+            "SELECT {EVENT_COLUMNS} FROM events WHERE seq > ?1 ORDER BY seq LIMIT ?2"
+        ))?;
+        let mut out: Vec<Event> = stmt
+            .query_map(params![since as i64, limit as i64], row_to_event)?
+            .collect::<Result<_, _>>()?;
+        out.extend(self.pending.iter().filter(|e| e.seq > since).cloned());
+        out.truncate(limit);
+        Ok(out)
+    }
+
+    /// One event by seq (committed or buffered).
+    pub fn event(&self, seq: u64) -> Result<Option<Event>, StoreError> {
+        if let Some(e) = self.pending.iter().find(|e| e.seq == seq) {
+            return Ok(Some(e.clone()));
+        }
+        Ok(self
+            .conn
+            .prepare_cached(&format!("SELECT {EVENT_COLUMNS} FROM events WHERE seq = ?1"))?
+            .query_row(params![seq as i64], row_to_event)
+            .optional()?)
+    }
+
+    /// The chain of state-changing events from the root to `head` (inclusive), root first.
+    pub fn chain_to(&self, head: u64) -> Result<Vec<Event>, StoreError> {
+        let mut chain = Vec::new();
+        let mut cur = Some(head);
+        while let Some(seq) = cur {
+            let e = self
+                .event(seq)?
+                .ok_or_else(|| StoreError::Corrupt(format!("event {seq} on the chain is missing")))?;
+            if !e.kind.is_state_changing() {
+                return Err(StoreError::Corrupt(format!(
+                    "event {seq} on the chain is not state-changing"
+                )));
+            }
+            if chain.len() as u64 > self.last_seq {
+                return Err(StoreError::Corrupt("the chain has a cycle".into()));
+            }
+            cur = e.parent;
+            chain.push(e);
+        }
+        chain.reverse();
+        Ok(chain)
+    }
+
+    /// The snapshot at `seq`, if one was taken: (bytes, recorded blake3).
+    pub fn snapshot_at(&self, seq: u64) -> Result<Option<(Vec<u8>, String)>, StoreError> {
+        Ok(self
+            .conn
+            .prepare_cached("SELECT bytes, hash FROM snapshots WHERE seq = ?1")?
+            .query_row(params![seq as i64], |r| Ok((r.get(0)?, r.get(1)?)))
+            .optional()?)
+    }
+
+    /// Seqs that have snapshots, ascending.
+    pub fn snapshot_seqs(&self) -> Result<Vec<u64>, StoreError> {
+        let mut stmt = self.conn.prepare_cached("SELECT seq FROM snapshots ORDER BY seq")?;
+        let seqs = stmt
+            .query_map([], |r| r.get::<_, i64>(0))?
+            .map(|r| r.map(|s| s as u64))
+            .collect::<Result<_, _>>()?;
+        Ok(seqs)
+    }
+
+    /// Total bytes of the database file (for benchmarks and reports).
+    pub fn file_bytes(&self) -> u64 {
+        let wal = self.path.with_extension("sqlite-wal");
+        std::fs::metadata(&self.path).map(|m| m.len()).unwrap_or(0)
+            + std::fs::metadata(wal).map(|m| m.len()).unwrap_or(0)
+    }
+}
+
+impl Drop for Log {
+    fn drop(&mut self) {
+        let _ = self.flush();
+    }
+}

@@ -1,0 +1,289 @@
+//! Input parsing for tool arguments: strict about meaning, lenient about encoding.
+//!
+//! MCP clients send vectors as JSON arrays or as JSON strings holding an array, and numbers as
+//! integers or floats. Every helper here accepts those encodings, rejects everything else with
+//! one sentence that names the parameter, the expected shape and what was received, and turns
+//! the value into the f32 the physics engine uses. Nothing here touches the world.
+
+use serde_json::Value;
+
+/// A one-sentence, client-facing explanation of why a call was refused.
+pub type Refusal = String;
+
+/// The JSON arguments of a tool call, as the client sent them.
+pub type Args = serde_json::Map<String, Value>;
+
+/// Renders a received value briefly for an error message (long values are cut).
+pub fn show(v: &Value) -> String {
+    let s = v.to_string();
+    if s.chars().count() > 80 {
+        let cut: String = s.chars().take(77).collect();
+        format!("{cut}...")
+    } else {
+        s
+    }
+}
+
+/// Looks an argument up, treating JSON `null` as absent (clients send both for "not given").
+pub fn arg<'a>(args: &'a Args, name: &str) -> Option<&'a Value> {
+    args.get(name).filter(|v| !v.is_null())
+}
+
+/// Fetches a required argument or says it is missing.
+pub fn required<'a>(args: &'a Args, name: &str, shape: &str) -> Result<&'a Value, Refusal> {
+    arg(args, name).ok_or_else(|| format!("{name} is required: {shape}"))
+}
+
+/// A finite JSON number as f64, or None for anything else (strings included).
+fn finite(v: &Value) -> Option<f64> {
+    v.as_f64().filter(|x| x.is_finite())
+}
+
+/// Converts f64 input to the engine's f32, refusing values that overflow f32 to infinity.
+fn to_f32(x: f64) -> Option<f32> {
+    let y = x as f32;
+    y.is_finite().then_some(y)
+}
+
+/// Reads an array of exactly `n` finite numbers; a JSON string holding such an array is accepted.
+fn fixed_array(name: &str, v: &Value, n: usize, shape: &str) -> Result<Vec<f32>, Refusal> {
+    let fail = || format!("{name} must be {shape}; got {}", show(v));
+    let parsed;
+    let v = match v {
+        Value::String(s) => {
+            parsed = serde_json::from_str::<Value>(s).map_err(|_| fail())?;
+            &parsed
+        }
+        other => other,
+    };
+    let items = v.as_array().ok_or_else(fail)?;
+    if items.len() != n {
+        return Err(fail());
+    }
+    items
+        .iter()
+        .map(|x| finite(x).and_then(to_f32).ok_or_else(fail))
+        .collect()
+}
+
+/// Reads a vector `[x, y, z]` of finite numbers.
+pub fn vec3(name: &str, v: &Value) -> Result<[f32; 3], Refusal> {
+    let a = fixed_array(name, v, 3, "3 finite numbers [x, y, z]")?;
+    Ok([a[0], a[1], a[2]])
+}
+
+/// Reads a required `[x, y, z]` argument.
+pub fn req_vec3(args: &Args, name: &str) -> Result<[f32; 3], Refusal> {
+    vec3(name, required(args, name, "3 finite numbers [x, y, z]")?)
+}
+
+/// Reads an optional `[x, y, z]` argument.
+pub fn opt_vec3(args: &Args, name: &str) -> Result<Option<[f32; 3]>, Refusal> {
+    arg(args, name).map(|v| vec3(name, v)).transpose()
+}
+
+/// Reads a quaternion `[x, y, z, w]` and normalises it; a zero-length quaternion is refused.
+pub fn quat(name: &str, v: &Value) -> Result<[f32; 4], Refusal> {
+    let a = fixed_array(name, v, 4, "4 finite numbers [x, y, z, w] (a quaternion)")?;
+    let norm = a.iter().map(|x| (*x as f64) * (*x as f64)).sum::<f64>().sqrt();
+    if !(norm > 1e-12) || !norm.is_finite() {
+        return Err(format!(
+            "{name} must be a non-zero quaternion [x, y, z, w]; got {}",
+            show(v)
+        ));
+    }
+    Ok([
+        (a[0] as f64 / norm) as f32,
+        (a[1] as f64 / norm) as f32,
+        (a[2] as f64 / norm) as f32,
+        (a[3] as f64 / norm) as f32,
+    ])
+}
+
+/// Reads an optional quaternion, defaulting to the identity `[0, 0, 0, 1]`.
+pub fn quat_or_identity(args: &Args, name: &str) -> Result<[f32; 4], Refusal> {
+    arg(args, name)
+        .map(|v| quat(name, v))
+        .unwrap_or(Ok([0.0, 0.0, 0.0, 1.0]))
+}
+
+/// Reads an RGB or RGBA color with components in [0, 1]; RGB gets alpha 1.
+pub fn color(name: &str, v: &Value) -> Result<[f32; 4], Refusal> {
+    let shape = "3 or 4 numbers in [0, 1] (RGB or RGBA)";
+    let len = match v {
+        Value::Array(a) => a.len(),
+        Value::String(s) => serde_json::from_str::<Value>(s)
+            .ok()
+            .and_then(|x| x.as_array().map(|a| a.len()))
+            .unwrap_or(0),
+        _ => 0,
+    };
+    let n = if len == 3 { 3 } else { 4 };
+    let a = fixed_array(name, v, n, shape)?;
+    if a.iter().any(|c| !(0.0..=1.0).contains(c)) {
+        return Err(format!("{name} must be {shape}; got {}", show(v)));
+    }
+    Ok([a[0], a[1], a[2], if n == 4 { a[3] } else { 1.0 }])
+}
+
+/// Reads gravity: `[gx, gy, gz]`, a single number g, or `[g]` (both meaning `[0, 0, g]`).
+pub fn gravity(name: &str, v: &Value) -> Result<[f32; 3], Refusal> {
+    let fail = || {
+        format!(
+            "{name} must be 3 finite numbers [x, y, z] or a single number g (meaning [0, 0, g]); got {}",
+            show(v)
+        )
+    };
+    if let Some(g) = finite(v) {
+        return Ok([0.0, 0.0, to_f32(g).ok_or_else(fail)?]);
+    }
+    let parsed;
+    let inner = match v {
+        Value::String(s) => {
+            parsed = serde_json::from_str::<Value>(s).map_err(|_| fail())?;
+            &parsed
+        }
+        other => other,
+    };
+    match inner.as_array().map(|a| a.len()) {
+        Some(1) => {
+            let g = fixed_array(name, inner, 1, "1 number")
+                .map_err(|_| fail())?[0];
+            Ok([0.0, 0.0, g])
+        }
+        Some(3) => vec3(name, inner).map_err(|_| fail()),
+        _ => Err(fail()),
+    }
+}
+
+/// Reads a finite number, refusing strings, booleans and out-of-range values.
+pub fn number(name: &str, v: &Value) -> Result<f32, Refusal> {
+    finite(v)
+        .and_then(to_f32)
+        .ok_or_else(|| format!("{name} must be a finite number; got {}", show(v)))
+}
+
+/// Reads a number that must be finite and > 0 (dimensions, radii, timesteps).
+pub fn positive(name: &str, v: &Value) -> Result<f32, Refusal> {
+    let x = number(name, v)?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("{name} must be a finite number > 0; got {}", show(v)))
+    }
+}
+
+/// Reads a number that must be finite and ≥ 0 (mass, friction, damping).
+pub fn non_negative(name: &str, v: &Value) -> Result<f32, Refusal> {
+    let x = number(name, v)?;
+    if x >= 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("{name} must be a finite number >= 0; got {}", show(v)))
+    }
+}
+
+/// Reads an optional number ≥ 0 with a default.
+pub fn non_negative_or(args: &Args, name: &str, default: f32) -> Result<f32, Refusal> {
+    arg(args, name).map(|v| non_negative(name, v)).unwrap_or(Ok(default))
+}
+
+/// Reads an integer; integral floats (`10.0`) are accepted, `10.5` and strings are not.
+pub fn integer(name: &str, v: &Value) -> Result<i64, Refusal> {
+    let fail = || format!("{name} must be an integer; got {}", show(v));
+    if let Some(i) = v.as_i64() {
+        return Ok(i);
+    }
+    match finite(v) {
+        Some(x) if x.fract() == 0.0 && x.abs() < 9.0e15 => Ok(x as i64),
+        _ => Err(fail()),
+    }
+}
+
+/// Reads an optional integer with a default.
+pub fn integer_or(args: &Args, name: &str, default: i64) -> Result<i64, Refusal> {
+    arg(args, name).map(|v| integer(name, v)).unwrap_or(Ok(default))
+}
+
+/// Reads an optional boolean with a default.
+pub fn bool_or(args: &Args, name: &str, default: bool) -> Result<bool, Refusal> {
+    match arg(args, name) {
+        None => Ok(default),
+        Some(Value::Bool(b)) => Ok(*b),
+        Some(v) => Err(format!("{name} must be true or false; got {}", show(v))),
+    }
+}
+
+/// Reads a required string argument.
+pub fn string(args: &Args, name: &str) -> Result<String, Refusal> {
+    match required(args, name, "a string")? {
+        Value::String(s) => Ok(s.clone()),
+        v => Err(format!("{name} must be a string; got {}", show(v))),
+    }
+}
+
+/// Reads an object id: a non-negative integer. Whether it exists is the world's question.
+pub fn object_id(args: &Args, name: &str) -> Result<u32, Refusal> {
+    let v = required(args, name, "an object id (integer >= 0)")?;
+    let i = integer(name, v)?;
+    u32::try_from(i).map_err(|_| format!("{name} must be an object id (integer >= 0); got {}", show(v)))
+}
+
+/// Reports an f32 as the f64 with the same shortest decimal form, so results read `0.1`, not
+/// `0.10000000149011612` (serde_json widens f32 to f64 before printing).
+pub fn r32(x: f32) -> f64 {
+    if !x.is_finite() {
+        return 0.0;
+    }
+    format!("{x}").parse::<f64>().unwrap_or(x as f64)
+}
+
+/// `r32` over a fixed-size array.
+pub fn r32s<const N: usize>(a: [f32; N]) -> [f64; N] {
+    a.map(r32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn vectors_accept_arrays_and_json_strings_only() {
+        assert_eq!(vec3("p", &json!([1, 2.5, -3])).unwrap(), [1.0, 2.5, -3.0]);
+        assert_eq!(vec3("p", &json!("[0, 0, 1]")).unwrap(), [0.0, 0.0, 1.0]);
+        let e = vec3("position", &json!([1, 2])).unwrap_err();
+        assert_eq!(e, "position must be 3 finite numbers [x, y, z]; got [1,2]");
+        assert!(vec3("p", &json!(["1", "2", "3"])).is_err());
+        assert!(vec3("p", &json!([1e39, 0, 0])).is_err(), "overflows f32");
+        assert!(vec3("p", &json!("nan")).is_err());
+    }
+
+    #[test]
+    fn gravity_shorthands() {
+        assert_eq!(gravity("g", &json!(-9.81)).unwrap(), [0.0, 0.0, -9.81]);
+        assert_eq!(gravity("g", &json!([-9.81])).unwrap(), [0.0, 0.0, -9.81]);
+        assert_eq!(gravity("g", &json!([0, -9.81, 0])).unwrap(), [0.0, -9.81, 0.0]);
+        assert!(gravity("g", &json!([1, 2])).is_err());
+    }
+
+    #[test]
+    fn quaternions_normalise_and_refuse_zero() {
+        let q = quat("q", &json!([0, 0, 0, 2])).unwrap();
+        assert_eq!(q, [0.0, 0.0, 0.0, 1.0]);
+        assert!(quat("q", &json!([0, 0, 0, 0])).is_err());
+    }
+
+    #[test]
+    fn integers_accept_integral_floats() {
+        assert_eq!(integer("n", &json!(10.0)).unwrap(), 10);
+        assert!(integer("n", &json!(10.5)).is_err());
+        assert!(integer("n", &json!("10")).is_err());
+    }
+
+    #[test]
+    fn shortest_f32_rendering() {
+        assert_eq!(serde_json::to_string(&r32(0.1f32)).unwrap(), "0.1");
+        assert_eq!(r32(1.0 / 240.0), 0.004166667);
+    }
+}

@@ -1,0 +1,344 @@
+//! Primitive bodies: creation, poses, velocities, one-step forces, dynamics properties, reads.
+
+use rapier3d::prelude::*;
+
+use super::{DynamicsExtras, Object, ObjectKind, World, DEFAULT_DAMPING, DEFAULT_FRICTION};
+use crate::command::{Command, DynamicsChange, Shape};
+use crate::outputs::{DynamicsChanged, DynamicsInfo, Message, ObjectAdded, ObjectState, ObjectSummary};
+use crate::value::{r32, r32s};
+
+/// Result of a body command, before it becomes JSON.
+#[derive(serde::Serialize)]
+#[serde(untagged)]
+pub(super) enum BodyOutcome {
+    Added(ObjectAdded),
+    Changed(DynamicsChanged),
+    Message(Message),
+}
+
+fn v3(a: [f32; 3]) -> Vector {
+    Vector::from_array(a)
+}
+
+fn quat(q: [f32; 4]) -> Rotation {
+    Rotation::from_xyzw(q[0], q[1], q[2], q[3])
+}
+
+/// The collider for a shape; cylinders and capsules are turned from rapier's y axis to z.
+fn collider_for(shape: &Shape) -> ColliderBuilder {
+    let y_to_z = Pose::from_rotation(Rotation::from_rotation_x(std::f32::consts::FRAC_PI_2));
+    match *shape {
+        Shape::Box { half_extents: h } => ColliderBuilder::cuboid(h[0], h[1], h[2]),
+        Shape::Sphere { radius } => ColliderBuilder::ball(radius),
+        Shape::Cylinder { radius, height } => {
+            ColliderBuilder::cylinder(height / 2.0, radius).position(y_to_z)
+        }
+        Shape::Capsule { radius, height } => ColliderBuilder::capsule_z(height / 2.0, radius),
+    }
+}
+
+impl World {
+    /// Applies a command that acts on bodies.
+    pub(super) fn apply_body_command(&mut self, cmd: &Command) -> BodyOutcome {
+        match cmd {
+            Command::AddBody {
+                shape,
+                position,
+                orientation,
+                mass,
+                color,
+            } => BodyOutcome::Added(self.add_body(shape, *position, *orientation, *mass, *color)),
+            Command::SetObjectPose {
+                object_id,
+                position,
+                orientation,
+            } => {
+                let pose = Pose::from_parts(v3(*position), quat(*orientation));
+                if let Some(b) = self.body_mut(*object_id) {
+                    b.set_position(pose, true);
+                }
+                BodyOutcome::Message(Message::new(format!("Object {object_id} pose set")))
+            }
+            Command::ApplyForce {
+                object_id,
+                force,
+                position,
+                ..
+            } => {
+                if let Some(b) = self.body_mut(*object_id) {
+                    match position {
+                        Some(p) => b.add_force_at_point(v3(*force), v3(*p), true),
+                        None => b.add_force(v3(*force), true),
+                    }
+                }
+                self.tables.pending_wrench.insert(*object_id);
+                BodyOutcome::Message(Message::new(format!(
+                    "Force applied to object {object_id} for the next step"
+                )))
+            }
+            Command::ApplyTorque {
+                object_id, torque, ..
+            } => {
+                if let Some(b) = self.body_mut(*object_id) {
+                    b.add_torque(v3(*torque), true);
+                }
+                self.tables.pending_wrench.insert(*object_id);
+                BodyOutcome::Message(Message::new(format!(
+                    "Torque applied to object {object_id} for the next step"
+                )))
+            }
+            Command::SetObjectVelocity {
+                object_id,
+                linear_velocity,
+                angular_velocity,
+            } => {
+                if let Some(b) = self.body_mut(*object_id) {
+                    if let Some(v) = linear_velocity {
+                        b.set_linvel(v3(*v), true);
+                    }
+                    if let Some(w) = angular_velocity {
+                        b.set_angvel(v3(*w), true);
+                    }
+                }
+                BodyOutcome::Message(Message::new(format!("Object {object_id} velocity set")))
+            }
+            Command::ChangeDynamics {
+                object_id, change, ..
+            } => {
+                self.change_dynamics(*object_id, change);
+                BodyOutcome::Changed(DynamicsChanged {
+                    message: format!("Dynamics of object {object_id} changed"),
+                    changed: change.names().into_iter().map(String::from).collect(),
+                })
+            }
+            Command::RemoveObject { object_id } => {
+                if let Some(obj) = self.tables.objects.remove(object_id) {
+                    self.physics.remove_body(obj.body);
+                }
+                self.tables.pending_wrench.remove(object_id);
+                BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
+            }
+            Command::CreateSimulation { .. }
+            | Command::StepSimulation { .. }
+            | Command::SetTimestep { .. } => {
+                BodyOutcome::Message(Message::new("not a body command"))
+            }
+        }
+    }
+
+    fn add_body(
+        &mut self,
+        shape: &Shape,
+        position: [f32; 3],
+        orientation: [f32; 4],
+        mass: f32,
+        color: Option<[f32; 4]>,
+    ) -> ObjectAdded {
+        let body_type = if mass > 0.0 {
+            RigidBodyType::Dynamic
+        } else {
+            RigidBodyType::Fixed
+        };
+        let body = RigidBodyBuilder::new(body_type)
+            .pose(Pose::from_parts(v3(position), quat(orientation)))
+            .linear_damping(DEFAULT_DAMPING)
+            .angular_damping(DEFAULT_DAMPING);
+        let collider = collider_for(shape)
+            .mass(if mass > 0.0 { mass } else { 1.0 })
+            .friction(DEFAULT_FRICTION)
+            .restitution(0.0)
+            .friction_combine_rule(CoefficientCombineRule::Multiply)
+            .restitution_combine_rule(CoefficientCombineRule::Multiply);
+        let (body, collider) = self.physics.insert(body, collider);
+        let id = self.tables.next_object_id;
+        self.tables.next_object_id += 1;
+        self.tables.objects.insert(
+            id,
+            Object {
+                body,
+                collider,
+                kind: ObjectKind::Primitive {
+                    shape: shape.clone(),
+                },
+                color,
+                mass,
+                extras: DynamicsExtras::default(),
+            },
+        );
+        ObjectAdded {
+            object_id: id,
+            shape: shape.name().to_string(),
+            position: r32s(position),
+        }
+    }
+
+    fn change_dynamics(&mut self, id: u32, c: &DynamicsChange) {
+        let Some(obj) = self.tables.objects.get_mut(&id) else {
+            return;
+        };
+        let (bh, ch) = (obj.body, obj.collider);
+        let e = &mut obj.extras;
+        let set = |dst: &mut f32, src: Option<f32>| {
+            if let Some(v) = src {
+                *dst = v;
+            }
+        };
+        set(&mut e.rolling_friction, c.rolling_friction);
+        set(&mut e.spinning_friction, c.spinning_friction);
+        set(&mut e.contact_stiffness, c.contact_stiffness);
+        set(&mut e.contact_damping, c.contact_damping);
+        if let Some(m) = c.mass {
+            obj.mass = m;
+        }
+        if let Some(col) = self.physics.colliders.get_mut(ch) {
+            if let Some(f) = c.lateral_friction {
+                col.set_friction(f);
+            }
+            if let Some(r) = c.restitution {
+                col.set_restitution(r);
+            }
+            if let Some(m) = c.mass.filter(|m| *m > 0.0) {
+                col.set_mass(m);
+            }
+        }
+        let colliders = &self.physics.colliders;
+        if let Some(b) = self.physics.bodies.get_mut(bh) {
+            if let Some(d) = c.linear_damping {
+                b.set_linear_damping(d);
+            }
+            if let Some(d) = c.angular_damping {
+                b.set_angular_damping(d);
+            }
+            if let Some(m) = c.mass {
+                let wanted = if m > 0.0 {
+                    RigidBodyType::Dynamic
+                } else {
+                    RigidBodyType::Fixed
+                };
+                if b.body_type() != wanted {
+                    b.set_body_type(wanted, true);
+                }
+                b.recompute_mass_properties_from_colliders(colliders);
+                b.wake_up(true);
+            }
+        }
+    }
+
+    /// Clears forces and torques that were to act for one step only.
+    pub(super) fn clear_pending_wrench(&mut self) {
+        let pending = std::mem::take(&mut self.tables.pending_wrench);
+        for id in pending {
+            if let Some(b) = self.body_mut(id) {
+                b.reset_forces(false);
+                b.reset_torques(false);
+            }
+        }
+    }
+
+    fn body_mut(&mut self, id: u32) -> Option<&mut RigidBody> {
+        let h = self.tables.objects.get(&id)?.body;
+        self.physics.bodies.get_mut(h)
+    }
+
+    /// Number of links (beyond the base) an object has: 0 for primitives.
+    pub fn link_count(&self, id: u32) -> usize {
+        match self.tables.objects.get(&id).map(|o| &o.kind) {
+            Some(ObjectKind::Primitive { .. }) | None => 0,
+        }
+    }
+
+    /// Checks a `link_index` argument: −1 is the base, 0..n a link of the object.
+    pub fn check_link(&self, id: u32, link_index: i32) -> Result<(), crate::value::Refusal> {
+        let n = self.link_count(id);
+        if link_index == -1 || (link_index >= 0 && (link_index as usize) < n) {
+            Ok(())
+        } else {
+            Err(format!(
+                "link_index {link_index} out of range: object {id} has {n} links (use -1 for the base)"
+            ))
+        }
+    }
+
+    /// The rapier body of an object.
+    pub fn body(&self, id: u32) -> Option<&RigidBody> {
+        let h = self.tables.objects.get(&id)?.body;
+        self.physics.bodies.get(h)
+    }
+
+    /// get_object_state: pose and velocities of an object's base.
+    pub fn object_state(&self, id: u32) -> Option<ObjectState> {
+        let b = self.body(id)?;
+        let p = b.position();
+        Some(ObjectState {
+            position: r32s(p.translation.to_array()),
+            orientation: r32s(p.rotation.to_array()),
+            linear_velocity: r32s(b.linvel().to_array()),
+            angular_velocity: r32s(b.angvel().to_array()),
+        })
+    }
+
+    /// get_dynamics_info: the values in force.
+    pub fn dynamics_info(&self, id: u32) -> Option<DynamicsInfo> {
+        let obj = self.tables.objects.get(&id)?;
+        let b = self.physics.bodies.get(obj.body)?;
+        let c = self.physics.colliders.get(obj.collider)?;
+        let mp = &b.mass_properties().local_mprops;
+        let fixed = b.is_fixed();
+        let body_type = match b.body_type() {
+            RigidBodyType::Dynamic => "dynamic",
+            RigidBodyType::Fixed => "static",
+            _ => "kinematic",
+        };
+        let zero3 = [0.0f32; 3];
+        Some(DynamicsInfo {
+            mass: if fixed { 0.0 } else { r32(b.mass()) },
+            lateral_friction: r32(c.friction()),
+            local_inertia_diagonal: r32s(if fixed {
+                zero3
+            } else {
+                mp.principal_inertia().to_array()
+            }),
+            local_inertia_pos: r32s(mp.local_com.to_array()),
+            local_inertia_orn: r32s(mp.principal_inertia_local_frame.to_array()),
+            restitution: r32(c.restitution()),
+            rolling_friction: r32(obj.extras.rolling_friction),
+            spinning_friction: r32(obj.extras.spinning_friction),
+            contact_damping: r32(obj.extras.contact_damping),
+            contact_stiffness: r32(obj.extras.contact_stiffness),
+            body_type: body_type.to_string(),
+            collision_margin: r32(c.contact_skin()),
+            linear_damping: r32(b.linear_damping()),
+            angular_damping: r32(b.angular_damping()),
+        })
+    }
+
+    /// One summary row per object, by id.
+    pub fn object_summaries(&self) -> Vec<ObjectSummary> {
+        self.tables
+            .objects
+            .iter()
+            .map(|(id, obj)| {
+                let pos = self
+                    .physics
+                    .bodies
+                    .get(obj.body)
+                    .map(|b| b.translation().to_array())
+                    .unwrap_or_default();
+                let ObjectKind::Primitive { shape } = &obj.kind;
+                let is_static = self
+                    .physics
+                    .bodies
+                    .get(obj.body)
+                    .is_some_and(|b| b.is_fixed());
+                ObjectSummary {
+                    object_id: *id,
+                    kind: "primitive".into(),
+                    shape: shape.name().into(),
+                    dimensions: shape.dimensions().into_iter().map(r32).collect(),
+                    mass: if is_static { 0.0 } else { r32(obj.mass) },
+                    position: r32s(pos),
+                }
+            })
+            .collect()
+    }
+}

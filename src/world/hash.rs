@@ -1,0 +1,100 @@
+//! The state hash: blake3 over a versioned canonical encoding of everything `apply` changes.
+//!
+//! Not the solver caches (the snapshot hash covers those), not the simulation id, the gui flag
+//! or any seq — so a fork, a load or a restart of the same state hashes the same. The encoding
+//! is postcard of plain arrays of f32 (exact bits) in object-id order. Changing what is encoded
+//! means bumping `STATE_HASH_VERSION` and re-recording `replays/`.
+
+use serde::Serialize;
+
+use super::{DynamicsExtras, ObjectKind, Viewer, World};
+
+/// Version prefix of the canonical encoding.
+pub const STATE_HASH_VERSION: &str = "physics-mcp/state/v1";
+
+#[derive(Serialize)]
+struct BodyView<'a> {
+    id: u32,
+    kind: &'a ObjectKind,
+    color: Option<[f32; 4]>,
+    mass_requested: f32,
+    extras: &'a DynamicsExtras,
+    body_type: u8,
+    translation: [f32; 3],
+    rotation: [f32; 4],
+    linvel: [f32; 3],
+    angvel: [f32; 3],
+    mass: f32,
+    local_com: [f32; 3],
+    principal_inertia: [f32; 3],
+    inertia_frame: [f32; 4],
+    linear_damping: f32,
+    angular_damping: f32,
+    user_force: [f32; 3],
+    user_torque: [f32; 3],
+    friction: f32,
+    restitution: f32,
+}
+
+#[derive(Serialize)]
+struct StateView<'a> {
+    version: &'static str,
+    gravity: [f32; 3],
+    timestep: f32,
+    time_s: f64,
+    steps: u64,
+    next_object_id: u32,
+    next_constraint_id: u32,
+    pending_wrench: Vec<u32>,
+    viewer: &'a Viewer,
+    bodies: Vec<BodyView<'a>>,
+}
+
+pub(super) fn state_hash(w: &World) -> String {
+    let bodies = w
+        .tables
+        .objects
+        .iter()
+        .filter_map(|(id, obj)| {
+            let b = w.physics.bodies.get(obj.body)?;
+            let c = w.physics.colliders.get(obj.collider)?;
+            let mp = &b.mass_properties().local_mprops;
+            Some(BodyView {
+                id: *id,
+                kind: &obj.kind,
+                color: obj.color,
+                mass_requested: obj.mass,
+                extras: &obj.extras,
+                body_type: b.body_type() as u8,
+                translation: b.translation().to_array(),
+                rotation: b.rotation().to_array(),
+                linvel: b.linvel().to_array(),
+                angvel: b.angvel().to_array(),
+                mass: b.mass(),
+                local_com: mp.local_com.to_array(),
+                principal_inertia: mp.principal_inertia().to_array(),
+                inertia_frame: mp.principal_inertia_local_frame.to_array(),
+                linear_damping: b.linear_damping(),
+                angular_damping: b.angular_damping(),
+                user_force: b.user_force().to_array(),
+                user_torque: b.user_torque().to_array(),
+                friction: c.friction(),
+                restitution: c.restitution(),
+            })
+        })
+        .collect();
+    let view = StateView {
+        version: STATE_HASH_VERSION,
+        gravity: w.physics.gravity.to_array(),
+        timestep: w.physics.integration_parameters.dt,
+        time_s: w.tables.time_s,
+        steps: w.tables.steps,
+        next_object_id: w.tables.next_object_id,
+        next_constraint_id: w.tables.next_constraint_id,
+        pending_wrench: w.tables.pending_wrench.iter().copied().collect(),
+        viewer: &w.tables.viewer,
+        bodies,
+    };
+    let bytes = postcard::to_stdvec(&view).unwrap_or_default();
+    blake3::hash(&bytes).to_hex().to_string()
+}

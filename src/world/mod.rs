@@ -1,0 +1,277 @@
+//! The deterministic state machine: a rapier3d world plus our own tables.
+//!
+//! `World::apply` is the only way state changes. It reads nothing but the command it is given:
+//! no clock, no randomness, no files, no environment (clippy's `disallowed-methods` enforces
+//! this for the folder). Iteration is always in id order (`BTreeMap`). A snapshot is the whole
+//! rapier `PhysicsWorld` (broad and narrow phase included) plus our tables, so restoring one and
+//! continuing is bit-identical to never having stopped.
+
+mod bodies;
+mod hash;
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use rapier3d::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::command::{Command, Shape};
+use crate::outputs::{Created, Message, Stepped, TimestepSet};
+use crate::value::r32s;
+
+pub use hash::STATE_HASH_VERSION;
+
+/// PyBullet's default timestep.
+pub const DEFAULT_TIMESTEP: f32 = 1.0 / 240.0;
+/// PyBullet's default linear and angular damping.
+pub const DEFAULT_DAMPING: f32 = 0.04;
+/// PyBullet's default lateral friction.
+pub const DEFAULT_FRICTION: f32 = 0.5;
+
+/// What a body is, beyond its rapier body and collider (saved files and reports need it).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ObjectKind {
+    /// A primitive made by add_box / add_sphere / add_cylinder / add_capsule.
+    Primitive {
+        /// Its shape and dimensions.
+        shape: Shape,
+    },
+}
+
+/// Dynamics properties rapier has no per-body equivalent for: stored, reported and saved.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct DynamicsExtras {
+    /// PyBullet rolling friction (not simulated by rapier).
+    pub rolling_friction: f32,
+    /// PyBullet spinning friction (not simulated by rapier).
+    pub spinning_friction: f32,
+    /// PyBullet contact stiffness; −1 = engine default (rapier's softness is global).
+    pub contact_stiffness: f32,
+    /// PyBullet contact damping; −1 = engine default.
+    pub contact_damping: f32,
+}
+
+impl Default for DynamicsExtras {
+    fn default() -> Self {
+        Self {
+            rolling_friction: 0.0,
+            spinning_friction: 0.0,
+            contact_stiffness: -1.0,
+            contact_damping: -1.0,
+        }
+    }
+}
+
+/// One object of the simulation: its rapier handles and what rapier does not hold.
+#[derive(Serialize, Deserialize, Clone, Debug)]
+pub struct Object {
+    /// The rapier body.
+    pub body: RigidBodyHandle,
+    /// Its single collider.
+    pub collider: ColliderHandle,
+    /// What kind of object it is.
+    pub kind: ObjectKind,
+    /// RGBA color for rendering, if given.
+    pub color: Option<[f32; 4]>,
+    /// The mass the user asked for (kept when the body is made static, for saved files).
+    pub mass: f32,
+    /// Properties stored for fidelity with PyBullet's API.
+    pub extras: DynamicsExtras,
+}
+
+/// Viewer settings (enable_debug_visualization / set_camera); part of the state hash.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Viewer {
+    /// Draw contact points.
+    pub show_contacts: bool,
+    /// Draw body frames.
+    pub show_frames: bool,
+    /// Camera distance to target (m).
+    pub distance: f32,
+    /// Camera yaw (degrees).
+    pub yaw: f32,
+    /// Camera pitch (degrees).
+    pub pitch: f32,
+    /// Camera target point.
+    pub target: [f32; 3],
+}
+
+impl Default for Viewer {
+    fn default() -> Self {
+        Self {
+            show_contacts: true,
+            show_frames: false,
+            distance: 5.0,
+            yaw: 50.0,
+            pitch: -35.0,
+            target: [0.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// Everything `apply` can change besides rapier's own sets.
+#[derive(Serialize, Deserialize, Clone, Debug, Default)]
+pub struct Tables {
+    /// Objects by id (ordered, so iteration is deterministic).
+    pub objects: BTreeMap<u32, Object>,
+    /// The id the next object gets (rewound by undo like everything else).
+    pub next_object_id: u32,
+    /// The id the next constraint gets.
+    pub next_constraint_id: u32,
+    /// Simulated time in seconds (sum of the timesteps taken).
+    pub time_s: f64,
+    /// Steps taken since creation.
+    pub steps: u64,
+    /// Objects carrying a force/torque that must be cleared after the next step.
+    pub pending_wrench: BTreeSet<u32>,
+    /// Viewer settings.
+    pub viewer: Viewer,
+}
+
+/// A simulation's state: rapier's world plus our tables. Identity (`simulation_id`) and the
+/// `gui` flag live beside it and are neither hashed nor snapshotted.
+pub struct World {
+    simulation_id: String,
+    gui: bool,
+    /// The rapier world (public for benchmarks and tests that inspect bodies directly).
+    pub physics: PhysicsWorld,
+    /// Our tables.
+    pub tables: Tables,
+}
+
+/// Hook called during long steps with the steps done so far; returning false stops early.
+pub type StepControl<'a> = &'a mut dyn FnMut(u64) -> bool;
+
+impl World {
+    /// Builds the world a root `CreateSimulation` command describes.
+    pub fn create(cmd: &Command) -> Option<(World, Value)> {
+        let Command::CreateSimulation {
+            simulation_id,
+            gravity,
+            gui,
+        } = cmd
+        else {
+            return None;
+        };
+        let mut physics = PhysicsWorld::default();
+        physics.gravity = Vector::from_array(*gravity);
+        physics.integration_parameters.dt = DEFAULT_TIMESTEP;
+        let world = World {
+            simulation_id: simulation_id.clone(),
+            gui: *gui,
+            physics,
+            tables: Tables::default(),
+        };
+        let out = Created {
+            simulation_id: simulation_id.clone(),
+            gravity: r32s(*gravity),
+            gui_enabled: *gui,
+            viewer_url: None,
+        };
+        Some((world, to_value(&out)))
+    }
+
+    /// The simulation's id (for error messages).
+    pub fn simulation_id(&self) -> &str {
+        &self.simulation_id
+    }
+
+    /// Whether the simulation was created with `gui = true`.
+    pub fn gui(&self) -> bool {
+        self.gui
+    }
+
+    /// Whether an object with this id exists.
+    pub fn has_object(&self, id: u32) -> bool {
+        self.tables.objects.contains_key(&id)
+    }
+
+    /// Number of objects.
+    pub fn object_count(&self) -> usize {
+        self.tables.objects.len()
+    }
+
+    /// Current timestep in seconds.
+    pub fn timestep(&self) -> f32 {
+        self.physics.integration_parameters.dt
+    }
+
+    /// Applies an accepted command and returns its result. Cannot fail for a command that
+    /// passed `Command::check`; `control` may stop a long step early (the steps done stay).
+    pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Value {
+        match cmd {
+            Command::CreateSimulation { .. } => {
+                to_value(&Message::new("create_simulation is a root event"))
+            }
+            Command::StepSimulation { steps } => {
+                let taken = self.step(*steps, control);
+                to_value(&Stepped {
+                    simulation_id: self.simulation_id.clone(),
+                    steps_taken: taken,
+                    current_time: self.tables.time_s,
+                })
+            }
+            Command::SetTimestep { timestep } => {
+                self.physics.integration_parameters.dt = *timestep;
+                to_value(&TimestepSet {
+                    message: format!("Timestep set to {} s", timestep),
+                    timestep: crate::value::r32(*timestep),
+                })
+            }
+            other => to_value(&self.apply_body_command(other)),
+        }
+    }
+
+    /// Advances `n` steps, clearing one-step forces after the first. Returns the steps taken.
+    fn step(&mut self, n: u64, control: StepControl) -> u64 {
+        const CHECK_EVERY: u64 = 64;
+        let mut taken = 0;
+        while taken < n {
+            self.physics.step();
+            self.clear_pending_wrench();
+            self.tables.time_s += self.physics.integration_parameters.dt as f64;
+            self.tables.steps += 1;
+            taken += 1;
+            if taken % CHECK_EVERY == 0 && taken < n && !control(taken) {
+                break;
+            }
+        }
+        taken
+    }
+
+    /// Serialises the complete state (rapier sets with their caches, plus our tables).
+    pub fn snapshot(&self) -> Vec<u8> {
+        postcard::to_stdvec(&(SNAPSHOT_VERSION, &self.physics, &self.tables))
+            .unwrap_or_default()
+    }
+
+    /// Rebuilds a world from `snapshot` bytes. Identity comes from the caller (a fork or load
+    /// restores another simulation's snapshot under a new id).
+    pub fn restore(simulation_id: &str, gui: bool, bytes: &[u8]) -> Result<World, String> {
+        let (version, physics, tables): (u32, PhysicsWorld, Tables) =
+            postcard::from_bytes(bytes).map_err(|e| format!("snapshot does not decode: {e}"))?;
+        if version != SNAPSHOT_VERSION {
+            return Err(format!("snapshot version {version} is not supported"));
+        }
+        Ok(World {
+            simulation_id: simulation_id.to_string(),
+            gui,
+            physics,
+            tables,
+        })
+    }
+
+    /// blake3 (hex) over the canonical encoding of everything `apply` can change.
+    pub fn state_hash(&self) -> String {
+        hash::state_hash(self)
+    }
+}
+
+/// Version of the snapshot encoding.
+pub const SNAPSHOT_VERSION: u32 = 1;
+
+/// Serialises a result struct; our result types always serialise.
+fn to_value<T: Serialize>(v: &T) -> Value {
+    serde_json::to_value(v).unwrap_or(Value::Null)
+}
