@@ -1,0 +1,192 @@
+//! Test harness: the real `physics-mcp` binary on a free loopback port, driven by rmcp's
+//! client over streamable HTTP — no mocks.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use rmcp::model::{CallToolRequestParams, CallToolResult};
+use rmcp::service::RunningService;
+use rmcp::transport::StreamableHttpClientTransport;
+use rmcp::{RoleClient, ServiceExt};
+use serde_json::{json, Value};
+
+/// A running server process.
+pub struct Server {
+    child: Child,
+    pub url: String,
+    pub data: PathBuf,
+    pub workspace: PathBuf,
+}
+
+impl Server {
+    /// Starts `physics-mcp serve` on 127.0.0.1:0 over `dir/data` and `dir/workspace`.
+    pub fn start(dir: &Path, extra: &[&str]) -> Server {
+        let data = dir.join("data");
+        let workspace = dir.join("workspace");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_physics-mcp"))
+            .args(["serve", "--bind", "127.0.0.1:0", "--data"])
+            .arg(&data)
+            .arg("--workspace")
+            .arg(&workspace)
+            .args(extra)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start physics-mcp");
+        let stderr = child.stderr.take().expect("stderr");
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            let mut sent = false;
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                if !sent {
+                    if let Some(rest) = line.strip_prefix("physics-mcp listening on ") {
+                        let _ = tx.send(Ok(rest.to_string()));
+                        sent = true;
+                        continue;
+                    }
+                }
+                eprintln!("[server] {line}");
+                if !sent && line.starts_with("physics-mcp:") {
+                    let _ = tx.send(Err(line));
+                    sent = true;
+                }
+            }
+        });
+        let url = match rx.recv_timeout(Duration::from_secs(60)) {
+            Ok(Ok(url)) => url,
+            Ok(Err(e)) => panic!("server refused to start: {e}"),
+            Err(_) => panic!("server did not start"),
+        };
+        Server { child, url, data, workspace }
+    }
+
+    /// Starts a server expected to refuse to start; returns its stderr.
+    pub fn start_failure(args: &[&str]) -> (bool, String) {
+        let out = Command::new(env!("CARGO_BIN_EXE_physics-mcp"))
+            .args(args)
+            .stdin(Stdio::null())
+            .output()
+            .expect("run physics-mcp");
+        (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    }
+
+    /// kill -9.
+    pub fn kill(mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// A connected MCP client.
+    pub async fn client(&self) -> Client {
+        Client::connect(&self.url).await
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// An MCP client session over streamable HTTP.
+pub struct Client {
+    pub service: RunningService<RoleClient, ()>,
+}
+
+impl Client {
+    /// Connects and initializes.
+    pub async fn connect(url: &str) -> Client {
+        let transport = StreamableHttpClientTransport::from_uri(url.to_string());
+        let service = ().serve(transport).await.expect("initialize MCP session");
+        Client { service }
+    }
+
+    /// Calls a tool and returns the raw result.
+    pub async fn raw(&self, tool: &str, args: Value) -> CallToolResult {
+        let args = match args {
+            Value::Object(m) => m,
+            other => panic!("arguments must be an object, got {other}"),
+        };
+        self.service
+            .call_tool(CallToolRequestParams::new(tool.to_string()).with_arguments(args))
+            .await
+            .unwrap_or_else(|e| panic!("{tool} failed at the protocol level: {e}"))
+    }
+
+    /// Calls a tool: Ok(structuredContent) or Err(error text).
+    pub async fn try_call(&self, tool: &str, args: Value) -> Result<Value, String> {
+        let r = self.raw(tool, args).await;
+        if r.is_error == Some(true) {
+            let text = r
+                .content
+                .iter()
+                .filter_map(|c| c.as_text().map(|t| t.text.clone()))
+                .collect::<Vec<_>>()
+                .join(" ");
+            Err(text)
+        } else {
+            Ok(r.structured_content.expect("structuredContent"))
+        }
+    }
+
+    /// Calls a tool that must succeed.
+    pub async fn call(&self, tool: &str, args: Value) -> Value {
+        match self.try_call(tool, args.clone()).await {
+            Ok(v) => v,
+            Err(e) => panic!("{tool} {args} was refused: {e}"),
+        }
+    }
+
+    /// Creates a simulation (extra arguments merged in) and returns its id.
+    pub async fn new_sim(&self, args: Value) -> String {
+        self.call("create_simulation", args).await["simulation_id"]
+            .as_str()
+            .expect("simulation_id")
+            .to_string()
+    }
+
+    /// Adds a static ground slab whose top is at z = 0 and returns its id.
+    pub async fn ground(&self, sim: &str) -> u64 {
+        self.call(
+            "add_box",
+            json!({"sim_id": sim, "dimensions": [50, 50, 0.5], "position": [0, 0, -0.5], "mass": 0}),
+        )
+        .await["object_id"]
+            .as_u64()
+            .expect("object_id")
+    }
+
+    /// Steps `n` times.
+    pub async fn step(&self, sim: &str, n: u64) -> Value {
+        self.call("step_simulation", json!({"sim_id": sim, "steps": n})).await
+    }
+
+    /// The object's state.
+    pub async fn state(&self, sim: &str, id: u64) -> Value {
+        self.call("get_object_state", json!({"sim_id": sim, "object_id": id})).await
+    }
+
+    /// The simulation's state hash.
+    pub async fn hash(&self, sim: &str) -> String {
+        self.call("get_simulation_info", json!({"sim_id": sim})).await["state_hash"]
+            .as_str()
+            .expect("state_hash")
+            .to_string()
+    }
+}
+
+/// Reads a 3-vector from a JSON result.
+pub fn v3(v: &Value) -> [f64; 3] {
+    let a = v.as_array().expect("array");
+    [a[0].as_f64().unwrap(), a[1].as_f64().unwrap(), a[2].as_f64().unwrap()]
+}
+
+/// Relative error |a - b| / |b|.
+pub fn rel(a: f64, b: f64) -> f64 {
+    ((a - b) / b).abs()
+}
