@@ -18,8 +18,10 @@ pub const EVENT_VERSION: u32 = 1;
 
 /// A primitive collision shape with its dimensions (PyBullet conventions: box half-extents,
 /// cylinder full height, capsule cylindrical-part height; cylinders/capsules along local z).
+/// Externally tagged (`{"box": {...}}`): snapshots use postcard, which cannot decode
+/// internally tagged enums.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
-#[serde(tag = "shape", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum Shape {
     /// A box given by its half-extents.
     Box {

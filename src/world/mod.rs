@@ -30,7 +30,7 @@ pub const DEFAULT_FRICTION: f32 = 0.5;
 
 /// What a body is, beyond its rapier body and collider (saved files and reports need it).
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum ObjectKind {
     /// A primitive made by add_box / add_sphere / add_cylinder / add_capsule.
     Primitive {
