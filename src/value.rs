@@ -86,7 +86,7 @@ pub fn opt_vec3(args: &Args, name: &str) -> Result<Option<[f32; 3]>, Refusal> {
 pub fn quat(name: &str, v: &Value) -> Result<[f32; 4], Refusal> {
     let a = fixed_array(name, v, 4, "4 finite numbers [x, y, z, w] (a quaternion)")?;
     let norm = a.iter().map(|x| (*x as f64) * (*x as f64)).sum::<f64>().sqrt();
-    if !(norm > 1e-12) || !norm.is_finite() {
+    if norm.is_nan() || norm <= 1e-12 || !norm.is_finite() {
         return Err(format!(
             "{name} must be a non-zero quaternion [x, y, z, w]; got {}",
             show(v)

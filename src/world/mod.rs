@@ -154,8 +154,10 @@ impl World {
         else {
             return None;
         };
-        let mut physics = PhysicsWorld::default();
-        physics.gravity = Vector::from_array(*gravity);
+        let mut physics = PhysicsWorld {
+            gravity: Vector::from_array(*gravity),
+            ..Default::default()
+        };
         physics.integration_parameters.dt = DEFAULT_TIMESTEP;
         let world = World {
             simulation_id: simulation_id.clone(),

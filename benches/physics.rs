@@ -1,0 +1,266 @@
+//! Issue 2 benchmarks (`cargo bench`): pile stepping, MCP overhead, get_object_state latency,
+//! snapshot/restore phases, log size, and --sync normal vs full.
+//!
+//! Criterion measures the in-process timings; the HTTP figures come from the real binary
+//! (release) driven by rmcp's client, and percentiles are printed as `REPORT` lines.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use physics_mcp::command::{Command, Shape};
+use physics_mcp::limits::Limits;
+use physics_mcp::sim::Sim;
+use physics_mcp::store::{Log, SyncMode};
+use physics_mcp::value::Args;
+use physics_mcp::world::World;
+use rand::{Rng, SeedableRng};
+use serde_json::{json, Value};
+
+const SEED: u64 = 20261122;
+
+/// The 1000-box pile of the issue: half-extent 0.1 boxes on a 10×10×10 grid, spacing 0.25 m
+/// from z = 0.5, jittered ±0.02 m, turned by a seeded random angle, on a static ground.
+/// Orientations are as a client would send them (raw axis-angle quaternions); `pile_commands`
+/// normalises them exactly as the adapter does, so in-process and HTTP runs are identical.
+fn pile_commands() -> Vec<Command> {
+    raw_pile()
+        .into_iter()
+        .map(|mut c| {
+            if let Command::AddBody { orientation, .. } = &mut c {
+                *orientation = physics_mcp::value::quat("orientation", &json!(*orientation)).unwrap();
+            }
+            c
+        })
+        .collect()
+}
+
+fn raw_pile() -> Vec<Command> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SEED);
+    let mut cmds = vec![Command::AddBody {
+        shape: Shape::Box { half_extents: [20.0, 20.0, 0.5] },
+        position: [0.0, 0.0, -0.5],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        mass: 0.0,
+        color: None,
+    }];
+    for i in 0..10 {
+        for j in 0..10 {
+            for k in 0..10 {
+                let mut jit = || rng.gen_range(-0.02f32..=0.02);
+                let p = [i as f32 * 0.25 + jit(), j as f32 * 0.25 + jit(), 0.5 + k as f32 * 0.25 + jit()];
+                let axis = [rng.gen_range(-1.0f32..1.0), rng.gen_range(-1.0f32..1.0), rng.gen_range(-1.0f32..1.0)];
+                let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt().max(1e-6);
+                let angle: f32 = rng.gen_range(0.0..std::f32::consts::TAU);
+                let (s, c) = (angle / 2.0).sin_cos();
+                cmds.push(Command::AddBody {
+                    shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] },
+                    position: p,
+                    orientation: [axis[0] / n * s, axis[1] / n * s, axis[2] / n * s, c],
+                    mass: 1.0,
+                    color: None,
+                });
+            }
+        }
+    }
+    cmds
+}
+
+fn root(id: &str) -> Command {
+    Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false }
+}
+
+fn pile_world(sleeping: bool) -> World {
+    let (mut w, _) = World::create(&root("pile")).unwrap();
+    for c in pile_commands() {
+        w.apply(&c, &mut |_| true);
+    }
+    if !sleeping {
+        for (_, b) in w.physics.bodies.iter_mut() {
+            b.activation_mut().normalized_linear_threshold = -1.0;
+            b.activation_mut().angular_threshold = -1.0;
+        }
+    }
+    w
+}
+
+fn step(w: &mut World, n: u64) {
+    w.apply(&Command::StepSimulation { steps: n }, &mut |_| true);
+}
+
+fn bench_pile_steps(c: &mut Criterion) {
+    let mut g = c.benchmark_group("pile_1000_boxes");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    for sleeping in [true, false] {
+        let mut w = pile_world(sleeping);
+        step(&mut w, 100);
+        let snap = w.snapshot();
+        let name = if sleeping { "steps_100_to_400_sleeping_on" } else { "steps_100_to_400_sleeping_off" };
+        g.bench_function(name, |b| {
+            b.iter_batched(
+                || World::restore("pile", false, &snap).unwrap(),
+                |mut w| step(&mut w, 300),
+                BatchSize::PerIteration,
+            )
+        });
+        let mut w = World::restore("pile", false, &snap).unwrap();
+        let t = Instant::now();
+        step(&mut w, 300);
+        println!("REPORT pile {name}: {:.3} ms/step", t.elapsed().as_secs_f64() * 1e3 / 300.0);
+    }
+    g.finish();
+}
+
+fn args(v: Value) -> Args {
+    v.as_object().cloned().unwrap_or_default()
+}
+
+/// A Sim in `dir` holding the pile, built through `Sim::change` like the server does.
+fn pile_sim(dir: &std::path::Path, name: &str, sync: SyncMode) -> Sim {
+    let (mut sim, _) = Sim::create(&dir.join(format!("{name}.sqlite")), root(name), &Args::new(), sync).unwrap();
+    let limits = Limits::default();
+    for c in pile_commands() {
+        sim.change("add_box", &Args::new(), Ok(c), &limits, &mut |_| true).unwrap();
+    }
+    sim
+}
+
+fn bench_snapshot_restore(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut w = pile_world(true);
+    step(&mut w, 300);
+    let snap = w.snapshot();
+    let hash = blake3::hash(&snap).to_hex().to_string();
+    let mut log = Log::create(&dir.path().join("snap.sqlite"), "snap", SyncMode::Normal).unwrap();
+    let mut g = c.benchmark_group("snapshot_1000_bodies");
+    g.sample_size(20);
+    g.bench_function("serialise", |b| b.iter(|| w.snapshot()));
+    g.bench_function("hash", |b| b.iter(|| blake3::hash(&snap)));
+    let mut seq = 0u64;
+    g.bench_function("commit", |b| {
+        b.iter(|| {
+            seq += 1;
+            let e = physics_mcp::store::Event {
+                seq, kind: physics_mcp::store::Kind::Change, parent: None, tool: "bench".into(),
+                arguments: "{}".into(), command: None, version: 1, ok: true, mutates: true,
+                inherited: false, result: None, result_hash: None, state_hash: String::new(),
+            };
+            log.append_durable(e, Some((&snap, &hash))).unwrap();
+        })
+    });
+    g.bench_function("restore_read", |b| b.iter(|| log.snapshot_at(1).unwrap()));
+    g.bench_function("restore_verify", |b| b.iter(|| blake3::hash(&snap).to_hex().as_str() == hash));
+    g.bench_function("restore_deserialise", |b| b.iter(|| World::restore("pile", false, &snap).unwrap()));
+    g.finish();
+    println!("REPORT snapshot of 1000 bodies after 300 steps: {} bytes", snap.len());
+}
+
+fn bench_log_and_sync(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let limits = Limits::default();
+    let mut g = c.benchmark_group("commit_state_changing_event");
+    g.sample_size(30);
+    for sync in [SyncMode::Normal, SyncMode::Full] {
+        let name = format!("{sync:?}").to_lowercase();
+        let (mut sim, _) = Sim::create(&dir.path().join(format!("sync-{name}.sqlite")), root(&name), &Args::new(), sync).unwrap();
+        let a = args(json!({"object_id": 0, "linear_velocity": [1, 0, 0]}));
+        sim.change("add_box", &Args::new(), Ok(pile_commands().remove(1)), &limits, &mut |_| true).unwrap();
+        g.bench_function(format!("set_object_velocity_sync_{name}"), |b| {
+            b.iter(|| {
+                let cmd = Command::SetObjectVelocity { object_id: 0, linear_velocity: Some([1.0, 0.0, 0.0]), angular_velocity: None };
+                sim.change("set_object_velocity", &a, Ok(cmd), &limits, &mut |_| true).unwrap()
+            })
+        });
+    }
+    g.finish();
+    // Log bytes per 1000 events: 500 state-changing (force + 1 step) and 500 reads, small sim.
+    let (mut sim, _) = Sim::create(&dir.path().join("size.sqlite"), root("size"), &Args::new(), SyncMode::Normal).unwrap();
+    sim.change("add_box", &Args::new(), Ok(pile_commands().remove(1)), &limits, &mut |_| true).unwrap();
+    sim.log().checkpoint().unwrap();
+    let before = sim.log().file_bytes();
+    let fa = args(json!({"sim_id": "size", "object_id": 0, "force": [1, 0, 0]}));
+    for i in 0..500 {
+        let cmd = if i % 2 == 0 {
+            Command::ApplyForce { object_id: 0, force: [1.0, 0.0, 0.0], position: None, link_index: -1 }
+        } else {
+            Command::StepSimulation { steps: 1 }
+        };
+        sim.change("apply_force", &fa, Ok(cmd), &limits, &mut |_| true).unwrap();
+        sim.read("get_object_state", &fa, |s| Ok(s.world().object_state(0))).unwrap();
+    }
+    sim.flush();
+    sim.log().checkpoint().unwrap();
+    let snaps = sim.log().snapshot_seqs().unwrap().len();
+    println!(
+        "REPORT log bytes per 1000 events (500 change + 500 read, {snaps} snapshots of a 1-body world included): {}",
+        sim.log().file_bytes().saturating_sub(before)
+    );
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() as f64 - 1.0) * p).round() as usize]
+}
+
+fn bench_over_http(c: &mut Criterion) {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let server = common::Server::start(dir.path(), &[]);
+    let client = rt.block_on(server.client());
+
+    // get_object_state latency: one session, sequential.
+    let sim = rt.block_on(client.new_sim(json!({})));
+    rt.block_on(client.ground(&sim));
+    rt.block_on(client.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]})));
+    let q = json!({"sim_id": sim, "object_id": 1});
+    let mut lat = Vec::new();
+    rt.block_on(async {
+        for i in 0..3000 {
+            let t = Instant::now();
+            client.call("get_object_state", q.clone()).await;
+            if i >= 200 {
+                lat.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+    });
+    lat.sort_by(|a, b| a.total_cmp(b));
+    println!(
+        "REPORT get_object_state over HTTP (rmcp client, stateful, sequential, n={}): p50 {:.3} ms, p99 {:.3} ms (old Python server: p50 3.4 ms, p99 9.2 ms)",
+        lat.len(), percentile(&lat, 0.5), percentile(&lat, 0.99)
+    );
+    c.bench_function("http_get_object_state", |b| b.to_async(&rt).iter(|| client.call("get_object_state", q.clone())));
+
+    // step_simulation(1000) on the 1000-box pile: over MCP/HTTP vs Sim::change in-process.
+    // Both runs do bit-identical work (same commands, same hashes), so the ratio is overhead.
+    let mut http_ms = Vec::new();
+    let mut local_ms = Vec::new();
+    for round in 0..3 {
+        let s = rt.block_on(client.new_sim(json!({})));
+        rt.block_on(async {
+            for cmd in raw_pile() {
+                let Command::AddBody { shape: Shape::Box { half_extents }, position, orientation, mass, .. } = cmd else { unreachable!() };
+                client.call("add_box", json!({"sim_id": s, "dimensions": half_extents, "position": position, "orientation": orientation, "mass": mass})).await;
+            }
+        });
+        let t = Instant::now();
+        rt.block_on(client.step(&s, 1000));
+        http_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        let http_hash = rt.block_on(client.hash(&s));
+        rt.block_on(client.call("destroy_simulation", json!({"sim_id": s})));
+
+        let mut sim = pile_sim(dir.path(), &format!("local{round}"), SyncMode::Normal);
+        let t = Instant::now();
+        sim.change("step_simulation", &args(json!({"steps": 1000})), Ok(Command::StepSimulation { steps: 1000 }), &Limits::default(), &mut |_| true).unwrap();
+        local_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        assert_eq!(sim.world().state_hash(), http_hash, "HTTP and in-process runs differ");
+    }
+    let (h, l) = (http_ms.iter().cloned().fold(f64::MAX, f64::min), local_ms.iter().cloned().fold(f64::MAX, f64::min));
+    println!(
+        "REPORT step_simulation(1000) on the 1000-box pile: MCP/HTTP {h:.1} ms, in-process Sim::change {l:.1} ms, ratio {:.4} (best of 3 each)",
+        h / l
+    );
+}
+
+criterion_group!(benches, bench_pile_steps, bench_snapshot_restore, bench_log_and_sync, bench_over_http);
+criterion_main!(benches);
