@@ -40,6 +40,9 @@ pub struct Sim {
     world: World,
     log: Log,
     sync: SyncMode,
+    /// The world's state hash, recomputed only when the world changes (reads and refusals
+    /// record it without paying O(bodies) again).
+    state_hash: String,
     steps_since_snapshot: u64,
     changes_since_snapshot: u32,
 }
@@ -70,6 +73,7 @@ impl Sim {
             result: Some(result_json),
             state_hash: world.state_hash(),
         };
+        let state_hash = event.state_hash.clone();
         log.append_durable(event, Some((&snapshot, &snap_hash)))
             .map_err(|e| e.to_string())?;
         Ok((
@@ -77,6 +81,7 @@ impl Sim {
                 world,
                 log,
                 sync,
+                state_hash,
                 steps_since_snapshot: 0,
                 changes_since_snapshot: 0,
             },
@@ -128,10 +133,12 @@ impl Sim {
             }
             changes_since_snapshot += 1;
         }
+        let state_hash = world.state_hash();
         Ok(Sim {
             world,
             log,
             sync,
+            state_hash,
             steps_since_snapshot,
             changes_since_snapshot,
         })
@@ -145,6 +152,11 @@ impl Sim {
     /// The world (read-only).
     pub fn world(&self) -> &World {
         &self.world
+    }
+
+    /// The current state hash (cached; equal to `world().state_hash()`).
+    pub fn state_hash(&self) -> &str {
+        &self.state_hash
     }
 
     /// The log (read-only).
@@ -176,7 +188,7 @@ impl Sim {
     pub fn refuse(&mut self, tool: &str, args: &Args, why: Refusal) -> Refusal {
         let mut e = self.event(Kind::Refused, tool, args);
         e.result = Some(why.clone());
-        e.state_hash = self.world.state_hash();
+        e.state_hash = self.state_hash.clone();
         if let Err(err) = self.log.append_lazy(e) {
             tracing::warn!("could not record a refused call: {err}");
         }
@@ -209,7 +221,8 @@ impl Sim {
         e.command = Some(command_json);
         e.result_hash = Some(result_hash(&result_json));
         e.result = Some(result_json);
-        e.state_hash = self.world.state_hash();
+        self.state_hash = self.world.state_hash();
+        e.state_hash = self.state_hash.clone();
         let due = self.steps_since_snapshot >= SNAPSHOT_EVERY_STEPS
             || self.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES;
         let snapshot = due.then(|| {
@@ -244,7 +257,7 @@ impl Sim {
                 let json = serde_json::to_string(&out).unwrap_or_default();
                 let mut e = self.event(Kind::Read, tool, args);
                 e.result_hash = Some(result_hash(&json));
-                e.state_hash = self.world.state_hash();
+                e.state_hash = self.state_hash.clone();
                 if let Err(err) = self.log.append_lazy(e) {
                     tracing::warn!("could not record a read: {err}");
                 }
@@ -268,7 +281,7 @@ impl Sim {
             constraints: Vec::new(),
             head_seq: self.log.head_seq(),
             last_seq: self.log.last_seq(),
-            state_hash: w.state_hash(),
+            state_hash: self.state_hash.clone(),
         }
     }
 

@@ -45,18 +45,20 @@ fn to_f32(x: f64) -> Option<f32> {
     y.is_finite().then_some(y)
 }
 
+/// Some clients send arrays as JSON strings (`"[0, 0, 1]"`): decode those, pass others through.
+/// None when a string does not hold JSON.
+fn decode_string(v: &Value) -> Option<std::borrow::Cow<'_, Value>> {
+    match v {
+        Value::String(s) => serde_json::from_str(s).ok().map(std::borrow::Cow::Owned),
+        other => Some(std::borrow::Cow::Borrowed(other)),
+    }
+}
+
 /// Reads an array of exactly `n` finite numbers; a JSON string holding such an array is accepted.
 fn fixed_array(name: &str, v: &Value, n: usize, shape: &str) -> Result<Vec<f32>, Refusal> {
     let fail = || format!("{name} must be {shape}; got {}", show(v));
-    let parsed;
-    let v = match v {
-        Value::String(s) => {
-            parsed = serde_json::from_str::<Value>(s).map_err(|_| fail())?;
-            &parsed
-        }
-        other => other,
-    };
-    let items = v.as_array().ok_or_else(fail)?;
+    let inner = decode_string(v).ok_or_else(fail)?;
+    let items = inner.as_array().ok_or_else(fail)?;
     if items.len() != n {
         return Err(fail());
     }
@@ -110,14 +112,9 @@ pub fn quat_or_identity(args: &Args, name: &str) -> Result<[f32; 4], Refusal> {
 /// Reads an RGB or RGBA color with components in [0, 1]; RGB gets alpha 1.
 pub fn color(name: &str, v: &Value) -> Result<[f32; 4], Refusal> {
     let shape = "3 or 4 numbers in [0, 1] (RGB or RGBA)";
-    let len = match v {
-        Value::Array(a) => a.len(),
-        Value::String(s) => serde_json::from_str::<Value>(s)
-            .ok()
-            .and_then(|x| x.as_array().map(|a| a.len()))
-            .unwrap_or(0),
-        _ => 0,
-    };
+    let len = decode_string(v)
+        .and_then(|x| x.as_array().map(|a| a.len()))
+        .unwrap_or(0);
     let n = if len == 3 { 3 } else { 4 };
     let a = fixed_array(name, v, n, shape)?;
     if a.iter().any(|c| !(0.0..=1.0).contains(c)) {
@@ -137,21 +134,13 @@ pub fn gravity(name: &str, v: &Value) -> Result<[f32; 3], Refusal> {
     if let Some(g) = finite(v) {
         return Ok([0.0, 0.0, to_f32(g).ok_or_else(fail)?]);
     }
-    let parsed;
-    let inner = match v {
-        Value::String(s) => {
-            parsed = serde_json::from_str::<Value>(s).map_err(|_| fail())?;
-            &parsed
-        }
-        other => other,
-    };
+    let inner = decode_string(v).ok_or_else(fail)?;
     match inner.as_array().map(|a| a.len()) {
         Some(1) => {
-            let g = fixed_array(name, inner, 1, "1 number")
-                .map_err(|_| fail())?[0];
+            let g = fixed_array(name, &inner, 1, "1 number").map_err(|_| fail())?[0];
             Ok([0.0, 0.0, g])
         }
-        Some(3) => vec3(name, inner).map_err(|_| fail()),
+        Some(3) => vec3(name, &inner).map_err(|_| fail()),
         _ => Err(fail()),
     }
 }
