@@ -99,13 +99,20 @@ impl PhysicsServer {
         self.change_with(tool, args, decide, |_| true).await
     }
 
-    /// A read-only call on a simulation; recorded as a read event.
+    /// A read-only call on a simulation; recorded as a read event. Reads take microseconds,
+    /// so when the simulation is idle they run right here instead of on the blocking pool;
+    /// when a long call holds it, they wait on the pool like everything else.
     async fn read<T: Serialize + Send + 'static>(
         &self,
         tool: &'static str,
         args: Args,
         f: impl FnOnce(&Sim, &Args) -> Result<T, Refusal> + Send + 'static,
     ) -> ToolResult<T> {
+        let id = value::string(&args, "sim_id")?;
+        let sim = self.reg.get(&id)?;
+        if let Ok(mut guard) = sim.try_lock() {
+            return guard.read(tool, &args, |s| f(s, &args)).map(Json);
+        }
         self.with_sim(args, move |sim, a, _| sim.read(tool, a, |s| f(s, a)))
             .await
             .map(Json)
