@@ -126,6 +126,18 @@ pub enum Command {
         /// Whether the web viewer follows this simulation.
         gui: bool,
     },
+    /// Root event of a fork: the world is the parent's at `at_seq` (the inherited chain
+    /// before this event in the log folds to it), under a new id. Applying it changes nothing.
+    ForkSimulation {
+        /// The new simulation's UUID.
+        simulation_id: String,
+        /// The simulation it was forked from.
+        parent_id: String,
+        /// The parent's event it starts from.
+        at_seq: u64,
+        /// Whether the web viewer follows this simulation.
+        gui: bool,
+    },
     /// Advance time by `steps` fixed timesteps.
     StepSimulation {
         /// Number of steps actually taken (a cancelled call records the steps it did).
@@ -227,7 +239,9 @@ impl Command {
             }
         };
         match self {
-            Command::CreateSimulation { .. } => Err("a simulation already exists here".into()),
+            Command::CreateSimulation { .. } | Command::ForkSimulation { .. } => {
+                Err("a simulation already exists here".into())
+            }
             Command::StepSimulation { steps } => {
                 if *steps == 0 || *steps > limits.max_steps {
                     Err(format!(

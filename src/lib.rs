@@ -8,6 +8,7 @@
 //! - `outputs` — the structured results of the tools (with JSON schemas).
 //! - `store`   — the SQLite event log of one simulation: events, head, snapshots, blobs.
 //! - `sim`     — `Sim` = log + world (decide → apply → append → reply) and the `Registry`.
+//! - `timeline` — undo, redo, history, verify and fork: operations on the log.
 //! - `mcp`     — rmcp adapters: JSON arguments → `Command` → `Sim` → MCP result; HTTP, stdio.
 //! - `limits`  — the CLI limits every request is checked against.
 #![warn(missing_docs)]
@@ -19,4 +20,5 @@ pub mod value;
 pub mod world;
 pub mod sim;
 pub mod store;
+pub mod timeline;
 pub mod mcp;

@@ -184,3 +184,113 @@ pub struct SimulationInfo {
     /// blake3 of the state.
     pub state_hash: String,
 }
+
+/// An event named in undo/redo results.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct EventRef {
+    /// The event's seq.
+    pub seq: u64,
+    /// The tool it recorded.
+    pub tool: String,
+}
+
+/// Result of undo.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Undone {
+    /// The state-changing events undone, most recent first.
+    pub undone: Vec<EventRef>,
+    /// The event the world now reflects.
+    pub head_seq: u64,
+    /// Simulated time after the undo.
+    pub current_time: f64,
+    /// State hash after the undo.
+    pub state_hash: String,
+}
+
+/// Result of redo.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Redone {
+    /// The state-changing events re-applied, oldest first.
+    pub redone: Vec<EventRef>,
+    /// The event the world now reflects.
+    pub head_seq: u64,
+    /// Simulated time after the redo.
+    pub current_time: f64,
+    /// State hash after the redo.
+    pub state_hash: String,
+}
+
+/// One event in get_history.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct HistoryEvent {
+    /// Position in the log.
+    pub seq: u64,
+    /// root, change, move, read or refused.
+    pub kind: String,
+    /// For root/change events: the state-changing event it was applied on.
+    pub parent: Option<u64>,
+    /// The tool called.
+    pub tool: String,
+    /// The arguments as sent (over 64 KB: `{"blob": hash, "bytes": n}`).
+    pub arguments: serde_json::Value,
+    /// Accepted (true) or refused.
+    pub ok: bool,
+    /// Whether it changed the world (root/change).
+    pub mutates: bool,
+    /// Copied from the simulation this one was forked or loaded from.
+    pub inherited: bool,
+    /// One line: what happened (or why it was refused).
+    pub summary: String,
+    /// The state hash after the event.
+    pub state_hash: String,
+}
+
+/// Result of get_history.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct History {
+    /// Events with seq > since_seq, ascending, at most `limit`.
+    pub events: Vec<HistoryEvent>,
+    /// The state-changing event the world reflects.
+    pub head_seq: u64,
+    /// The last event appended, of any kind.
+    pub last_seq: u64,
+}
+
+/// Result of fork_simulation.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Forked {
+    /// The new simulation's id.
+    pub simulation_id: String,
+    /// The simulation it was forked from.
+    pub parent_id: String,
+    /// The event of the parent it starts from.
+    pub at_seq: u64,
+    /// Its state hash (equal to the parent's at at_seq).
+    pub state_hash: String,
+}
+
+/// Where a refold first disagreed with the log.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Divergence {
+    /// The event.
+    pub seq: u64,
+    /// The hash the log recorded.
+    pub expected: String,
+    /// The hash the refold produced.
+    pub actual: String,
+}
+
+/// Result of verify_simulation.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Verified {
+    /// True when every event and snapshot on the head's chain checked out.
+    pub ok: bool,
+    /// State-changing events refolded and checked.
+    pub events_checked: u64,
+    /// Snapshots whose bytes and state were checked.
+    pub snapshots_checked: u64,
+    /// The current state hash.
+    pub state_hash: String,
+    /// The first disagreement, if any.
+    pub first_divergence: Option<Divergence>,
+}

@@ -37,14 +37,17 @@ fn result_hash(json: &str) -> String {
 
 /// One simulation: its log and the world the log folds to.
 pub struct Sim {
-    world: World,
-    log: Log,
+    pub(crate) world: World,
+    pub(crate) log: Log,
     sync: SyncMode,
     /// The world's state hash, recomputed only when the world changes (reads and refusals
     /// record it without paying O(bodies) again).
-    state_hash: String,
-    steps_since_snapshot: u64,
-    changes_since_snapshot: u32,
+    pub(crate) state_hash: String,
+    /// Undone events that redo re-applies, the next one last (rebuilt from the log's move
+    /// events on recovery; emptied by any new state-changing call).
+    pub(crate) redo: Vec<u64>,
+    pub(crate) steps_since_snapshot: u64,
+    pub(crate) changes_since_snapshot: u32,
 }
 
 impl Sim {
@@ -74,7 +77,8 @@ impl Sim {
             state_hash: world.state_hash(),
         };
         let state_hash = event.state_hash.clone();
-        log.append_durable(event, Some((&snapshot, &snap_hash)))
+        let head = event.seq;
+        log.append_durable(event, head, Some((&snapshot, &snap_hash)))
             .map_err(|e| e.to_string())?;
         Ok((
             Sim {
@@ -82,6 +86,7 @@ impl Sim {
                 log,
                 sync,
                 state_hash,
+                redo: Vec::new(),
                 steps_since_snapshot: 0,
                 changes_since_snapshot: 0,
             },
@@ -94,53 +99,17 @@ impl Sim {
     pub fn recover(path: &Path, sync: SyncMode) -> Result<Sim, StoreError> {
         let log = Log::open(path, sync)?;
         let id = log.simulation_id()?;
-        let chain = log.chain_to(log.head_seq())?;
-        let root = chain
-            .first()
-            .ok_or_else(|| StoreError::Corrupt("the log has no root event".into()))?;
-        let gui = matches!(
-            decode(root)?,
-            Some(Command::CreateSimulation { gui: true, .. })
-        );
-        // Find the latest snapshot on the chain.
-        let mut start = None;
-        for (i, e) in chain.iter().enumerate().rev() {
-            if let Some((bytes, hash)) = log.snapshot_at(e.seq)? {
-                if blake3::hash(&bytes).to_hex().as_str() != hash {
-                    return Err(StoreError::Corrupt(format!(
-                        "snapshot at seq {} does not match its hash",
-                        e.seq
-                    )));
-                }
-                let world = World::restore(&id, gui, &bytes).map_err(StoreError::Corrupt)?;
-                start = Some((i, world));
-                break;
-            }
-        }
-        let (i0, mut world) =
-            start.ok_or_else(|| StoreError::Corrupt("no snapshot on the head's chain".into()))?;
-        check_hash(&world, &chain[i0])?;
-        let mut steps_since_snapshot = 0;
-        let mut changes_since_snapshot = 0;
-        for e in &chain[i0 + 1..] {
-            let cmd = decode(e)?.ok_or_else(|| {
-                StoreError::Corrupt(format!("event {} has no command", e.seq))
-            })?;
-            world.apply(&cmd, &mut |_| true);
-            check_hash(&world, e)?;
-            if let Command::StepSimulation { steps } = cmd {
-                steps_since_snapshot += steps;
-            }
-            changes_since_snapshot += 1;
-        }
-        let state_hash = world.state_hash();
+        let rebuilt = rebuild_at(&log, &id, log.head_seq())?;
+        let redo = redo_stack(&log)?;
+        let state_hash = rebuilt.world.state_hash();
         Ok(Sim {
-            world,
+            world: rebuilt.world,
             log,
             sync,
             state_hash,
-            steps_since_snapshot,
-            changes_since_snapshot,
+            redo,
+            steps_since_snapshot: rebuilt.steps_since_snapshot,
+            changes_since_snapshot: rebuilt.changes_since_snapshot,
         })
     }
 
@@ -164,7 +133,7 @@ impl Sim {
         &self.log
     }
 
-    fn event(&mut self, kind: Kind, tool: &str, args: &Args) -> Event {
+    pub(crate) fn event(&mut self, kind: Kind, tool: &str, args: &Args) -> Event {
         let raw = Value::Object(args.clone()).to_string();
         let arguments = self.log.store_arguments(raw.clone()).unwrap_or(raw);
         Event {
@@ -230,9 +199,12 @@ impl Sim {
             let hash = blake3::hash(&bytes).to_hex().to_string();
             (bytes, hash)
         });
-        let committed = self
-            .log
-            .append_durable(e, snapshot.as_ref().map(|(b, h)| (b.as_slice(), h.as_str())));
+        let head = e.seq;
+        let committed = self.log.append_durable(
+            e,
+            head,
+            snapshot.as_ref().map(|(b, h)| (b.as_slice(), h.as_str())),
+        );
         if let Err(err) = committed {
             // The world moved but the log did not: fold the log again so they agree.
             self.reload();
@@ -242,6 +214,7 @@ impl Sim {
             self.steps_since_snapshot = 0;
             self.changes_since_snapshot = 0;
         }
+        self.redo.clear();
         Ok(result)
     }
 
@@ -304,7 +277,105 @@ impl Sim {
     }
 }
 
-fn decode(e: &Event) -> Result<Option<Command>, StoreError> {
+/// A world rebuilt at some event, with how far it is from the snapshot it started from.
+pub(crate) struct Rebuilt {
+    pub(crate) world: World,
+    pub(crate) steps_since_snapshot: u64,
+    pub(crate) changes_since_snapshot: u32,
+}
+
+/// The gui flag of the simulation whose chain this is (its latest root decides).
+fn gui_of(chain: &[Event]) -> Result<bool, StoreError> {
+    let root = chain
+        .iter()
+        .rev()
+        .find(|e| e.kind == Kind::Root)
+        .ok_or_else(|| StoreError::Corrupt("the chain has no root event".into()))?;
+    Ok(matches!(
+        decode(root)?,
+        Some(Command::CreateSimulation { gui: true, .. } | Command::ForkSimulation { gui: true, .. })
+    ))
+}
+
+/// The world at state-changing event `target`: the nearest snapshot on its chain (hash
+/// verified), then the chain's later events folded, each checked against its recorded hash.
+/// This bounds undo, fork and recovery to one snapshot interval of re-simulation.
+pub(crate) fn rebuild_at(log: &Log, id: &str, target: u64) -> Result<Rebuilt, StoreError> {
+    let chain = log.chain_to(target)?;
+    let gui = gui_of(&chain)?;
+    let mut start = None;
+    for (i, e) in chain.iter().enumerate().rev() {
+        if let Some((bytes, hash)) = log.snapshot_at(e.seq)? {
+            if blake3::hash(&bytes).to_hex().as_str() != hash {
+                return Err(StoreError::Corrupt(format!(
+                    "snapshot at seq {} does not match its hash",
+                    e.seq
+                )));
+            }
+            let world = World::restore(id, gui, &bytes).map_err(StoreError::Corrupt)?;
+            start = Some((i, world));
+            break;
+        }
+    }
+    let (i0, mut world) =
+        start.ok_or_else(|| StoreError::Corrupt("no snapshot on the head's chain".into()))?;
+    check_hash(&world, &chain[i0])?;
+    let mut rebuilt_steps = 0;
+    let mut rebuilt_changes = 0;
+    for e in &chain[i0 + 1..] {
+        let cmd = decode(e)?
+            .ok_or_else(|| StoreError::Corrupt(format!("event {} has no command", e.seq)))?;
+        world.apply(&cmd, &mut |_| true);
+        check_hash(&world, e)?;
+        if let Command::StepSimulation { steps } = cmd {
+            rebuilt_steps += steps;
+        }
+        rebuilt_changes += 1;
+    }
+    Ok(Rebuilt {
+        world,
+        steps_since_snapshot: rebuilt_steps,
+        changes_since_snapshot: rebuilt_changes,
+    })
+}
+
+/// What a move (undo/redo) event records, so redo stacks can be rebuilt from the log.
+#[derive(serde::Serialize, serde::Deserialize, Debug, Clone)]
+pub(crate) struct MoveRecord {
+    /// "undo" or "redo".
+    pub(crate) op: String,
+    /// Head before the move.
+    pub(crate) from: u64,
+    /// Head after the move.
+    pub(crate) to: u64,
+    /// The events undone (most recent first) or redone (oldest first).
+    pub(crate) seqs: Vec<u64>,
+}
+
+/// Replays the log's own (non-inherited) changes and moves to rebuild the redo stack.
+fn redo_stack(log: &Log) -> Result<Vec<u64>, StoreError> {
+    let mut stack = Vec::new();
+    for e in log.all_events()?.iter().filter(|e| !e.inherited) {
+        match e.kind {
+            Kind::Root | Kind::Change => stack.clear(),
+            Kind::Move => {
+                let m: MoveRecord = serde_json::from_str(e.command.as_deref().unwrap_or(""))
+                    .map_err(|err| StoreError::Corrupt(format!("move {} does not decode: {err}", e.seq)))?;
+                if m.op == "undo" {
+                    stack.extend(m.seqs.iter().copied());
+                } else {
+                    for _ in &m.seqs {
+                        stack.pop();
+                    }
+                }
+            }
+            Kind::Read | Kind::Refused => {}
+        }
+    }
+    Ok(stack)
+}
+
+pub(crate) fn decode(e: &Event) -> Result<Option<Command>, StoreError> {
     e.command
         .as_deref()
         .map(|c| {
@@ -314,7 +385,7 @@ fn decode(e: &Event) -> Result<Option<Command>, StoreError> {
         .transpose()
 }
 
-fn check_hash(world: &World, e: &Event) -> Result<(), StoreError> {
+pub(crate) fn check_hash(world: &World, e: &Event) -> Result<(), StoreError> {
     let actual = world.state_hash();
     if actual != e.state_hash {
         return Err(StoreError::Corrupt(format!(
@@ -336,6 +407,15 @@ pub fn lock_sim(sim: &SharedSim) -> MutexGuard<'_, Sim> {
             sim.clear_poison();
             g
         }
+    }
+}
+
+/// Deletes a log and its WAL/shared-memory companions.
+pub(crate) fn remove_log_files(path: &Path) {
+    for suffix in ["", "-wal", "-shm"] {
+        let mut p = path.to_path_buf().into_os_string();
+        p.push(suffix);
+        let _ = std::fs::remove_file(PathBuf::from(p));
     }
 }
 
@@ -436,12 +516,30 @@ impl Registry {
         &self.config.limits
     }
 
-    fn table(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, SharedSim>> {
+    pub(crate) fn table(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, SharedSim>> {
         self.sims.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn path_for(&self, id: &str) -> PathBuf {
+    pub(crate) fn path_for(&self, id: &str) -> PathBuf {
         self.config.data_dir.join(format!("{id}.sqlite"))
+    }
+
+    /// Refuses a new simulation when `live` simulations already reach --max-sims.
+    pub(crate) fn check_room_in(&self, live: usize) -> Result<(), Refusal> {
+        if live >= self.config.limits.max_sims {
+            Err(format!(
+                "Simulation limit reached: {} simulations (--max-sims)",
+                self.config.limits.max_sims
+            ))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// `check_room_in` for the current count.
+    pub(crate) fn check_room(&self) -> Result<(), Refusal> {
+        let live = self.table().len();
+        self.check_room_in(live)
     }
 
     /// Creates a simulation from a root command whose id the caller generated.
@@ -451,12 +549,7 @@ impl Registry {
         };
         let id = simulation_id.clone();
         let mut table = self.table();
-        if table.len() >= self.config.limits.max_sims {
-            return Err(format!(
-                "Simulation limit reached: {} simulations (--max-sims)",
-                self.config.limits.max_sims
-            ));
-        }
+        self.check_room_in(table.len())?;
         let (sim, result) = Sim::create(&self.path_for(&id), root, args, self.config.sync)?;
         table.insert(id, Arc::new(Mutex::new(sim)));
         Ok(result)
@@ -476,11 +569,7 @@ impl Registry {
             guard.log().path().to_path_buf()
         };
         drop(sim);
-        for suffix in ["", "-wal", "-shm"] {
-            let mut p = path.clone().into_os_string();
-            p.push(suffix);
-            let _ = std::fs::remove_file(PathBuf::from(p));
-        }
+        remove_log_files(&path);
         Ok(Message::new(format!("Simulation {id} destroyed")))
     }
 

@@ -9,6 +9,7 @@
 mod objects;
 mod params;
 mod simulations;
+mod timeline;
 pub mod transport;
 
 use std::sync::Arc;
@@ -44,7 +45,7 @@ impl PhysicsServer {
     pub fn new(reg: Arc<Registry>) -> Self {
         Self {
             reg,
-            tool_router: Self::simulation_router() + Self::object_router(),
+            tool_router: Self::simulation_router() + Self::object_router() + Self::timeline_router(),
         }
     }
 
@@ -99,6 +100,19 @@ impl PhysicsServer {
         self.change_with(tool, args, decide, |_| true).await
     }
 
+    /// A read-only call that may take long (history pages, verification): always on the
+    /// blocking pool.
+    async fn read_blocking<T: Serialize + Send + 'static>(
+        &self,
+        tool: &'static str,
+        args: Args,
+        f: impl FnOnce(&Sim, &Args) -> Result<T, Refusal> + Send + 'static,
+    ) -> ToolResult<T> {
+        self.with_sim(args, move |sim, a, _| sim.read(tool, a, |s| f(s, a)))
+            .await
+            .map(Json)
+    }
+
     /// A read-only call on a simulation; recorded as a read event. Reads take microseconds,
     /// so when the simulation is idle they run right here instead of on the blocking pool;
     /// when a long call holds it, they wait on the pool like everything else.
@@ -113,9 +127,7 @@ impl PhysicsServer {
         if let Ok(mut guard) = sim.try_lock() {
             return guard.read(tool, &args, |s| f(s, &args)).map(Json);
         }
-        self.with_sim(args, move |sim, a, _| sim.read(tool, a, |s| f(s, a)))
-            .await
-            .map(Json)
+        self.read_blocking(tool, args, f).await
     }
 }
 

@@ -201,3 +201,32 @@ pub struct DynamicsRef {
     /// Link index (-1 = base).
     pub link_index: Option<i64>,
 }
+
+/// undo / redo parameters.
+#[derive(JsonSchema)]
+pub struct Count {
+    /// Simulation id.
+    pub sim_id: String,
+    /// How many state-changing events to move over (default 1).
+    pub count: Option<u64>,
+}
+
+/// get_history parameters.
+#[derive(JsonSchema)]
+pub struct HistoryPage {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Return events with seq greater than this (default 0: from the start).
+    pub since_seq: Option<u64>,
+    /// At most this many events (1–1000, default 50).
+    pub limit: Option<u64>,
+}
+
+/// fork_simulation parameters.
+#[derive(JsonSchema)]
+pub struct Fork {
+    /// The simulation to fork.
+    pub sim_id: String,
+    /// A state-changing event of it to start from (default: its current head).
+    pub at_seq: Option<u64>,
+}

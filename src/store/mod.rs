@@ -318,24 +318,49 @@ impl Log {
         Ok(serde_json::json!({"blob": hash, "bytes": args_json.len()}).to_string())
     }
 
-    /// Commits a state-changing event (with buffered events, the new head and an optional
-    /// snapshot) in one transaction. Returns only once it is durable per the sync mode.
+    /// Commits a root, change or move event — with the buffered events, `head` as the new
+    /// head and an optional snapshot at this event — in one transaction. Returns only once
+    /// it is durable per the sync mode.
     pub fn append_durable(
         &mut self,
         event: Event,
+        head: u64,
         snapshot: Option<(&[u8], &str)>,
     ) -> Result<(), StoreError> {
-        let new_head = if event.kind.is_state_changing() {
-            event.seq
-        } else {
-            self.head_seq
-        };
+        self.commit(&[], event, head, snapshot)
+    }
+
+    /// Starts a forked log: the inherited chain (flagged `inherited`, original seqs) and the
+    /// fork's own root with its snapshot, all in one transaction (a failed fork leaves no
+    /// half-written chain behind).
+    pub fn append_root_with_ancestry(
+        &mut self,
+        inherited: &[Event],
+        root: Event,
+        snapshot: (&[u8], &str),
+    ) -> Result<(), StoreError> {
+        let seq = root.seq;
+        self.commit(inherited, root, seq, Some(snapshot))
+    }
+
+    fn commit(
+        &mut self,
+        inherited: &[Event],
+        event: Event,
+        head: u64,
+        snapshot: Option<(&[u8], &str)>,
+    ) -> Result<(), StoreError> {
         let tx = self.conn.transaction()?;
+        for e in inherited {
+            let mut e = e.clone();
+            e.inherited = true;
+            insert_event(&tx, &e)?;
+        }
         for e in &self.pending {
             insert_event(&tx, e)?;
         }
         insert_event(&tx, &event)?;
-        tx.execute("UPDATE head SET head_seq = ?1 WHERE id = 1", params![new_head as i64])?;
+        tx.execute("UPDATE head SET head_seq = ?1 WHERE id = 1", params![head as i64])?;
         if let Some((bytes, hash)) = snapshot {
             tx.execute(
                 "INSERT OR REPLACE INTO snapshots (seq, hash, bytes) VALUES (?1, ?2, ?3)",
@@ -345,13 +370,18 @@ impl Log {
         tx.commit()?;
         self.pending.clear();
         self.last_seq = event.seq;
-        self.head_seq = new_head;
+        self.head_seq = head;
         self.commits_since_checkpoint += 1;
         if snapshot.is_some() || self.commits_since_checkpoint >= CHECKPOINT_EVERY_COMMITS {
             self.commits_since_checkpoint = 0;
             checkpoint_in_background(self.path.clone(), self.checkpointing.clone());
         }
         Ok(())
+    }
+
+    /// Every event in seq order (committed and buffered): for verification and redo stacks.
+    pub fn all_events(&self) -> Result<Vec<Event>, StoreError> {
+        self.events_since(0, usize::MAX / 2)
     }
 
     /// Buffers a read or refused event; committed with the next write or when many wait.

@@ -119,6 +119,7 @@ impl World {
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
+            | Command::ForkSimulation { .. }
             | Command::StepSimulation { .. }
             | Command::SetTimestep { .. } => {
                 BodyOutcome::Message(Message::new("not a body command"))

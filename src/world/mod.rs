@@ -203,8 +203,8 @@ impl World {
     /// passed `Command::check`; `control` may stop a long step early (the steps done stay).
     pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Value {
         match cmd {
-            Command::CreateSimulation { .. } => {
-                to_value(&Message::new("create_simulation is a root event"))
+            Command::CreateSimulation { .. } | Command::ForkSimulation { .. } => {
+                to_value(&Message::new("a root event changes nothing in an existing world"))
             }
             Command::StepSimulation { steps } => {
                 let taken = self.step(*steps, control);

@@ -1,0 +1,324 @@
+//! The time machine: undo, redo, history, verification and forks — all operations on the
+//! log, never on the world directly. Undo rebuilds the world at an ancestor (the nearest
+//! snapshot, then a refold); redo re-applies the undone events' own commands and checks their
+//! hashes; a fork copies the chain into a new log. Every move is an event committed before
+//! the reply.
+
+use std::sync::{Arc, Mutex};
+
+use serde_json::Value;
+
+use crate::command::{Command, EVENT_VERSION};
+use crate::outputs::{
+    Divergence, EventRef, Forked, History, HistoryEvent, Redone, Undone, Verified,
+};
+use crate::sim::{check_hash, decode, lock_sim, rebuild_at, MoveRecord, Registry, Sim};
+use crate::store::{Event, Kind, Log, StoreError};
+use crate::value::{Args, Refusal};
+use crate::world::World;
+
+/// Most events one get_history page returns.
+pub const HISTORY_MAX_LIMIT: usize = 1000;
+
+fn store_err(e: StoreError) -> Refusal {
+    format!("The simulation's log could not be read: {e}")
+}
+
+/// One line describing an event for get_history.
+fn summary(e: &Event) -> String {
+    let text = match (e.kind, e.result.as_deref()) {
+        (Kind::Refused, Some(why)) => format!("refused: {why}"),
+        (Kind::Read, _) => "read".to_string(),
+        (_, Some(result)) => match serde_json::from_str::<Value>(result) {
+            Ok(Value::Object(m)) => match m.get("message").and_then(Value::as_str) {
+                Some(msg) => msg.to_string(),
+                None => Value::Object(m).to_string(),
+            },
+            _ => result.to_string(),
+        },
+        (_, None) => String::new(),
+    };
+    if text.chars().count() > 160 {
+        format!("{}...", text.chars().take(157).collect::<String>())
+    } else {
+        text
+    }
+}
+
+impl Sim {
+    /// Index in `chain` of this simulation's own root (undo never goes past it).
+    fn own_root_index(chain: &[Event]) -> usize {
+        chain.iter().rposition(|e| e.kind == Kind::Root).unwrap_or(0)
+    }
+
+    /// Commits a move event and makes `world` (at `to`) current.
+    fn commit_move(
+        &mut self,
+        tool: &str,
+        args: &Args,
+        record: MoveRecord,
+        world: World,
+        counters: (u64, u32),
+        result: Value,
+    ) -> Result<(), Refusal> {
+        let state_hash = world.state_hash();
+        let mut e = self.event(Kind::Move, tool, args);
+        e.command = Some(serde_json::to_string(&record).map_err(|err| err.to_string())?);
+        let json = result.to_string();
+        e.result_hash = Some(blake3::hash(json.as_bytes()).to_hex().to_string());
+        e.result = Some(json);
+        e.state_hash = state_hash.clone();
+        self.log
+            .append_durable(e, record.to, None)
+            .map_err(|err| format!("The {tool} could not be recorded and was not done: {err}"))?;
+        self.world = world;
+        self.state_hash = state_hash;
+        (self.steps_since_snapshot, self.changes_since_snapshot) = counters;
+        Ok(())
+    }
+
+    /// Moves the head back over the last `count` state-changing events of this simulation.
+    pub fn undo(&mut self, args: &Args, count: u64) -> Result<Undone, Refusal> {
+        let chain = self.log.chain_to(self.log.head_seq()).map_err(store_err)?;
+        let available = (chain.len() - 1 - Self::own_root_index(&chain)) as u64;
+        if count == 0 || count > available {
+            let why = format!(
+                "count must be from 1 to {available} (the state-changing events that can be undone); got {count}"
+            );
+            return Err(self.refuse("undo", args, why));
+        }
+        let target = &chain[chain.len() - 1 - count as usize];
+        let undone: Vec<EventRef> = chain[chain.len() - count as usize..]
+            .iter()
+            .rev()
+            .map(|e| EventRef { seq: e.seq, tool: e.tool.clone() })
+            .collect();
+        let rebuilt = rebuild_at(&self.log, self.id(), target.seq).map_err(store_err)?;
+        let out = Undone {
+            undone,
+            head_seq: target.seq,
+            current_time: rebuilt.world.tables.time_s,
+            state_hash: rebuilt.world.state_hash(),
+        };
+        let record = MoveRecord {
+            op: "undo".into(),
+            from: self.log.head_seq(),
+            to: target.seq,
+            seqs: out.undone.iter().map(|r| r.seq).collect(),
+        };
+        let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
+        let counters = (rebuilt.steps_since_snapshot, rebuilt.changes_since_snapshot);
+        self.commit_move("undo", args, record.clone(), rebuilt.world, counters, result)?;
+        self.redo.extend(record.seqs);
+        Ok(out)
+    }
+
+    /// Re-applies the `count` most recently undone events (along the undone branch).
+    pub fn redo(&mut self, args: &Args, count: u64) -> Result<Redone, Refusal> {
+        let available = self.redo.len() as u64;
+        if count == 0 || count > available {
+            let why = format!(
+                "count must be from 1 to {available} (the undone events that can be redone); got {count}"
+            );
+            return Err(self.refuse("redo", args, why));
+        }
+        let seqs: Vec<u64> = self.redo.iter().rev().take(count as usize).copied().collect();
+        // Fold forward on a copy of the world: the log is only changed once all checks pass.
+        let mut world = World::restore(self.id(), self.world.gui(), &self.world.snapshot())
+            .map_err(|e| format!("Internal error: {e}"))?;
+        let mut redone = Vec::new();
+        let (mut steps, mut changes) = (self.steps_since_snapshot, self.changes_since_snapshot);
+        for seq in &seqs {
+            let e = self.log.event(*seq).map_err(store_err)?.ok_or("an undone event is missing")?;
+            let cmd = decode(&e).map_err(store_err)?.ok_or("an undone event has no command")?;
+            world.apply(&cmd, &mut |_| true);
+            check_hash(&world, &e).map_err(store_err)?;
+            if let Command::StepSimulation { steps: n } = cmd {
+                steps += n;
+            }
+            changes += 1;
+            redone.push(EventRef { seq: e.seq, tool: e.tool });
+        }
+        let to = *seqs.last().ok_or("nothing to redo")?;
+        let out = Redone {
+            redone,
+            head_seq: to,
+            current_time: world.tables.time_s,
+            state_hash: world.state_hash(),
+        };
+        let record = MoveRecord { op: "redo".into(), from: self.log.head_seq(), to, seqs };
+        let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
+        self.commit_move("redo", args, record, world, (steps, changes), result)?;
+        self.redo.truncate(self.redo.len() - count as usize);
+        Ok(out)
+    }
+
+    /// One page of the log: events with seq > `since`, ascending, at most `limit`.
+    pub fn history(&self, since: u64, limit: usize) -> Result<History, Refusal> {
+        let events = self.log.events_since(since, limit).map_err(store_err)?;
+        Ok(History {
+            events: events
+                .iter()
+                .map(|e| HistoryEvent {
+                    seq: e.seq,
+                    kind: e.kind.as_str().into(),
+                    parent: e.parent,
+                    tool: e.tool.clone(),
+                    arguments: serde_json::from_str(&e.arguments).unwrap_or(Value::Null),
+                    ok: e.ok,
+                    mutates: e.mutates,
+                    inherited: e.inherited,
+                    summary: summary(e),
+                    state_hash: e.state_hash.clone(),
+                })
+                .collect(),
+            head_seq: self.log.head_seq(),
+            last_seq: self.log.last_seq(),
+        })
+    }
+
+    /// Refolds the head's chain from the original create_simulation in a fresh world,
+    /// checking every recorded state hash, every snapshot on the chain (bytes and state),
+    /// and that the live world equals the fold.
+    pub fn verify(&self) -> Result<Verified, Refusal> {
+        let chain = self.log.chain_to(self.log.head_seq()).map_err(store_err)?;
+        let mut out = Verified {
+            ok: true,
+            events_checked: 0,
+            snapshots_checked: 0,
+            state_hash: self.state_hash.clone(),
+            first_divergence: None,
+        };
+        let diverge = |out: &mut Verified, seq, expected: &str, actual: String| {
+            if out.first_divergence.is_none() {
+                out.ok = false;
+                out.first_divergence = Some(Divergence { seq, expected: expected.into(), actual });
+            }
+        };
+        let first = chain.first().ok_or("the log has no root")?;
+        let root = decode(first).map_err(store_err)?.ok_or("the root has no command")?;
+        let Some((mut world, _)) = World::create(&root) else {
+            return Err("the chain does not start with create_simulation".into());
+        };
+        for e in &chain {
+            if e.seq != first.seq {
+                let cmd = decode(e).map_err(store_err)?.ok_or("an event has no command")?;
+                world.apply(&cmd, &mut |_| true);
+            }
+            out.events_checked += 1;
+            let actual = world.state_hash();
+            if actual != e.state_hash {
+                diverge(&mut out, e.seq, &e.state_hash, actual);
+                break;
+            }
+            if let Some((bytes, hash)) = self.log.snapshot_at(e.seq).map_err(store_err)? {
+                out.snapshots_checked += 1;
+                let bytes_hash = blake3::hash(&bytes).to_hex().to_string();
+                if bytes_hash != hash {
+                    diverge(&mut out, e.seq, &hash, bytes_hash);
+                    break;
+                }
+                match World::restore(self.id(), false, &bytes) {
+                    Ok(w) if w.state_hash() == e.state_hash => {}
+                    Ok(w) => diverge(&mut out, e.seq, &e.state_hash, w.state_hash()),
+                    Err(err) => diverge(&mut out, e.seq, &e.state_hash, err),
+                }
+            }
+        }
+        if out.ok && world.state_hash() != self.state_hash {
+            let head = self.log.head_seq();
+            diverge(&mut out, head, &self.state_hash.clone(), world.state_hash());
+        }
+        Ok(out)
+    }
+}
+
+impl Registry {
+    /// fork_simulation: a new simulation holding `parent`'s chain up to `at_seq` (default:
+    /// its head), inherited, then its own root. The parent records the call as a read.
+    pub fn fork(&self, parent_id: &str, at_seq: Option<u64>, new_id: String, args: &Args) -> Result<Forked, Refusal> {
+        let parent = self.get(parent_id)?;
+        let mut p = lock_sim(&parent);
+        let result = self.fork_locked(&mut p, at_seq, new_id, args);
+        match result {
+            Ok((forked, sim)) => match self.insert(sim) {
+                Ok(()) => p.read("fork_simulation", args, |_| Ok(forked)),
+                Err(why) => Err(p.refuse("fork_simulation", args, why)),
+            },
+            Err(why) => Err(p.refuse("fork_simulation", args, why)),
+        }
+    }
+
+    fn fork_locked(
+        &self,
+        p: &mut Sim,
+        at_seq: Option<u64>,
+        new_id: String,
+        args: &Args,
+    ) -> Result<(Forked, Sim), Refusal> {
+        self.check_room()?;
+        let at = at_seq.unwrap_or(p.log().head_seq());
+        let at_event = p.log().event(at).map_err(store_err)?;
+        if !at_event.as_ref().is_some_and(|e| e.kind.is_state_changing()) {
+            return Err(format!(
+                "at_seq {at} is not a state-changing event of simulation {}",
+                p.id()
+            ));
+        }
+        let chain = p.log().chain_to(at).map_err(store_err)?;
+        let rebuilt = rebuild_at(p.log(), &new_id, at).map_err(store_err)?;
+        let gui = rebuilt.world.gui();
+        let root_cmd = Command::ForkSimulation {
+            simulation_id: new_id.clone(),
+            parent_id: p.id().to_string(),
+            at_seq: at,
+            gui,
+        };
+        let state_hash = rebuilt.world.state_hash();
+        let out = Forked {
+            simulation_id: new_id.clone(),
+            parent_id: p.id().to_string(),
+            at_seq: at,
+            state_hash: state_hash.clone(),
+        };
+        let result = serde_json::to_string(&out).map_err(|e| e.to_string())?;
+        let root = Event {
+            seq: at + 1,
+            kind: Kind::Root,
+            parent: Some(at),
+            tool: "fork_simulation".into(),
+            arguments: Value::Object(args.clone()).to_string(),
+            command: Some(serde_json::to_string(&root_cmd).map_err(|e| e.to_string())?),
+            version: EVENT_VERSION,
+            ok: true,
+            mutates: true,
+            inherited: false,
+            result_hash: Some(blake3::hash(result.as_bytes()).to_hex().to_string()),
+            result: Some(result),
+            state_hash,
+        };
+        let path = self.path_for(&new_id);
+        let mut log = Log::create(&path, &new_id, self.config().sync).map_err(store_err)?;
+        let snapshot = rebuilt.world.snapshot();
+        let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
+        log.append_root_with_ancestry(&chain, root, (&snapshot, &snap_hash))
+            .map_err(store_err)?;
+        drop(log);
+        let sim = Sim::recover(&path, self.config().sync).map_err(store_err)?;
+        Ok((out, sim))
+    }
+
+    /// Adds a simulation built elsewhere (fork, load) to the table; if the limit was reached
+    /// meanwhile, its new log is deleted so a restart does not resurrect it.
+    fn insert(&self, sim: Sim) -> Result<(), Refusal> {
+        let mut table = self.table();
+        if let Err(why) = self.check_room_in(table.len()) {
+            let path = sim.log().path().to_path_buf();
+            drop(sim);
+            crate::sim::remove_log_files(&path);
+            return Err(why);
+        }
+        table.insert(sim.id().to_string(), Arc::new(Mutex::new(sim)));
+        Ok(())
+    }
+}
