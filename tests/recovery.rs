@@ -234,3 +234,34 @@ async fn a_token_is_required_when_set() {
         .unwrap();
     assert_ne!(r.is_error, Some(true));
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_tampered_log_is_reported_and_skipped_not_served() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let good = c.new_sim(json!({})).await;
+    let bad = c.new_sim(json!({})).await;
+    for s in [&good, &bad] {
+        c.call("add_sphere", json!({"sim_id": s, "radius": 0.1, "position": [0, 0, 1]})).await;
+        c.step(s, 10).await;
+    }
+    let data = server.data.clone();
+    server.kill();
+    // Rewrite history: the last step now claims a different outcome.
+    let conn = rusqlite::Connection::open(data.join(format!("{bad}.sqlite"))).unwrap();
+    conn.execute(
+        "UPDATE events SET command = replace(command, '\"steps\":10', '\"steps\":11') WHERE tool = 'step_simulation'",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let listed = c.call("list_simulations", json!({})).await;
+    let ids: Vec<&str> = listed["simulations"].as_array().unwrap().iter().map(|s| s["simulation_id"].as_str().unwrap()).collect();
+    assert_eq!(ids, vec![good.as_str()], "the tampered simulation must not be served");
+    let e = c.try_call("get_simulation_info", json!({"sim_id": bad})).await.unwrap_err();
+    assert!(e.contains("not found"), "{e}");
+    assert!(data.join(format!("{bad}.sqlite")).exists(), "the tampered file is left for inspection");
+}
