@@ -494,7 +494,7 @@ impl Registry {
                     sims.insert(sim.id().to_string(), Arc::new(Mutex::new(sim)));
                 }
                 Err(e) => eprintln!(
-                    "physics-mcp: skipping {}: {e} (the file is left as it is)",
+                    "physics-mcp: warning: skipping {}: {e} (the file is left as it is)",
                     path.display()
                 ),
             }

@@ -50,7 +50,7 @@ impl Server {
                     }
                 }
                 eprintln!("[server] {line}");
-                if !sent && line.starts_with("physics-mcp:") {
+                if !sent && line.starts_with("physics-mcp:") && !line.starts_with("physics-mcp: warning:") {
                     let _ = tx.send(Err(line));
                     sent = true;
                 }
