@@ -6,16 +6,20 @@
 //! - `world`   — the deterministic state machine over rapier3d: `apply`, `state_hash`,
 //!   `snapshot`/`restore`. No I/O, no clock, no randomness.
 //! - `outputs` — the structured results of the tools (with JSON schemas).
+//! - `reads`   — the read-only tools, shared by the MCP adapters and replay.
 //! - `store`   — the SQLite event log of one simulation: events, head, snapshots, blobs.
 //! - `sim`     — `Sim` = log + world (decide → apply → append → reply) and the `Registry`.
 //! - `timeline` — undo, redo, history, verify and fork: operations on the log.
 //! - `mcp`     — rmcp adapters: JSON arguments → `Command` → `Sim` → MCP result; HTTP, stdio.
+//! - `replay`  — replay, history and diff of a log (the CLI).
 //! - `limits`  — the CLI limits every request is checked against.
 #![warn(missing_docs)]
 
 pub mod command;
 pub mod limits;
 pub mod outputs;
+pub mod reads;
+pub mod replay;
 pub mod value;
 pub mod world;
 pub mod sim;

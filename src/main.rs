@@ -1,7 +1,7 @@
-//! The `physics-mcp` command line: `serve` (HTTP), `stdio`.
+//! The `physics-mcp` command line: `serve` (HTTP), `stdio`, `replay`, `history`, `diff`.
 
 use std::net::SocketAddr;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use clap::{Parser, Subcommand};
@@ -55,6 +55,92 @@ enum Cmd {
         #[command(flatten)]
         common: Common,
     },
+    /// Refold a simulation log in a fresh world, checking every recorded hash; exits
+    /// non-zero at the first divergence, naming it.
+    Replay {
+        /// A simulation's SQLite log (e.g. physics-mcp-data/<id>.sqlite).
+        file: PathBuf,
+        /// Stop after this event.
+        #[arg(long)]
+        until: Option<u64>,
+        /// Print the summary (or the divergence) as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print a log's events as a table.
+    History {
+        /// A simulation's SQLite log.
+        file: PathBuf,
+    },
+    /// Name the first event where two logs diverge (exit 1 if they do).
+    Diff {
+        /// First log.
+        a: PathBuf,
+        /// Second log.
+        b: PathBuf,
+    },
+}
+
+fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<bool> {
+    use std::io::IsTerminal;
+    let bar = if std::io::stderr().is_terminal() {
+        indicatif::ProgressBar::new(0)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    #[allow(clippy::disallowed_methods)] // the CLI times itself; the world never sees it
+    let started = std::time::Instant::now();
+    let result = physics_mcp::replay::replay(file, until, |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    });
+    bar.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    match result {
+        Ok(s) => {
+            if json {
+                println!("{}", serde_json::json!({"ok": true, "summary": s, "seconds": seconds}));
+            } else {
+                println!(
+                    "ok: {} events ({} state-changing, {} reads checked, {} snapshots), {} steps, final hash {}, {:.2} s",
+                    s.events, s.state_events, s.reads_checked, s.snapshots_checked, s.steps, s.final_hash, seconds
+                );
+            }
+            Ok(true)
+        }
+        Err(physics_mcp::replay::ReplayError::Diverged(d)) => {
+            if json {
+                println!("{}", serde_json::json!({"ok": false, "divergence": d}));
+            } else {
+                eprintln!(
+                    "DIVERGED at seq {} ({}), {}: expected {}, got {}\n  arguments: {}",
+                    d.seq, d.tool, d.what, d.expected, d.actual, d.arguments
+                );
+            }
+            Ok(false)
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
+fn print_history(file: &Path) -> anyhow::Result<()> {
+    println!("{:>6}  {:<8} {:>6}  {:<24} {:<3} {:<12}  summary", "seq", "kind", "parent", "tool", "ok", "state");
+    for e in physics_mcp::replay::events(file)? {
+        let summary = e.result.as_deref().unwrap_or("");
+        let summary: String = summary.chars().take(70).collect();
+        println!(
+            "{:>6}  {:<8} {:>6}  {:<24} {:<3} {:<12}  {}{}",
+            e.seq,
+            e.kind.as_str(),
+            e.parent.map(|p| p.to_string()).unwrap_or_default(),
+            e.tool,
+            if e.ok { "yes" } else { "no" },
+            &e.state_hash[..e.state_hash.len().min(12)],
+            if e.inherited { "[inherited] " } else { "" },
+            summary
+        );
+    }
+    Ok(())
 }
 
 fn open_registry(c: Common) -> anyhow::Result<Arc<Registry>> {
@@ -90,6 +176,23 @@ fn main() {
                         serve_http(reg, HttpOptions { bind, token, allow_origin }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
+                    Cmd::Replay { file, until, json } => {
+                        if !run_replay(&file, until, json)? {
+                            std::process::exit(1);
+                        }
+                        Ok(())
+                    }
+                    Cmd::History { file } => print_history(&file),
+                    Cmd::Diff { a, b } => match physics_mcp::replay::diff(&a, &b)? {
+                        Some(d) => {
+                            println!("{d}");
+                            std::process::exit(1);
+                        }
+                        None => {
+                            println!("the logs are identical");
+                            Ok(())
+                        }
+                    },
                 }
             })
         });

@@ -16,9 +16,10 @@ use serde_json::Value;
 
 use crate::command::{Command, EVENT_VERSION};
 use crate::limits::Limits;
-use crate::outputs::{Message, SimulationInfo, SimulationList, SimulationSummary};
+use crate::outputs::{Message, SimulationList, SimulationSummary};
+use crate::reads::ReadContext;
 use crate::store::{Event, Kind, Log, StoreError, SyncMode};
-use crate::value::{r32, r32s, Args, Refusal};
+use crate::value::{Args, Refusal};
 use crate::world::{StepControl, World};
 
 /// A snapshot is taken after this many simulated steps since the last one…
@@ -227,7 +228,9 @@ impl Sim {
     ) -> Result<T, Refusal> {
         match f(self) {
             Ok(out) => {
-                let json = serde_json::to_string(&out).unwrap_or_default();
+                // Hashed as a JSON value (sorted keys), like every recorded result, so replay
+                // can recompute it from `reads.rs`.
+                let json = serde_json::to_value(&out).map(|v| v.to_string()).unwrap_or_default();
                 let mut e = self.event(Kind::Read, tool, args);
                 e.result_hash = Some(result_hash(&json));
                 e.state_hash = self.state_hash.clone();
@@ -240,21 +243,13 @@ impl Sim {
         }
     }
 
-    /// get_simulation_info.
-    pub fn info(&self) -> SimulationInfo {
-        let w = &self.world;
-        SimulationInfo {
-            simulation_id: self.id().to_string(),
-            gravity: r32s(w.physics.gravity.to_array()),
-            timestep: r32(w.timestep()),
-            current_time: w.tables.time_s,
-            steps: w.tables.steps,
-            gui_enabled: w.gui(),
-            objects: w.object_summaries(),
-            constraints: Vec::new(),
+    /// Where the log stands, for the read-only tools (`reads.rs`).
+    pub fn read_context(&self) -> ReadContext<'_> {
+        ReadContext {
+            world: &self.world,
             head_seq: self.log.head_seq(),
             last_seq: self.log.last_seq(),
-            state_hash: self.state_hash.clone(),
+            state_hash: &self.state_hash,
         }
     }
 

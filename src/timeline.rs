@@ -281,7 +281,7 @@ impl Registry {
             at_seq: at,
             state_hash: state_hash.clone(),
         };
-        let result = serde_json::to_string(&out).map_err(|e| e.to_string())?;
+        let result = serde_json::to_value(&out).map_err(|e| e.to_string())?.to_string();
         let root = Event {
             seq: at + 1,
             kind: Kind::Root,

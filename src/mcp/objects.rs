@@ -5,7 +5,8 @@ use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
 use super::{params, PhysicsServer, ToolResult};
-use crate::command::{object_not_found, Command, DynamicsChange, Shape};
+use crate::command::{Command, DynamicsChange, Shape};
+use crate::reads;
 use crate::outputs::{DynamicsChanged, DynamicsInfo, Message, ObjectAdded, ObjectState};
 use crate::value::{self, arg, Args, Refusal};
 
@@ -167,13 +168,8 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn get_object_state(&self, args: JsonObject) -> ToolResult<ObjectState> {
-        self.read("get_object_state", args, |sim, a| {
-            let id = value::object_id(a, "object_id")?;
-            sim.world()
-                .object_state(id)
-                .ok_or_else(|| object_not_found(id, sim.id()))
-        })
-        .await
+        self.read("get_object_state", args, |sim, a| reads::object_state(&sim.read_context(), a))
+            .await
     }
 
     /// Apply a force (N, world frame) during the NEXT SINGLE STEP only, then it is cleared
@@ -211,16 +207,8 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn get_dynamics_info(&self, args: JsonObject) -> ToolResult<DynamicsInfo> {
-        self.read("get_dynamics_info", args, |sim, a| {
-            let id = value::object_id(a, "object_id")?;
-            let w = sim.world();
-            if !w.has_object(id) {
-                return Err(object_not_found(id, sim.id()));
-            }
-            w.check_link(id, link_index(a)?)?;
-            w.dynamics_info(id).ok_or_else(|| object_not_found(id, sim.id()))
-        })
-        .await
+        self.read("get_dynamics_info", args, |sim, a| reads::dynamics_info(&sim.read_context(), a))
+            .await
     }
 
     /// Remove an object from the simulation (undo brings it back).

@@ -9,6 +9,7 @@ use tokio_util::sync::CancellationToken;
 use super::{params, PhysicsServer, ToolResult};
 use crate::command::Command;
 use crate::outputs::{Created, Message, SimulationInfo, SimulationList, Stepped, TimestepSet};
+use crate::reads;
 use crate::value::{self, arg, Args, Refusal};
 
 fn decide_step(a: &Args) -> Result<Command, Refusal> {
@@ -133,7 +134,9 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn get_simulation_info(&self, args: JsonObject) -> ToolResult<SimulationInfo> {
-        self.read("get_simulation_info", args, |sim, _| Ok(sim.info()))
-            .await
+        self.read("get_simulation_info", args, |sim, a| {
+            reads::simulation_info(&sim.read_context(), a)
+        })
+        .await
     }
 }

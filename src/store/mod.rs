@@ -276,6 +276,32 @@ impl Log {
         })
     }
 
+    /// Opens a log for reading only (replay, history, diff): no migrations, no writes.
+    pub fn open_read_only(path: &Path) -> Result<Log, StoreError> {
+        if !path.is_file() {
+            return Err(StoreError::Corrupt(format!("{} is not a file", path.display())));
+        }
+        let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)?;
+        let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+        if version != MIGRATIONS.len() as i64 {
+            return Err(StoreError::Corrupt(format!(
+                "log schema version {version}, this build reads version {}",
+                MIGRATIONS.len()
+            )));
+        }
+        let head_seq: i64 = conn.query_row("SELECT head_seq FROM head WHERE id = 1", [], |r| r.get(0))?;
+        let last_seq: i64 = conn.query_row("SELECT COALESCE(MAX(seq), 0) FROM events", [], |r| r.get(0))?;
+        Ok(Log {
+            conn,
+            path: path.to_path_buf(),
+            last_seq: last_seq as u64,
+            head_seq: head_seq as u64,
+            pending: Vec::new(),
+            commits_since_checkpoint: 0,
+            checkpointing: Arc::default(),
+        })
+    }
+
     /// The file this log lives in.
     pub fn path(&self) -> &Path {
         &self.path

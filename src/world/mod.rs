@@ -174,6 +174,13 @@ impl World {
         Some((world, to_value(&out)))
     }
 
+    /// The same state under another identity (a fork's root in replay).
+    pub fn with_identity(mut self, simulation_id: &str, gui: bool) -> World {
+        self.simulation_id = simulation_id.to_string();
+        self.gui = gui;
+        self
+    }
+
     /// The simulation's id (for error messages).
     pub fn simulation_id(&self) -> &str {
         &self.simulation_id

@@ -1,0 +1,79 @@
+//! The read-only tools of a simulation, computed from a world and the log's position. One
+//! place, so the MCP adapters answer and `replay` re-checks a recorded read identically
+//! (replay compares the blake3 of each read's result JSON with the one the log recorded).
+
+use serde_json::Value;
+
+use crate::command::object_not_found;
+use crate::outputs::{DynamicsInfo, ObjectState, SimulationInfo};
+use crate::value::{self, r32, r32s, Args, Refusal};
+use crate::world::World;
+
+/// Where the log stood when a read was made (get_simulation_info reports it).
+pub struct ReadContext<'a> {
+    /// The world read.
+    pub world: &'a World,
+    /// The state-changing event it reflects.
+    pub head_seq: u64,
+    /// The last event appended before this read.
+    pub last_seq: u64,
+    /// The world's state hash.
+    pub state_hash: &'a str,
+}
+
+fn link_index(a: &Args) -> Result<i32, Refusal> {
+    let i = value::integer_or(a, "link_index", -1)?;
+    i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
+}
+
+/// get_object_state.
+pub fn object_state(cx: &ReadContext, a: &Args) -> Result<ObjectState, Refusal> {
+    let id = value::object_id(a, "object_id")?;
+    cx.world
+        .object_state(id)
+        .ok_or_else(|| object_not_found(id, cx.world.simulation_id()))
+}
+
+/// get_dynamics_info.
+pub fn dynamics_info(cx: &ReadContext, a: &Args) -> Result<DynamicsInfo, Refusal> {
+    let id = value::object_id(a, "object_id")?;
+    let w = cx.world;
+    if !w.has_object(id) {
+        return Err(object_not_found(id, w.simulation_id()));
+    }
+    w.check_link(id, link_index(a)?)?;
+    w.dynamics_info(id).ok_or_else(|| object_not_found(id, w.simulation_id()))
+}
+
+/// get_simulation_info.
+pub fn simulation_info(cx: &ReadContext, _a: &Args) -> Result<SimulationInfo, Refusal> {
+    let w = cx.world;
+    Ok(SimulationInfo {
+        simulation_id: w.simulation_id().to_string(),
+        gravity: r32s(w.physics.gravity.to_array()),
+        timestep: r32(w.timestep()),
+        current_time: w.tables.time_s,
+        steps: w.tables.steps,
+        gui_enabled: w.gui(),
+        objects: w.object_summaries(),
+        constraints: Vec::new(),
+        head_seq: cx.head_seq,
+        last_seq: cx.last_seq,
+        state_hash: cx.state_hash.to_string(),
+    })
+}
+
+/// Re-executes a recorded read for replay: Some(result JSON) for the reads replay checks,
+/// None for tools whose results depend on more than the world (history, verification,
+/// saves, forks' fresh ids, the simulation list).
+pub fn replay_read(tool: &str, cx: &ReadContext, a: &Args) -> Option<Result<Value, Refusal>> {
+    fn json<T: serde::Serialize>(r: Result<T, Refusal>) -> Result<Value, Refusal> {
+        r.and_then(|v| serde_json::to_value(v).map_err(|e| e.to_string()))
+    }
+    Some(match tool {
+        "get_object_state" => json(object_state(cx, a)),
+        "get_dynamics_info" => json(dynamics_info(cx, a)),
+        "get_simulation_info" => json(simulation_info(cx, a)),
+        _ => return None,
+    })
+}

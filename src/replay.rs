@@ -1,0 +1,295 @@
+//! Replay, history and diff of a simulation log (the CLI's `replay`, `history`, `diff`).
+//!
+//! `replay` processes every event in seq order — inherited ones first, abandoned branches and
+//! undo/redo included — in a fresh world, reading nothing but the log. It checks the state
+//! hash of every root, change and move event, every snapshot (bytes and state), and the result
+//! hash of every accepted event whose result depends only on the world (reads other than
+//! get_history, verify_simulation, save_simulation and fork_simulation, whose results hold
+//! pages of the log or fresh ids). Refused events are not re-executed; their recorded hash
+//! must equal the state they were refused in.
+
+use std::path::Path;
+
+use serde::Serialize;
+use serde_json::Value;
+
+use crate::command::Command;
+use crate::outputs::{EventRef, Redone, Undone};
+use crate::reads::{replay_read, ReadContext};
+use crate::sim::{decode, rebuild_at, MoveRecord};
+use crate::store::{Event, Kind, Log, StoreError};
+use crate::value::Args;
+use crate::world::World;
+
+/// What a successful replay went through.
+#[derive(Serialize, Debug, Clone)]
+pub struct Summary {
+    /// Events processed.
+    pub events: u64,
+    /// Root, change and move events whose state hash was checked.
+    pub state_events: u64,
+    /// Read results re-computed and checked.
+    pub reads_checked: u64,
+    /// Snapshots checked.
+    pub snapshots_checked: u64,
+    /// Simulated steps taken by all change events (every branch).
+    pub steps: u64,
+    /// The state hash after the last event processed.
+    pub final_hash: String,
+}
+
+/// The first event whose replay disagreed with the log.
+#[derive(Serialize, Debug, Clone)]
+pub struct Divergence {
+    /// The event.
+    pub seq: u64,
+    /// Its tool.
+    pub tool: String,
+    /// Its arguments as recorded.
+    pub arguments: String,
+    /// What was compared: "state hash", "result hash", "snapshot".
+    pub what: String,
+    /// What the log recorded.
+    pub expected: String,
+    /// What the replay produced.
+    pub actual: String,
+}
+
+/// Why a replay stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The log could not be read.
+    #[error("{0}")]
+    Store(#[from] StoreError),
+    /// An event replayed differently.
+    #[error("divergence at seq {} ({}): {} expected {}, got {}; arguments {}", .0.seq, .0.tool, .0.what, .0.expected, .0.actual, .0.arguments)]
+    Diverged(Box<Divergence>),
+}
+
+fn blake(s: &str) -> String {
+    blake3::hash(s.as_bytes()).to_hex().to_string()
+}
+
+struct Replayer<'a> {
+    log: &'a Log,
+    id: String,
+    world: Option<World>,
+    head: u64,
+    prev_seq: u64,
+    summary: Summary,
+}
+
+impl Replayer<'_> {
+    fn diverged(e: &Event, what: &str, expected: &str, actual: &str) -> ReplayError {
+        ReplayError::Diverged(Box::new(Divergence {
+            seq: e.seq,
+            tool: e.tool.clone(),
+            arguments: e.arguments.clone(),
+            what: what.into(),
+            expected: expected.into(),
+            actual: actual.into(),
+        }))
+    }
+
+    fn world(&self, e: &Event) -> Result<&World, ReplayError> {
+        self.world
+            .as_ref()
+            .ok_or_else(|| Self::diverged(e, "order", "a root first", "no world yet"))
+    }
+
+    fn check_state(&mut self, e: &Event) -> Result<(), ReplayError> {
+        let actual = self.world(e)?.state_hash();
+        if actual != e.state_hash {
+            return Err(Self::diverged(e, "state hash", &e.state_hash, &actual));
+        }
+        self.summary.final_hash = actual;
+        Ok(())
+    }
+
+    fn check_result(e: &Event, result: &Value) -> Result<(), ReplayError> {
+        let actual = blake(&result.to_string());
+        match &e.result_hash {
+            Some(expected) if *expected != actual => {
+                Err(Self::diverged(e, "result hash", expected, &actual))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn check_snapshot(&mut self, e: &Event) -> Result<(), ReplayError> {
+        if let Some((bytes, hash)) = self.log.snapshot_at(e.seq)? {
+            let actual = blake3::hash(&bytes).to_hex().to_string();
+            if actual != hash {
+                return Err(Self::diverged(e, "snapshot bytes", &hash, &actual));
+            }
+            let restored = World::restore(&self.id, false, &bytes)
+                .map_err(|err| Self::diverged(e, "snapshot", "a decodable snapshot", &err))?;
+            if restored.state_hash() != e.state_hash {
+                return Err(Self::diverged(e, "snapshot state", &e.state_hash, &restored.state_hash()));
+            }
+            self.summary.snapshots_checked += 1;
+        }
+        Ok(())
+    }
+
+    fn event(&mut self, e: &Event) -> Result<(), ReplayError> {
+        match e.kind {
+            Kind::Root => {
+                let cmd = decode(e)?.ok_or_else(|| Self::diverged(e, "command", "a root command", "none"))?;
+                match &cmd {
+                    Command::CreateSimulation { .. } => {
+                        let (w, result) = World::create(&cmd)
+                            .ok_or_else(|| Self::diverged(e, "command", "create_simulation", "other"))?;
+                        self.world = Some(w);
+                        Self::check_result(e, &result)?;
+                    }
+                    Command::ForkSimulation { simulation_id, gui, .. } => {
+                        let w = self.world.take().ok_or_else(|| Self::diverged(e, "order", "an inherited chain", "none"))?;
+                        self.world = Some(w.with_identity(simulation_id, *gui));
+                    }
+                    _ => return Err(Self::diverged(e, "command", "a root command", "another")),
+                }
+                self.head = e.seq;
+                self.summary.state_events += 1;
+                self.check_state(e)?;
+                self.check_snapshot(e)?;
+            }
+            Kind::Change => {
+                let cmd = decode(e)?.ok_or_else(|| Self::diverged(e, "command", "a command", "none"))?;
+                if e.parent != Some(self.head) {
+                    let expected = format!("{:?}", e.parent);
+                    return Err(Self::diverged(e, "parent", &expected, &self.head.to_string()));
+                }
+                let world = self.world.as_mut().ok_or_else(|| Self::diverged(e, "order", "a root first", "no world"))?;
+                let result = world.apply(&cmd, &mut |_| true);
+                if let Command::StepSimulation { steps } = cmd {
+                    self.summary.steps += steps;
+                }
+                Self::check_result(e, &result)?;
+                self.head = e.seq;
+                self.summary.state_events += 1;
+                self.check_state(e)?;
+                self.check_snapshot(e)?;
+            }
+            Kind::Move => {
+                let record: MoveRecord = serde_json::from_str(e.command.as_deref().unwrap_or(""))
+                    .map_err(|err| Self::diverged(e, "command", "a move record", &err.to_string()))?;
+                let rebuilt = rebuild_at(self.log, &self.id, record.to)?;
+                let world = rebuilt.world;
+                let refs = record
+                    .seqs
+                    .iter()
+                    .map(|s| {
+                        let tool = self.log.event(*s)?.map(|x| x.tool).unwrap_or_default();
+                        Ok(EventRef { seq: *s, tool })
+                    })
+                    .collect::<Result<Vec<_>, StoreError>>()?;
+                let (time, hash) = (world.tables.time_s, world.state_hash());
+                let result = if record.op == "undo" {
+                    serde_json::to_value(Undone { undone: refs, head_seq: record.to, current_time: time, state_hash: hash })
+                } else {
+                    serde_json::to_value(Redone { redone: refs, head_seq: record.to, current_time: time, state_hash: hash })
+                }
+                .unwrap_or(Value::Null);
+                Self::check_result(e, &result)?;
+                self.world = Some(world);
+                self.head = record.to;
+                self.summary.state_events += 1;
+                self.check_state(e)?;
+            }
+            Kind::Read => {
+                let args: Args = serde_json::from_str(&e.arguments).unwrap_or_default();
+                let world = self.world(e)?;
+                let hash = world.state_hash();
+                let cx = ReadContext { world, head_seq: self.head, last_seq: self.prev_seq, state_hash: &hash };
+                match replay_read(&e.tool, &cx, &args) {
+                    Some(Ok(result)) => {
+                        Self::check_result(e, &result)?;
+                        self.summary.reads_checked += 1;
+                    }
+                    Some(Err(why)) => return Err(Self::diverged(e, "result", "an accepted read", &why)),
+                    None => {}
+                }
+                self.check_state(e)?;
+            }
+            Kind::Refused => self.check_state(e)?,
+        }
+        self.summary.events += 1;
+        self.prev_seq = e.seq;
+        Ok(())
+    }
+}
+
+/// Replays a simulation log (see the module docs); `progress(done, total)` is called after
+/// every event.
+pub fn replay(path: &Path, until: Option<u64>, mut progress: impl FnMut(u64, u64)) -> Result<Summary, ReplayError> {
+    let log = Log::open_read_only(path)?;
+    let events: Vec<Event> = log
+        .all_events()?
+        .into_iter()
+        .filter(|e| until.is_none_or(|u| e.seq <= u))
+        .collect();
+    let mut r = Replayer {
+        log: &log,
+        id: log.simulation_id()?,
+        world: None,
+        head: 0,
+        prev_seq: 0,
+        summary: Summary {
+            events: 0,
+            state_events: 0,
+            reads_checked: 0,
+            snapshots_checked: 0,
+            steps: 0,
+            final_hash: String::new(),
+        },
+    };
+    let total = events.len() as u64;
+    for e in &events {
+        r.event(e)?;
+        progress(r.summary.events, total);
+    }
+    Ok(r.summary)
+}
+
+/// The events of a log, for `history`.
+pub fn events(path: &Path) -> Result<Vec<Event>, StoreError> {
+    Log::open_read_only(path)?.all_events()
+}
+
+/// The first event where two logs differ (seq, kind, tool, arguments, command, outcome or
+/// hashes),
+/// described in one line; None when they are the same.
+pub fn diff(a: &Path, b: &Path) -> Result<Option<String>, StoreError> {
+    let (ea, eb) = (events(a)?, events(b)?);
+    for (x, y) in ea.iter().zip(&eb) {
+        let fields = [
+            ("seq", x.seq.to_string(), y.seq.to_string()),
+            ("kind", x.kind.as_str().to_string(), y.kind.as_str().to_string()),
+            ("tool", x.tool.clone(), y.tool.clone()),
+            ("arguments", x.arguments.clone(), y.arguments.clone()),
+            ("command", format!("{:?}", x.command), format!("{:?}", y.command)),
+            ("ok", x.ok.to_string(), y.ok.to_string()),
+            ("result hash", format!("{:?}", x.result_hash), format!("{:?}", y.result_hash)),
+            ("state hash", x.state_hash.clone(), y.state_hash.clone()),
+        ];
+        if let Some((what, va, vb)) = fields.iter().find(|(_, va, vb)| va != vb) {
+            return Ok(Some(format!(
+                "first divergence at event #{} (seq {} / {}), tool {}: {what} differs: {va} vs {vb}",
+                ea.iter().position(|e| e.seq == x.seq).unwrap_or(0) + 1,
+                x.seq,
+                y.seq,
+                x.tool
+            )));
+        }
+    }
+    if ea.len() != eb.len() {
+        return Ok(Some(format!(
+            "the logs agree on their first {} events; then one has {} events and the other {}",
+            ea.len().min(eb.len()),
+            ea.len(),
+            eb.len()
+        )));
+    }
+    Ok(None)
+}

@@ -1,0 +1,81 @@
+//! Every recorded session in `replays/` refolds to its recorded hashes (state, results,
+//! snapshots) — so a change that alters physics or the encoding fails here until the logs are
+//! re-recorded on purpose (`bash replays/record.sh`). The CLI names the first divergence.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn recorded() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+        .collect();
+    files.sort();
+    files
+}
+
+fn cli(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_physics-mcp")).args(args).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn every_recorded_session_replays_to_its_recorded_hashes() {
+    let files = recorded();
+    assert!(files.len() >= 6, "replays/ holds {} logs", files.len());
+    let (mut moves, mut forks, mut refusals) = (0, 0, 0);
+    for f in &files {
+        let summary = physics_mcp::replay::replay(f, None, |_, _| {})
+            .unwrap_or_else(|e| panic!("{} does not replay: {e}", f.display()));
+        let events = physics_mcp::replay::events(f).unwrap();
+        let last = events.iter().rev().find(|e| e.kind.is_state_changing() || e.kind == physics_mcp::store::Kind::Move).unwrap();
+        assert_eq!(summary.final_hash, events.last().unwrap().state_hash, "{}", f.display());
+        assert!(summary.state_events >= 6 && summary.snapshots_checked >= 1, "{}: {summary:?}", f.display());
+        assert!(!last.state_hash.is_empty());
+        moves += events.iter().filter(|e| e.kind == physics_mcp::store::Kind::Move).count();
+        forks += events.iter().filter(|e| e.inherited).count().min(1);
+        refusals += events.iter().filter(|e| !e.ok).count();
+        // And in a fresh process, through the CLI.
+        let (ok, stdout, stderr) = cli(&["replay", f.to_str().unwrap(), "--json"]);
+        assert!(ok, "{}: {stdout} {stderr}", f.display());
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+        assert_eq!(v["summary"]["final_hash"], serde_json::json!(summary.final_hash));
+    }
+    assert!(moves >= 4 && forks >= 1 && refusals >= 3, "coverage: {moves} moves, {forks} forks, {refusals} refusals");
+}
+
+#[test]
+fn a_tampered_log_fails_naming_the_event_and_diff_finds_it() {
+    let src = recorded().into_iter().find(|p| p.ends_with("forces_and_torques.sqlite")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.sqlite");
+    std::fs::copy(&src, &bad).unwrap();
+    let conn = rusqlite::Connection::open(&bad).unwrap();
+    let seq: i64 = conn
+        .query_row("SELECT MIN(seq) FROM events WHERE tool = 'apply_force' AND ok = 1", [], |r| r.get(0))
+        .unwrap();
+    conn.execute(
+        "UPDATE events SET command = replace(command, '100.0', '101.0') WHERE seq = ?1",
+        [seq],
+    )
+    .unwrap();
+    drop(conn);
+    let (ok, _, stderr) = cli(&["replay", bad.to_str().unwrap()]);
+    assert!(!ok, "a tampered log replayed");
+    assert!(stderr.contains(&format!("DIVERGED at seq {seq} (apply_force)")), "{stderr}");
+    let (ok, stdout, _) = cli(&["diff", src.to_str().unwrap(), bad.to_str().unwrap()]);
+    assert!(!ok && stdout.contains("first divergence"), "{stdout}");
+    let (ok, stdout, _) = cli(&["diff", src.to_str().unwrap(), src.to_str().unwrap()]);
+    assert!(ok && stdout.contains("identical"), "{stdout}");
+    // --until stops before the tampered event: that prefix is still fine.
+    let (ok, _, stderr) = cli(&["replay", bad.to_str().unwrap(), "--until", &(seq - 1).to_string()]);
+    assert!(ok, "{stderr}");
+    let (ok, stdout, _) = cli(&["history", src.to_str().unwrap()]);
+    assert!(ok && stdout.lines().count() >= 10 && stdout.contains("apply_force"), "{stdout}");
+}
