@@ -27,9 +27,53 @@ pub const SNAPSHOT_EVERY_STEPS: u64 = 2400;
 /// …or after this many state-changing events since the last one.
 pub const SNAPSHOT_EVERY_CHANGES: u32 = 64;
 
+/// Snapshots on a chain kept unconditionally, newest first.
+pub const SNAPSHOTS_KEPT_RECENT: usize = 100;
+
+/// Which of a chain's snapshots (seqs, newest first) to delete when the head is at `head`:
+/// keep the newest `SNAPSHOTS_KEPT_RECENT`; older ones are bucketed by the doubling of their
+/// age in events (`head - seq` in [2^k, 2^(k+1))) and only the newest of each bucket stays;
+/// the oldest (the root's) always stays and claims its bucket. Ages in events are stable, so
+/// thinning twice at the same head deletes nothing more.
+pub fn snapshots_to_thin(newest_first: &[u64], head: u64) -> Vec<u64> {
+    let bucket = |seq: u64| u64::BITS - head.saturating_sub(seq).max(1).leading_zeros();
+    let Some(&oldest) = newest_first.last() else {
+        return Vec::new();
+    };
+    let mut taken = std::collections::BTreeSet::from([bucket(oldest)]);
+    let mut doomed = Vec::new();
+    for (i, seq) in newest_first.iter().enumerate() {
+        if i < SNAPSHOTS_KEPT_RECENT || *seq == oldest {
+            continue;
+        }
+        if !taken.insert(bucket(*seq)) {
+            doomed.push(*seq);
+        }
+    }
+    doomed
+}
+
 /// The standard "simulation not found" sentence (SPEC).
 pub fn sim_not_found(id: &str) -> Refusal {
     format!("Simulation {id} not found")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thinning_keeps_recent_snapshots_then_one_per_doubling() {
+        let chain: Vec<u64> = (1..=5000u64).rev().collect(); // newest first
+        let doomed = snapshots_to_thin(&chain, 5000);
+        let kept: Vec<u64> = chain.iter().copied().filter(|s| !doomed.contains(s)).collect();
+        assert!(kept.starts_with(&chain[..SNAPSHOTS_KEPT_RECENT]));
+        assert_eq!(kept.last(), chain.last(), "the root's snapshot stays");
+        let bound = SNAPSHOTS_KEPT_RECENT + (5000f64).log2().ceil() as usize;
+        assert!(kept.len() <= bound, "{} kept, bound {bound}", kept.len());
+        // Thinning what is already thin removes nothing more.
+        assert!(snapshots_to_thin(&kept, 5000).is_empty());
+    }
 }
 
 fn result_hash(json: &str) -> String {
@@ -214,6 +258,7 @@ impl Sim {
         if due {
             self.steps_since_snapshot = 0;
             self.changes_since_snapshot = 0;
+            self.thin_snapshots();
         }
         self.redo.clear();
         Ok(result)
@@ -250,6 +295,22 @@ impl Sim {
             head_seq: self.log.head_seq(),
             last_seq: self.log.last_seq(),
             state_hash: &self.state_hash,
+        }
+    }
+
+    /// Keeps the snapshots on the head's chain bounded: all of the newest
+    /// `SNAPSHOTS_KEPT_RECENT`, then at most one per doubling of age, and always the oldest
+    /// (the root's), so any recent point costs at most one snapshot interval to rebuild and
+    /// the count grows only logarithmically with history.
+    fn thin_snapshots(&mut self) {
+        let head = self.log.head_seq();
+        let seqs = match self.log.chain_snapshot_seqs(head) {
+            Ok(s) => s,
+            Err(e) => return tracing::warn!("could not list snapshots: {e}"),
+        };
+        let doomed = snapshots_to_thin(&seqs, head);
+        if let Err(e) = self.log.delete_snapshots(&doomed) {
+            tracing::warn!("could not thin snapshots: {e}");
         }
     }
 

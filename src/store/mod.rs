@@ -491,6 +491,37 @@ impl Log {
             .optional()?)
     }
 
+    /// Seqs of the snapshots on the chain ending at `head`, newest first (one recursive query,
+    /// not one per event).
+    pub fn chain_snapshot_seqs(&self, head: u64) -> Result<Vec<u64>, StoreError> {
+        let mut stmt = self.conn.prepare_cached(
+            "WITH RECURSIVE chain(seq, parent) AS (
+                 SELECT seq, parent FROM events WHERE seq = ?1
+                 UNION ALL
+                 SELECT e.seq, e.parent FROM events e JOIN chain c ON e.seq = c.parent
+             )
+             SELECT s.seq FROM snapshots s JOIN chain c ON s.seq = c.seq ORDER BY s.seq DESC",
+        )?;
+        let seqs = stmt
+            .query_map(params![head as i64], |r| r.get::<_, i64>(0))?
+            .map(|r| r.map(|s| s as u64))
+            .collect::<Result<_, _>>()?;
+        Ok(seqs)
+    }
+
+    /// Deletes snapshots (thinning); the events stay, so nothing is lost but re-simulation.
+    pub fn delete_snapshots(&mut self, seqs: &[u64]) -> Result<(), StoreError> {
+        if seqs.is_empty() {
+            return Ok(());
+        }
+        let tx = self.conn.transaction()?;
+        for s in seqs {
+            tx.execute("DELETE FROM snapshots WHERE seq = ?1", params![*s as i64])?;
+        }
+        tx.commit()?;
+        Ok(())
+    }
+
     /// Seqs that have snapshots, ascending.
     pub fn snapshot_seqs(&self) -> Result<Vec<u64>, StoreError> {
         let mut stmt = self.conn.prepare_cached("SELECT seq FROM snapshots ORDER BY seq")?;
