@@ -119,7 +119,7 @@ fn args(v: Value) -> Args {
 
 /// A Sim in `dir` holding the pile, built through `Sim::change` like the server does.
 fn pile_sim(dir: &std::path::Path, name: &str, sync: SyncMode) -> Sim {
-    let (mut sim, _) = Sim::create(&dir.join(format!("{name}.sqlite")), root(name), &Args::new(), sync).unwrap();
+    let (mut sim, _) = Sim::create(&dir.join(format!("{name}.sqlite")), "create_simulation", root(name), &Args::new(), sync).unwrap();
     let limits = Limits::default();
     for c in pile_commands() {
         sim.change("add_box", &Args::new(), Ok(c), &limits, &mut |_| true).unwrap();
@@ -164,7 +164,7 @@ fn bench_log_and_sync(c: &mut Criterion) {
     g.sample_size(30);
     for sync in [SyncMode::Normal, SyncMode::Full] {
         let name = format!("{sync:?}").to_lowercase();
-        let (mut sim, _) = Sim::create(&dir.path().join(format!("sync-{name}.sqlite")), root(&name), &Args::new(), sync).unwrap();
+        let (mut sim, _) = Sim::create(&dir.path().join(format!("sync-{name}.sqlite")), "create_simulation", root(&name), &Args::new(), sync).unwrap();
         let a = args(json!({"object_id": 0, "linear_velocity": [1, 0, 0]}));
         sim.change("add_box", &Args::new(), Ok(pile_commands().remove(1)), &limits, &mut |_| true).unwrap();
         g.bench_function(format!("set_object_velocity_sync_{name}"), |b| {
@@ -176,7 +176,7 @@ fn bench_log_and_sync(c: &mut Criterion) {
     }
     g.finish();
     // Log bytes per 1000 events: 500 state-changing (force + 1 step) and 500 reads, small sim.
-    let (mut sim, _) = Sim::create(&dir.path().join("size.sqlite"), root("size"), &Args::new(), SyncMode::Normal).unwrap();
+    let (mut sim, _) = Sim::create(&dir.path().join("size.sqlite"), "create_simulation", root("size"), &Args::new(), SyncMode::Normal).unwrap();
     sim.change("add_box", &Args::new(), Ok(pile_commands().remove(1)), &limits, &mut |_| true).unwrap();
     sim.log().checkpoint().unwrap();
     let before = sim.log().file_bytes();

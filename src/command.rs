@@ -138,6 +138,17 @@ pub enum Command {
         /// Whether the web viewer follows this simulation.
         gui: bool,
     },
+    /// Root event of a simulation loaded from a saved file's history: the world is the one
+    /// the inherited chain before this event folds to, under a new id. Applying it changes
+    /// nothing.
+    LoadSimulation {
+        /// The new simulation's UUID.
+        simulation_id: String,
+        /// The file it was loaded from (as given).
+        file_path: String,
+        /// Whether the web viewer follows this simulation.
+        gui: bool,
+    },
     /// Advance time by `steps` fixed timesteps.
     StepSimulation {
         /// Number of steps actually taken (a cancelled call records the steps it did).
@@ -239,9 +250,9 @@ impl Command {
             }
         };
         match self {
-            Command::CreateSimulation { .. } | Command::ForkSimulation { .. } => {
-                Err("a simulation already exists here".into())
-            }
+            Command::CreateSimulation { .. }
+            | Command::ForkSimulation { .. }
+            | Command::LoadSimulation { .. } => Err("a root event cannot be applied here".into()),
             Command::StepSimulation { steps } => {
                 if *steps == 0 || *steps > limits.max_steps {
                     Err(format!(

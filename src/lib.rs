@@ -12,15 +12,20 @@
 //! - `timeline` — undo, redo, history, verify and fork: operations on the log.
 //! - `mcp`     — rmcp adapters: JSON arguments → `Command` → `Sim` → MCP result; HTTP, stdio.
 //! - `replay`  — replay, history and diff of a log (the CLI).
+//! - `save`    — the saved-file format, save and load.
+//! - `workspace` — the path sandbox for user files.
 //! - `limits`  — the CLI limits every request is checked against.
 #![warn(missing_docs)]
 
 pub mod command;
 pub mod limits;
 pub mod outputs;
+pub mod persistence;
 pub mod reads;
 pub mod replay;
+pub mod save;
 pub mod value;
+pub mod workspace;
 pub mod world;
 pub mod sim;
 pub mod store;

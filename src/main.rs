@@ -58,9 +58,9 @@ enum Cmd {
     /// Refold a simulation log in a fresh world, checking every recorded hash; exits
     /// non-zero at the first divergence, naming it.
     Replay {
-        /// A simulation's SQLite log (e.g. physics-mcp-data/<id>.sqlite).
+        /// A simulation's SQLite log (e.g. physics-mcp-data/<id>.sqlite) or a saved .json.
         file: PathBuf,
-        /// Stop after this event.
+        /// Stop after this event (logs only).
         #[arg(long)]
         until: Option<u64>,
         /// Print the summary (or the divergence) as JSON.
@@ -90,10 +90,16 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
     };
     #[allow(clippy::disallowed_methods)] // the CLI times itself; the world never sees it
     let started = std::time::Instant::now();
-    let result = physics_mcp::replay::replay(file, until, |done, total| {
+    let progress = |done, total| {
         bar.set_length(total);
         bar.set_position(done);
-    });
+    };
+    let is_json = file.extension().is_some_and(|x| x == "json");
+    let result = if is_json {
+        physics_mcp::replay::replay_saved(file, progress)
+    } else {
+        physics_mcp::replay::replay(file, until, progress)
+    };
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
     match result {

@@ -294,3 +294,25 @@ pub struct Verified {
     /// The first disagreement, if any.
     pub first_divergence: Option<Divergence>,
 }
+
+/// Result of save_simulation.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Saved {
+    /// Confirmation.
+    pub message: String,
+    /// Where the file was written (inside the workspace).
+    pub file_path: String,
+    /// The state hash saved (a load gives a simulation with this hash).
+    pub state_hash: String,
+}
+
+/// Result of load_simulation.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Loaded {
+    /// The new simulation's id.
+    pub simulation_id: String,
+    /// The file it was loaded from.
+    pub file_path: String,
+    /// Its state hash (equal to the saved one for files with history).
+    pub state_hash: String,
+}

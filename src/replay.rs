@@ -143,7 +143,8 @@ impl Replayer<'_> {
                         self.world = Some(w);
                         Self::check_result(e, &result)?;
                     }
-                    Command::ForkSimulation { simulation_id, gui, .. } => {
+                    Command::ForkSimulation { simulation_id, gui, .. }
+                    | Command::LoadSimulation { simulation_id, gui, .. } => {
                         let w = self.world.take().ok_or_else(|| Self::diverged(e, "order", "an inherited chain", "none"))?;
                         self.world = Some(w.with_identity(simulation_id, *gui));
                     }
@@ -250,6 +251,46 @@ pub fn replay(path: &Path, until: Option<u64>, mut progress: impl FnMut(u64, u64
         progress(r.summary.events, total);
     }
     Ok(r.summary)
+}
+
+/// Replays a saved JSON file's history: every event refolded from create_simulation in a
+/// fresh world (its snapshot is never trusted here), every recorded state hash checked.
+pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<Summary, ReplayError> {
+    #[allow(clippy::disallowed_methods)] // the CLI reads its input file
+    let bytes = std::fs::read(path).map_err(|e| StoreError::Corrupt(format!("{}: {e}", path.display())))?;
+    let file: crate::save::SaveFile = serde_json::from_slice(&bytes)
+        .map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))?;
+    let h = file
+        .history
+        .ok_or_else(|| StoreError::Corrupt("the file has no history to replay".into()))?;
+    let untrusted = [0u8; 32];
+    let limits = crate::limits::Limits { max_steps: u64::MAX, ..Default::default() };
+    let (world, chain) = crate::save::world_from_history(&h, "replay", &untrusted, &limits, &mut progress)
+        .map_err(|why| {
+            ReplayError::Diverged(Box::new(Divergence {
+                seq: 0,
+                tool: "history".into(),
+                arguments: String::new(),
+                what: "refold".into(),
+                expected: "every recorded hash".into(),
+                actual: why,
+            }))
+        })?;
+    let steps = chain
+        .iter()
+        .filter_map(|e| match decode(e) {
+            Ok(Some(Command::StepSimulation { steps })) => Some(steps),
+            _ => None,
+        })
+        .sum();
+    Ok(Summary {
+        events: chain.len() as u64,
+        state_events: chain.len() as u64,
+        reads_checked: 0,
+        snapshots_checked: 0,
+        steps,
+        final_hash: world.state_hash(),
+    })
 }
 
 /// The events of a log, for `history`.

@@ -20,6 +20,7 @@ use crate::outputs::{Message, SimulationList, SimulationSummary};
 use crate::reads::ReadContext;
 use crate::store::{Event, Kind, Log, StoreError, SyncMode};
 use crate::value::{Args, Refusal};
+use crate::workspace::Sandbox;
 use crate::world::{StepControl, World};
 
 /// A snapshot is taken after this many simulated steps since the last one…
@@ -97,7 +98,13 @@ pub struct Sim {
 
 impl Sim {
     /// Creates a simulation from a root command, committing the root event and a snapshot.
-    pub fn create(path: &Path, root: Command, args: &Args, sync: SyncMode) -> Result<(Sim, Value), String> {
+    pub fn create(
+        path: &Path,
+        tool: &str,
+        root: Command,
+        args: &Args,
+        sync: SyncMode,
+    ) -> Result<(Sim, Value), String> {
         let (world, result) = World::create(&root).ok_or("not a root command")?;
         let mut log = Log::create(path, world.simulation_id(), sync).map_err(|e| e.to_string())?;
         let args_json = log
@@ -110,7 +117,7 @@ impl Sim {
             seq: log.next_seq(),
             kind: Kind::Root,
             parent: None,
-            tool: "create_simulation".into(),
+            tool: tool.into(),
             arguments: args_json,
             command: Some(serde_json::to_string(&root).map_err(|e| e.to_string())?),
             version: EVENT_VERSION,
@@ -349,7 +356,11 @@ fn gui_of(chain: &[Event]) -> Result<bool, StoreError> {
         .ok_or_else(|| StoreError::Corrupt("the chain has no root event".into()))?;
     Ok(matches!(
         decode(root)?,
-        Some(Command::CreateSimulation { gui: true, .. } | Command::ForkSimulation { gui: true, .. })
+        Some(
+            Command::CreateSimulation { gui: true, .. }
+                | Command::ForkSimulation { gui: true, .. }
+                | Command::LoadSimulation { gui: true, .. }
+        )
     ))
 }
 
@@ -495,7 +506,27 @@ pub type SharedSim = Arc<Mutex<Sim>>;
 pub struct Registry {
     sims: Mutex<BTreeMap<String, SharedSim>>,
     config: Config,
+    sandbox: Sandbox,
+    mac_key: [u8; 32],
     _lock: File,
+}
+
+/// Reads the data directory's MAC key, creating it on first start. Saved files carry a MAC
+/// of their snapshot under this key, so only files this server wrote load from a snapshot.
+fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
+    let path = data_dir.join("mac.key");
+    #[allow(clippy::disallowed_methods)] // start-up, outside the deterministic core
+    if let Ok(bytes) = std::fs::read(&path) {
+        if let Ok(key) = <[u8; 32]>::try_from(bytes.as_slice()) {
+            return Ok(key);
+        }
+        anyhow::bail!("{} is not a 32-byte key; remove it to make a new one", path.display());
+    }
+    #[allow(clippy::disallowed_methods)] // a secret must be random
+    let seed = format!("{}{}", uuid::Uuid::new_v4(), uuid::Uuid::new_v4());
+    let key = *blake3::hash(seed.as_bytes()).as_bytes();
+    std::fs::write(&path, key)?;
+    Ok(key)
 }
 
 /// Refuses directories that are `/` or the home directory (MCP clients often start stdio
@@ -555,9 +586,16 @@ impl Registry {
                 ),
             }
         }
+        let sandbox = Sandbox {
+            workspace: config.workspace.clone(),
+            data_dir: config.data_dir.clone(),
+        };
+        let mac_key = mac_key(&config.data_dir)?;
         Ok(Registry {
             sims: Mutex::new(sims),
             config,
+            sandbox,
+            mac_key,
             _lock: lock,
         })
     }
@@ -565,6 +603,16 @@ impl Registry {
     /// The server's configuration (resolved directories).
     pub fn config(&self) -> &Config {
         &self.config
+    }
+
+    /// The workspace sandbox for user file paths.
+    pub fn sandbox(&self) -> &Sandbox {
+        &self.sandbox
+    }
+
+    /// The key saved files' snapshots are MAC'd with.
+    pub fn mac_key(&self) -> &[u8; 32] {
+        &self.mac_key
     }
 
     /// The limits in force.
@@ -606,7 +654,8 @@ impl Registry {
         let id = simulation_id.clone();
         let mut table = self.table();
         self.check_room_in(table.len())?;
-        let (sim, result) = Sim::create(&self.path_for(&id), root, args, self.config.sync)?;
+        let (sim, result) =
+            Sim::create(&self.path_for(&id), "create_simulation", root, args, self.config.sync)?;
         table.insert(id, Arc::new(Mutex::new(sim)));
         Ok(result)
     }

@@ -20,7 +20,7 @@ use crate::world::World;
 /// Most events one get_history page returns.
 pub const HISTORY_MAX_LIMIT: usize = 1000;
 
-fn store_err(e: StoreError) -> Refusal {
+pub(crate) fn store_err(e: StoreError) -> Refusal {
     format!("The simulation's log could not be read: {e}")
 }
 
@@ -274,19 +274,42 @@ impl Registry {
             at_seq: at,
             gui,
         };
-        let state_hash = rebuilt.world.state_hash();
         let out = Forked {
             simulation_id: new_id.clone(),
             parent_id: p.id().to_string(),
             at_seq: at,
-            state_hash: state_hash.clone(),
+            state_hash: rebuilt.world.state_hash(),
         };
-        let result = serde_json::to_value(&out).map_err(|e| e.to_string())?.to_string();
+        let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
+        let sim = self.adopt(&chain, &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
+        Ok((out, sim))
+    }
+
+    /// Starts a simulation whose log inherits `chain` (a fork's or a loaded file's) and whose
+    /// own root, at the next seq, is `root_cmd` with `world` as its state and snapshot. A
+    /// failure leaves no file behind.
+    pub(crate) fn adopt(
+        &self,
+        chain: &[Event],
+        world: &World,
+        root_cmd: Command,
+        tool: &str,
+        args: &Args,
+        result: &Value,
+    ) -> Result<Sim, Refusal> {
+        let last = chain.last().ok_or("the inherited chain is empty")?;
+        let id = match &root_cmd {
+            Command::ForkSimulation { simulation_id, .. } | Command::LoadSimulation { simulation_id, .. } => {
+                simulation_id.clone()
+            }
+            _ => return Err("not a fork or load root".into()),
+        };
+        let result = result.to_string();
         let root = Event {
-            seq: at + 1,
+            seq: last.seq + 1,
             kind: Kind::Root,
-            parent: Some(at),
-            tool: "fork_simulation".into(),
+            parent: Some(last.seq),
+            tool: tool.into(),
             arguments: Value::Object(args.clone()).to_string(),
             command: Some(serde_json::to_string(&root_cmd).map_err(|e| e.to_string())?),
             version: EVENT_VERSION,
@@ -295,22 +318,27 @@ impl Registry {
             inherited: false,
             result_hash: Some(blake3::hash(result.as_bytes()).to_hex().to_string()),
             result: Some(result),
-            state_hash,
+            state_hash: world.state_hash(),
         };
-        let path = self.path_for(&new_id);
-        let mut log = Log::create(&path, &new_id, self.config().sync).map_err(store_err)?;
-        let snapshot = rebuilt.world.snapshot();
-        let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
-        log.append_root_with_ancestry(&chain, root, (&snapshot, &snap_hash))
-            .map_err(store_err)?;
-        drop(log);
-        let sim = Sim::recover(&path, self.config().sync).map_err(store_err)?;
-        Ok((out, sim))
+        let path = self.path_for(&id);
+        let built = (|| {
+            let mut log = Log::create(&path, &id, self.config().sync).map_err(store_err)?;
+            let snapshot = world.snapshot();
+            let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
+            log.append_root_with_ancestry(chain, root, (&snapshot, &snap_hash))
+                .map_err(store_err)?;
+            drop(log);
+            Sim::recover(&path, self.config().sync).map_err(store_err)
+        })();
+        if built.is_err() {
+            crate::sim::remove_log_files(&path);
+        }
+        built
     }
 
     /// Adds a simulation built elsewhere (fork, load) to the table; if the limit was reached
     /// meanwhile, its new log is deleted so a restart does not resurrect it.
-    fn insert(&self, sim: Sim) -> Result<(), Refusal> {
+    pub(crate) fn insert(&self, sim: Sim) -> Result<(), Refusal> {
         let mut table = self.table();
         if let Err(why) = self.check_room_in(table.len()) {
             let path = sim.log().path().to_path_buf();

@@ -204,3 +204,27 @@ fn a_fork_at_seq_s_then_the_same_calls_reproduces_the_originals_hashes() {
         Ok(())
     });
 }
+
+#[test]
+fn save_then_load_then_continue_equals_continue() {
+    check("save/load", 8, |ops, at| {
+        let d = tempfile::tempdir().unwrap();
+        let r = registry(d.path());
+        let s = new_sim(&r, "orig");
+        for o in &ops[..at] {
+            run(&s, o);
+        }
+        let mut args = Args::new();
+        args.insert("file_path".into(), serde_json::json!("prop/save.json"));
+        lock_sim(&s).save(&args, &r).map_err(TestCaseError::fail)?;
+        r.load(&args, "loaded".into(), &mut |_, _| {}).map_err(TestCaseError::fail)?;
+        let l = r.get("loaded").unwrap();
+        let (hl, hs) = (lock_sim(&l).state_hash().to_string(), lock_sim(&s).state_hash().to_string());
+        prop_assert_eq!(hl, hs);
+        let cont: Vec<Op> = ops[at..].iter().filter(|o| !matches!(o, Op::Undo(_) | Op::Redo(_))).cloned().collect();
+        let a: Vec<String> = cont.iter().map(|o| run(&s, o)).collect();
+        let b: Vec<String> = cont.iter().map(|o| run(&l, o)).collect();
+        prop_assert_eq!(a, b);
+        Ok(())
+    });
+}

@@ -8,6 +8,7 @@
 
 mod objects;
 mod params;
+mod persistence;
 mod simulations;
 mod timeline;
 pub mod transport;
@@ -45,7 +46,10 @@ impl PhysicsServer {
     pub fn new(reg: Arc<Registry>) -> Self {
         Self {
             reg,
-            tool_router: Self::simulation_router() + Self::object_router() + Self::timeline_router(),
+            tool_router: Self::simulation_router()
+                + Self::object_router()
+                + Self::timeline_router()
+                + Self::persistence_router(),
         }
     }
 

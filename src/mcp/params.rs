@@ -230,3 +230,21 @@ pub struct Fork {
     /// A state-changing event of it to start from (default: its current head).
     pub at_seq: Option<u64>,
 }
+
+/// save_simulation parameters.
+#[derive(JsonSchema)]
+pub struct Save {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Where to write the JSON file, relative to the workspace (folders are created).
+    pub file_path: String,
+}
+
+/// load_simulation parameters.
+#[derive(JsonSchema)]
+pub struct Load {
+    /// A saved JSON file, relative to the workspace.
+    pub file_path: String,
+    /// Show the loaded simulation in the web viewer (default false).
+    pub gui: Option<bool>,
+}

@@ -120,6 +120,7 @@ impl World {
             }
             Command::CreateSimulation { .. }
             | Command::ForkSimulation { .. }
+            | Command::LoadSimulation { .. }
             | Command::StepSimulation { .. }
             | Command::SetTimestep { .. } => {
                 BodyOutcome::Message(Message::new("not a body command"))

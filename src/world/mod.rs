@@ -210,7 +210,9 @@ impl World {
     /// passed `Command::check`; `control` may stop a long step early (the steps done stay).
     pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Value {
         match cmd {
-            Command::CreateSimulation { .. } | Command::ForkSimulation { .. } => {
+            Command::CreateSimulation { .. }
+            | Command::ForkSimulation { .. }
+            | Command::LoadSimulation { .. } => {
                 to_value(&Message::new("a root event changes nothing in an existing world"))
             }
             Command::StepSimulation { steps } => {

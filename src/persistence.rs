@@ -1,0 +1,130 @@
+//! save_simulation and load_simulation: files in the workspace, format in `save.rs`.
+
+use base64::Engine;
+
+use crate::command::Command;
+use crate::outputs::{Loaded, Saved};
+use crate::save::{
+    commands_from_readable, disagreeing_fields, readable, saved_event, snapshot_mac,
+    world_from_history, SaveFile, SavedHistory, SavedSnapshot, MAX_SAVE_BYTES, SAVE_FORMAT,
+    SAVE_FORMAT_VERSION,
+};
+use crate::sim::{remove_log_files, Registry, Sim};
+use crate::timeline::store_err;
+use crate::value::{self, Args, Refusal};
+
+impl Sim {
+    /// Writes the simulation to a workspace file: readable fields plus the full history chain
+    /// and its latest snapshot (MAC'd). Recorded as a read; a refusal changes nothing.
+    pub fn save(&mut self, args: &Args, reg: &Registry) -> Result<Saved, Refusal> {
+        match self.write_save(args, reg) {
+            Ok(out) => self.read("save_simulation", args, |_| Ok(out)),
+            Err(why) => Err(self.refuse("save_simulation", args, why)),
+        }
+    }
+
+    fn write_save(&self, args: &Args, reg: &Registry) -> Result<Saved, Refusal> {
+        let user = value::string(args, "file_path")?;
+        let target = reg.sandbox().writable(&user)?;
+        let head = self.log.head_seq();
+        let chain = self.log.chain_to(head).map_err(store_err)?;
+        let snap_seq = *self
+            .log
+            .chain_snapshot_seqs(head)
+            .map_err(store_err)?
+            .first()
+            .ok_or("the simulation has no snapshot on its chain")?;
+        let (bytes, hash) = self.log.snapshot_at(snap_seq).map_err(store_err)?.ok_or("a snapshot vanished")?;
+        let at = chain.iter().find(|e| e.seq == snap_seq).ok_or("a snapshot is off the chain")?;
+        let file = SaveFile {
+            format: Some(SAVE_FORMAT.into()),
+            format_version: Some(SAVE_FORMAT_VERSION),
+            readable: readable(&self.world),
+            history: Some(SavedHistory {
+                events: chain.iter().map(saved_event).collect(),
+                blobs: Default::default(),
+                snapshot: Some(SavedSnapshot {
+                    seq: snap_seq,
+                    mac: snapshot_mac(reg.mac_key(), snap_seq, &hash, &at.state_hash),
+                    hash,
+                    bytes: base64::engine::general_purpose::STANDARD.encode(&bytes),
+                }),
+            }),
+        };
+        let json = serde_json::to_vec(&file).map_err(|e| e.to_string())?;
+        reg.sandbox().write_atomic(&target, &json)?;
+        Ok(Saved {
+            message: format!("Simulation {} saved to {}", self.id(), target.display()),
+            file_path: target.display().to_string(),
+            state_hash: self.state_hash.clone(),
+        })
+    }
+}
+
+impl Registry {
+    /// Loads a saved file into a new simulation. With a history: from its snapshot when the
+    /// MAC is ours, else refolded from its events (every hash checked), then cross-checked
+    /// against the readable fields. Without one (the old server's files): objects re-created
+    /// at their saved poses and velocities. A failed load creates nothing.
+    pub fn load(
+        &self,
+        args: &Args,
+        new_id: String,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<Loaded, Refusal> {
+        self.check_room()?;
+        let user = value::string(args, "file_path")?;
+        let gui = value::bool_or(args, "gui", false)?;
+        let path = self.sandbox().existing(&user)?;
+        let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(u64::MAX);
+        if size > MAX_SAVE_BYTES {
+            return Err(format!("file_path {user} is {size} bytes; saved files are limited to {MAX_SAVE_BYTES}"));
+        }
+        #[allow(clippy::disallowed_methods)] // the adapter reads files; the world never does
+        let bytes = std::fs::read(&path).map_err(|e| format!("could not read {user}: {e}"))?;
+        let file: SaveFile = serde_json::from_slice(&bytes)
+            .map_err(|e| format!("The file is not a valid saved simulation: {e}"))?;
+        if file.format.as_deref().is_some_and(|f| f != SAVE_FORMAT) {
+            return Err(format!("The file is not a valid saved simulation: format {:?}", file.format));
+        }
+        let sim = match &file.history {
+            Some(h) => {
+                let (world, chain) = world_from_history(h, &new_id, self.mac_key(), self.limits(), progress)?;
+                if let Some(fields) = disagreeing_fields(&file.readable, &readable(&world)) {
+                    return Err(format!(
+                        "The file's readable fields disagree with its history: {fields} (remove \"history\" to load the readable fields alone)"
+                    ));
+                }
+                let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui };
+                let out = Loaded { simulation_id: new_id.clone(), file_path: user.clone(), state_hash: world.state_hash() };
+                let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
+                self.adopt(&chain, &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
+            }
+            None => self.load_readable(&file, &new_id, gui, args)?,
+        };
+        let out = Loaded { simulation_id: new_id, file_path: user, state_hash: sim.state_hash().to_string() };
+        self.insert(sim)?;
+        Ok(out)
+    }
+
+    fn load_readable(&self, file: &SaveFile, id: &str, gui: bool, args: &Args) -> Result<Sim, Refusal> {
+        let mut cmds = commands_from_readable(&file.readable, id)?.into_iter();
+        let (tool, mut root) = cmds.next().ok_or("no root")?;
+        if let Command::CreateSimulation { gui: g, .. } = &mut root {
+            *g = gui;
+        }
+        let path = self.path_for(id);
+        let built = (|| {
+            let (mut sim, _) = Sim::create(&path, &tool, root, args, self.config().sync)?;
+            for (tool, cmd) in cmds {
+                sim.change(&tool, &Args::new(), Ok(cmd), self.limits(), &mut |_| true)
+                    .map_err(|why| format!("The file's objects cannot be re-created: {why}"))?;
+            }
+            Ok(sim)
+        })();
+        if built.is_err() {
+            remove_log_files(&path);
+        }
+        built
+    }
+}

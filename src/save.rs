@@ -1,0 +1,357 @@
+//! Saved files: JSON that keeps the old PyBullet server's readable fields and adds the
+//! authoritative `history` — the chain of state-changing events from create_simulation with
+//! their state hashes, and the latest snapshot on it with a blake3 MAC keyed by a secret in
+//! the data directory. A file this server wrote (MAC valid) loads from its snapshot; any other
+//! is refolded from its events, every recorded hash checked. Readable fields that disagree
+//! with the history are refused, naming them. A file without `history` (the old server's)
+//! loads approximately: objects are re-created at their saved poses and velocities.
+
+use base64::Engine;
+use serde::{Deserialize, Serialize};
+use serde_json::{json, Value};
+
+use crate::command::{Command, Shape, EVENT_VERSION};
+use crate::limits::Limits;
+use crate::sim::decode;
+use crate::store::{Event, Kind};
+use crate::value::{self, r32, r32s, Refusal};
+use crate::world::{ObjectKind, World};
+
+/// Identifies our files.
+pub const SAVE_FORMAT: &str = "physics-mcp-save";
+/// Version of the saved-file layout.
+pub const SAVE_FORMAT_VERSION: u32 = 1;
+/// Largest file load_simulation reads.
+pub const MAX_SAVE_BYTES: u64 = 512 * 1024 * 1024;
+
+/// The whole file.
+#[derive(Serialize, Deserialize, Debug)]
+pub struct SaveFile {
+    /// Always `physics-mcp-save` for files this server writes (absent in old-server files).
+    #[serde(default)]
+    pub format: Option<String>,
+    /// Layout version.
+    #[serde(default)]
+    pub format_version: Option<u32>,
+    /// The readable fields (the old server's), informational when `history` is present.
+    #[serde(flatten)]
+    pub readable: Readable,
+    /// The authoritative history.
+    #[serde(default)]
+    pub history: Option<SavedHistory>,
+}
+
+/// The old server's fields, plus `simulation_time`.
+#[derive(Serialize, Deserialize, Debug, Default, PartialEq)]
+pub struct Readable {
+    /// Gravity.
+    #[serde(default)]
+    pub gravity: Option<Value>,
+    /// Seconds per step.
+    #[serde(default)]
+    pub timestep: Option<Value>,
+    /// Simulated time.
+    #[serde(default)]
+    pub simulation_time: Option<Value>,
+    /// Objects with their poses and velocities.
+    #[serde(default)]
+    pub objects: Vec<Value>,
+    /// Constraints.
+    #[serde(default)]
+    pub constraints: Vec<Value>,
+}
+
+/// The chain of state-changing events, its blobs and the latest snapshot.
+#[derive(Serialize, Deserialize, Debug)]
+pub struct SavedHistory {
+    /// Root first.
+    pub events: Vec<SavedEvent>,
+    /// blake3 → base64 bytes (URDFs, meshes, large arguments).
+    #[serde(default)]
+    pub blobs: std::collections::BTreeMap<String, String>,
+    /// The latest snapshot on the chain, MAC'd.
+    #[serde(default)]
+    pub snapshot: Option<SavedSnapshot>,
+}
+
+/// One state-changing event.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct SavedEvent {
+    /// Its seq in the original log.
+    pub seq: u64,
+    /// root or change.
+    pub kind: String,
+    /// Its parent.
+    pub parent: Option<u64>,
+    /// The tool.
+    pub tool: String,
+    /// The client's arguments (JSON text).
+    pub arguments: String,
+    /// The validated command (JSON text).
+    pub command: String,
+    /// Event encoding version.
+    pub version: u32,
+    /// blake3 of the result.
+    pub result_hash: Option<String>,
+    /// State hash after it.
+    pub state_hash: String,
+}
+
+/// A snapshot with its MAC.
+#[derive(Serialize, Deserialize, Debug)]
+pub struct SavedSnapshot {
+    /// The event it was taken at.
+    pub seq: u64,
+    /// blake3 of the bytes.
+    pub hash: String,
+    /// keyed blake3 over seq, hash and that event's state hash.
+    pub mac: String,
+    /// postcard bytes, base64.
+    pub bytes: String,
+}
+
+/// The MAC of a snapshot: only a server holding `key` can produce it.
+pub fn snapshot_mac(key: &[u8; 32], seq: u64, hash: &str, state_hash: &str) -> String {
+    blake3::keyed_hash(key, format!("{seq}:{hash}:{state_hash}").as_bytes())
+        .to_hex()
+        .to_string()
+}
+
+/// The readable fields of a world, as saved (and as compared on load).
+pub fn readable(world: &World) -> Readable {
+    let objects = world
+        .tables
+        .objects
+        .iter()
+        .filter_map(|(id, obj)| {
+            let st = world.object_state(*id)?;
+            let ObjectKind::Primitive { shape } = &obj.kind;
+            let is_static = world.body(*id).is_some_and(|b| b.is_fixed());
+            Some(json!({
+                "object_id": id,
+                "type": "primitive",
+                "shape": shape.name(),
+                "dimensions": shape.dimensions().into_iter().map(r32).collect::<Vec<_>>(),
+                "mass": if is_static { 0.0 } else { r32(obj.mass) },
+                "color": obj.color.map(r32s),
+                "position": st.position,
+                "orientation": st.orientation,
+                "linear_velocity": st.linear_velocity,
+                "angular_velocity": st.angular_velocity,
+            }))
+        })
+        .collect();
+    Readable {
+        gravity: Some(json!(r32s(world.physics.gravity.to_array()))),
+        timestep: Some(json!(r32(world.timestep()))),
+        simulation_time: Some(json!(world.tables.time_s)),
+        objects,
+        constraints: Vec::new(),
+    }
+}
+
+/// Names the readable fields of `file` that disagree with `actual` (None when they agree).
+pub fn disagreeing_fields(file: &Readable, actual: &Readable) -> Option<String> {
+    let mut bad = Vec::new();
+    if file.gravity != actual.gravity {
+        bad.push("gravity".to_string());
+    }
+    if file.timestep != actual.timestep {
+        bad.push("timestep".to_string());
+    }
+    if file.simulation_time != actual.simulation_time {
+        bad.push("simulation_time".to_string());
+    }
+    if file.objects.len() != actual.objects.len() {
+        bad.push("objects (count)".to_string());
+    } else {
+        for (i, (a, b)) in file.objects.iter().zip(&actual.objects).enumerate() {
+            if let (Value::Object(a), Value::Object(b)) = (a, b) {
+                for (k, v) in b {
+                    if a.get(k) != Some(v) {
+                        bad.push(format!("objects[{i}].{k}"));
+                    }
+                }
+            } else if a != b {
+                bad.push(format!("objects[{i}]"));
+            }
+        }
+    }
+    if file.constraints != actual.constraints {
+        bad.push("constraints".to_string());
+    }
+    (!bad.is_empty()).then(|| {
+        bad.truncate(8);
+        bad.join(", ")
+    })
+}
+
+/// The saved form of a chain event.
+pub fn saved_event(e: &Event) -> SavedEvent {
+    SavedEvent {
+        seq: e.seq,
+        kind: e.kind.as_str().into(),
+        parent: e.parent,
+        tool: e.tool.clone(),
+        arguments: e.arguments.clone(),
+        command: e.command.clone().unwrap_or_default(),
+        version: e.version,
+        result_hash: e.result_hash.clone(),
+        state_hash: e.state_hash.clone(),
+    }
+}
+
+/// A saved event back as a log event (to be inherited by the loaded simulation).
+pub fn log_event(e: &SavedEvent) -> Event {
+    Event {
+        seq: e.seq,
+        kind: if e.kind == "root" { Kind::Root } else { Kind::Change },
+        parent: e.parent,
+        tool: e.tool.clone(),
+        arguments: e.arguments.clone(),
+        command: Some(e.command.clone()),
+        version: e.version,
+        ok: true,
+        mutates: true,
+        inherited: true,
+        result: None,
+        result_hash: e.result_hash.clone(),
+        state_hash: e.state_hash.clone(),
+    }
+}
+
+fn bad(why: impl std::fmt::Display) -> Refusal {
+    format!("The file is not a valid saved simulation: {why}")
+}
+
+/// Rebuilds the world a saved history describes, never trusting it byte for byte unless the
+/// snapshot's MAC is ours: the chain is checked for shape, every command against the limits,
+/// and every recorded state hash. `progress(done, total)` reports refold progress.
+pub fn world_from_history(
+    h: &SavedHistory,
+    id: &str,
+    key: &[u8; 32],
+    limits: &Limits,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(World, Vec<Event>), Refusal> {
+    let events: Vec<Event> = h.events.iter().map(log_event).collect();
+    let first = events.first().ok_or_else(|| bad("history.events is empty"))?;
+    for (i, e) in events.iter().enumerate() {
+        if e.version > EVENT_VERSION {
+            return Err(bad(format!("event {} has version {}, newer than this server", e.seq, e.version)));
+        }
+        let chained = i == 0 || (e.parent == Some(events[i - 1].seq) && e.seq > events[i - 1].seq);
+        if !chained || (i > 0 && e.kind != Kind::Change && e.kind != Kind::Root) {
+            return Err(bad(format!("history.events is not a chain at seq {}", e.seq)));
+        }
+    }
+    let decode_at = |e: &Event| -> Result<Command, Refusal> {
+        decode(e)
+            .map_err(bad)?
+            .ok_or_else(|| bad(format!("event {} has no command", e.seq)))
+    };
+    // Start from our own snapshot when its MAC proves this server wrote it.
+    let trusted = h.snapshot.as_ref().and_then(|s| {
+        let at = events.iter().position(|e| e.seq == s.seq)?;
+        let mac_ok = snapshot_mac(key, s.seq, &s.hash, &events[at].state_hash) == s.mac;
+        let bytes = base64::engine::general_purpose::STANDARD.decode(&s.bytes).ok()?;
+        let hash_ok = blake3::hash(&bytes).to_hex().as_str() == s.hash;
+        (mac_ok && hash_ok).then_some((at, bytes))
+    });
+    let (start, mut world) = match trusted {
+        Some((at, bytes)) => {
+            let gui = false;
+            let w = World::restore(id, gui, &bytes).map_err(bad)?;
+            (at, w)
+        }
+        None => {
+            let root = decode_at(first)?;
+            let (w, _) = World::create(&root).ok_or_else(|| bad("the first event is not create_simulation"))?;
+            (0, w)
+        }
+    };
+    let check = |w: &World, e: &Event| -> Result<(), Refusal> {
+        let actual = w.state_hash();
+        if actual != e.state_hash {
+            return Err(bad(format!(
+                "state hash diverges at seq {} ({}): recorded {}, refold gives {actual}",
+                e.seq, e.tool, e.state_hash
+            )));
+        }
+        Ok(())
+    };
+    check(&world, &events[start])?;
+    let total = (events.len() - start) as u64;
+    for (done, e) in events[start + 1..].iter().enumerate() {
+        let cmd = decode_at(e)?;
+        match &cmd {
+            Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => {}
+            Command::CreateSimulation { .. } => return Err(bad(format!("a second create_simulation at seq {}", e.seq))),
+            _ => {
+                cmd.check(&world, limits).map_err(|why| bad(format!("event {} is refused: {why}", e.seq)))?;
+                world.apply(&cmd, &mut |_| true);
+            }
+        }
+        check(&world, e)?;
+        progress(done as u64 + 1, total);
+    }
+    Ok((world, events))
+}
+
+/// The commands that re-create an old-server file's objects (no history): the world is
+/// approximately the saved one — objects at their saved poses and velocities.
+pub fn commands_from_readable(r: &Readable, id: &str) -> Result<Vec<(String, Command)>, Refusal> {
+    let gravity = match &r.gravity {
+        Some(g) => value::gravity("gravity", g).map_err(bad)?,
+        None => [0.0, 0.0, -9.81],
+    };
+    let mut out = vec![(
+        "load_simulation".to_string(),
+        Command::CreateSimulation { simulation_id: id.into(), gravity, gui: false },
+    )];
+    if let Some(t) = &r.timestep {
+        out.push(("set_timestep".into(), Command::SetTimestep { timestep: value::positive("timestep", t).map_err(bad)? }));
+    }
+    let empty = serde_json::Map::new();
+    for (i, o) in r.objects.iter().enumerate() {
+        let o = o.as_object().unwrap_or(&empty);
+        let field = |k: &str| value::arg(o, k);
+        let name = |k: &str| format!("objects[{i}].{k}");
+        let kind = field("type").and_then(Value::as_str).unwrap_or("primitive");
+        if kind != "primitive" {
+            return Err(bad(format!("{} is {kind}: only primitive objects can be loaded so far", name("type"))));
+        }
+        let dims: Vec<f32> = match field("dimensions").and_then(Value::as_array) {
+            Some(d) => d.iter().map(|x| value::positive(&name("dimensions"), x)).collect::<Result<_, _>>().map_err(bad)?,
+            None => return Err(bad(format!("{} is missing", name("dimensions")))),
+        };
+        let dim = |k: usize| dims.get(k).copied().ok_or_else(|| bad(format!("{} is too short", name("dimensions"))));
+        let shape = match field("shape").and_then(Value::as_str).unwrap_or("") {
+            "box" => Shape::Box { half_extents: [dim(0)?, dim(1)?, dim(2)?] },
+            "sphere" => Shape::Sphere { radius: dim(0)? },
+            "cylinder" => Shape::Cylinder { radius: dim(0)?, height: dim(1)? },
+            "capsule" => Shape::Capsule { radius: dim(0)?, height: dim(1)? },
+            other => return Err(bad(format!("{} {other:?} is not box, sphere, cylinder or capsule", name("shape")))),
+        };
+        let tool = format!("add_{}", shape.name());
+        out.push((
+            tool,
+            Command::AddBody {
+                shape,
+                position: field("position").map(|v| value::vec3(&name("position"), v)).transpose().map_err(bad)?.unwrap_or_default(),
+                orientation: field("orientation").map(|v| value::quat(&name("orientation"), v)).transpose().map_err(bad)?.unwrap_or([0.0, 0.0, 0.0, 1.0]),
+                mass: field("mass").map(|v| value::non_negative(&name("mass"), v)).transpose().map_err(bad)?.unwrap_or(1.0),
+                color: field("color").map(|v| value::color(&name("color"), v)).transpose().map_err(bad)?,
+            },
+        ));
+        let lin = field("linear_velocity").map(|v| value::vec3(&name("linear_velocity"), v)).transpose().map_err(bad)?;
+        let ang = field("angular_velocity").map(|v| value::vec3(&name("angular_velocity"), v)).transpose().map_err(bad)?;
+        if lin.is_some() || ang.is_some() {
+            out.push((
+                "set_object_velocity".into(),
+                Command::SetObjectVelocity { object_id: i as u32, linear_velocity: lin, angular_velocity: ang },
+            ));
+        }
+    }
+    Ok(out)
+}

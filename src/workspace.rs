@@ -1,0 +1,125 @@
+//! The path sandbox: every user-supplied file path (saves, loads, URDFs) resolves inside the
+//! workspace directory and never inside the data directory. Paths are resolved relative to
+//! the workspace, then canonicalised (symlinks followed); anything that ends up outside is
+//! refused with one sentence. Writes are atomic (temp file + rename in the same directory)
+//! and never follow a symlink out of the workspace.
+
+use std::io::Write;
+use std::path::{Component, Path, PathBuf};
+
+use crate::value::Refusal;
+
+/// `path` with `.` and `..` resolved textually (for paths that do not exist yet).
+fn lexical(path: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            other => out.push(other),
+        }
+    }
+    out
+}
+
+/// The workspace and the data directory it must stay clear of (both canonical).
+#[derive(Clone, Debug)]
+pub struct Sandbox {
+    /// Canonical workspace directory.
+    pub workspace: PathBuf,
+    /// Canonical data directory (refused even if it lies inside the workspace).
+    pub data_dir: PathBuf,
+}
+
+impl Sandbox {
+    fn denied(&self, shown: &str) -> Refusal {
+        format!("Access denied: {shown} is outside the workspace {}", self.workspace.display())
+    }
+
+    fn check_inside(&self, canon: &Path, shown: &str) -> Result<(), Refusal> {
+        if !canon.starts_with(&self.workspace) || canon.starts_with(&self.data_dir) {
+            return Err(self.denied(shown));
+        }
+        Ok(())
+    }
+
+    /// The canonical path of an existing file to read.
+    pub fn existing(&self, user: &str) -> Result<PathBuf, Refusal> {
+        let joined = self.workspace.join(user);
+        let canon = match joined.canonicalize() {
+            Ok(c) => c,
+            Err(_) => {
+                self.check_inside(&lexical(&joined), user)?;
+                return Err(format!(
+                    "file_path {user} does not exist in the workspace {}",
+                    self.workspace.display()
+                ));
+            }
+        };
+        self.check_inside(&canon, user)?;
+        if !canon.is_file() {
+            return Err(format!("file_path {user} is not a file"));
+        }
+        Ok(canon)
+    }
+
+    /// The path to write `user` at: its parent directories are created inside the workspace;
+    /// an existing symlink at the target must itself point inside the workspace.
+    pub fn writable(&self, user: &str) -> Result<PathBuf, Refusal> {
+        if user.is_empty() {
+            return Err("file_path must be a non-empty path".into());
+        }
+        let joined = self.workspace.join(user);
+        let name = joined
+            .file_name()
+            .filter(|_| !matches!(joined.components().next_back(), Some(Component::ParentDir)))
+            .ok_or_else(|| format!("file_path {user} must name a file"))?
+            .to_owned();
+        let parent = joined.parent().ok_or_else(|| self.denied(user))?;
+        // Resolve the deepest existing ancestor, then check before creating anything.
+        let mut existing = parent.to_path_buf();
+        let mut missing = Vec::new();
+        while !existing.exists() {
+            match (existing.file_name(), existing.parent()) {
+                (Some(n), Some(p)) => {
+                    missing.push(n.to_owned());
+                    existing = p.to_path_buf();
+                }
+                _ => return Err(self.denied(user)),
+            }
+        }
+        let mut canon_parent = existing.canonicalize().map_err(|_| self.denied(user))?;
+        for part in missing.iter().rev() {
+            if part == ".." {
+                return Err(self.denied(user));
+            }
+            canon_parent.push(part);
+        }
+        self.check_inside(&canon_parent, user)?;
+        let target = canon_parent.join(&name);
+        if target.is_symlink() {
+            let resolved = target.canonicalize().map_err(|_| self.denied(user))?;
+            self.check_inside(&resolved, user)?;
+        }
+        std::fs::create_dir_all(&canon_parent)
+            .map_err(|e| format!("could not create the folder for {user}: {e}"))?;
+        Ok(target)
+    }
+
+    /// Writes `bytes` to a path from `writable` atomically: a temp file in the same folder,
+    /// fsynced, then renamed over the target (a symlink at the target is replaced, not
+    /// followed).
+    pub fn write_atomic(&self, target: &Path, bytes: &[u8]) -> Result<(), Refusal> {
+        let dir = target.parent().ok_or("the target has no folder")?;
+        let mut tmp = tempfile::NamedTempFile::new_in(dir)
+            .map_err(|e| format!("could not write {}: {e}", target.display()))?;
+        tmp.write_all(bytes)
+            .and_then(|_| tmp.as_file().sync_all())
+            .map_err(|e| format!("could not write {}: {e}", target.display()))?;
+        tmp.persist(target)
+            .map_err(|e| format!("could not write {}: {e}", target.display()))?;
+        Ok(())
+    }
+}
