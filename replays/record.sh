@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Re-records replays/*.sqlite from replays/scripts/*.txt. Run this on purpose, after a change
 # that is meant to alter physics or the log encoding, and commit the new files:
-#   cargo build --release && bash replays/record.sh
+#   cargo build --release && bash replays/record.sh [replays/scripts/ONE.txt ...]
 # Each script runs against a fresh server; every simulation it creates is saved as
 # replays/<script>[-<n>].sqlite (compacted to 4 KB pages, no WAL).
 set -euo pipefail
@@ -9,7 +9,9 @@ here="$(cd "$(dirname "$0")" && pwd)"
 bin="${PHYSICS_MCP_BIN:-$here/../target/release/physics-mcp}"
 call="${MCP_CALL:-$here/../../shared/tools/mcp-call}"
 port=18765
-for script in "$here"/scripts/*.txt; do
+scripts=("$@")
+[ ${#scripts[@]} -eq 0 ] && scripts=("$here"/scripts/*.txt)
+for script in "${scripts[@]}"; do
   name="$(basename "$script" .txt)"
   tmp="$(mktemp -d)"
   "$bin" serve --bind "127.0.0.1:$port" --data "$tmp/data" --workspace "$tmp/ws" 2>"$tmp/log" &

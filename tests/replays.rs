@@ -29,7 +29,7 @@ fn cli(args: &[&str]) -> (bool, String, String) {
 fn every_recorded_session_replays_to_its_recorded_hashes() {
     let files = recorded();
     assert!(files.len() >= 6, "replays/ holds {} logs", files.len());
-    let (mut moves, mut forks, mut refusals) = (0, 0, 0);
+    let (mut moves, mut forks, mut refusals, mut loads) = (0, 0, 0, 0);
     for f in &files {
         let summary = physics_mcp::replay::replay(f, None, |_, _| {})
             .unwrap_or_else(|e| panic!("{} does not replay: {e}", f.display()));
@@ -41,13 +41,17 @@ fn every_recorded_session_replays_to_its_recorded_hashes() {
         moves += events.iter().filter(|e| e.kind == physics_mcp::store::Kind::Move).count();
         forks += events.iter().filter(|e| e.inherited).count().min(1);
         refusals += events.iter().filter(|e| !e.ok).count();
+        loads += events.iter().filter(|e| e.tool == "load_simulation" && !e.inherited).count();
         // And in a fresh process, through the CLI.
         let (ok, stdout, stderr) = cli(&["replay", f.to_str().unwrap(), "--json"]);
         assert!(ok, "{}: {stdout} {stderr}", f.display());
         let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
         assert_eq!(v["summary"]["final_hash"], serde_json::json!(summary.final_hash));
     }
-    assert!(moves >= 4 && forks >= 1 && refusals >= 3, "coverage: {moves} moves, {forks} forks, {refusals} refusals");
+    assert!(
+        moves >= 4 && forks >= 1 && refusals >= 3 && loads >= 1,
+        "coverage: {moves} moves, {forks} forks, {refusals} refusals, {loads} loads"
+    );
 }
 
 #[test]
