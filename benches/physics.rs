@@ -147,7 +147,7 @@ fn bench_snapshot_restore(c: &mut Criterion) {
                 arguments: "{}".into(), command: None, version: 1, ok: true, mutates: true,
                 inherited: false, result: None, result_hash: None, state_hash: String::new(),
             };
-            log.append_durable(e, Some((&snap, &hash))).unwrap();
+            log.append_durable(e, seq, Some((&snap, &hash))).unwrap();
         })
     });
     g.bench_function("restore_read", |b| b.iter(|| log.snapshot_at(1).unwrap()));

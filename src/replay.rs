@@ -175,7 +175,7 @@ impl Replayer<'_> {
             Kind::Move => {
                 let record: MoveRecord = serde_json::from_str(e.command.as_deref().unwrap_or(""))
                     .map_err(|err| Self::diverged(e, "command", "a move record", &err.to_string()))?;
-                let rebuilt = rebuild_at(self.log, &self.id, record.to)?;
+                let rebuilt = rebuild_at(self.log, &self.id, record.to, true)?;
                 let world = rebuilt.world;
                 let refs = record
                     .seqs

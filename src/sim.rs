@@ -23,8 +23,10 @@ use crate::value::{Args, Refusal};
 use crate::workspace::Sandbox;
 use crate::world::{StepControl, World};
 
-/// A snapshot is taken after this many simulated steps since the last one…
-pub const SNAPSHOT_EVERY_STEPS: u64 = 2400;
+/// A snapshot is taken once this much simulation work (steps × bodies) has been done since
+/// the last one — about half a second for a 1000-body pile — so rebuilding any recent state
+/// (undo, fork, restart) costs at most that much re-simulation, whatever the world's size…
+pub const SNAPSHOT_EVERY_BODY_STEPS: u64 = 100_000;
 /// …or after this many state-changing events since the last one.
 pub const SNAPSHOT_EVERY_CHANGES: u32 = 64;
 
@@ -92,7 +94,7 @@ pub struct Sim {
     /// Undone events that redo re-applies, the next one last (rebuilt from the log's move
     /// events on recovery; emptied by any new state-changing call).
     pub(crate) redo: Vec<u64>,
-    pub(crate) steps_since_snapshot: u64,
+    pub(crate) work_since_snapshot: u64,
     pub(crate) changes_since_snapshot: u32,
 }
 
@@ -139,7 +141,7 @@ impl Sim {
                 sync,
                 state_hash,
                 redo: Vec::new(),
-                steps_since_snapshot: 0,
+                work_since_snapshot: 0,
                 changes_since_snapshot: 0,
             },
             result,
@@ -151,7 +153,7 @@ impl Sim {
     pub fn recover(path: &Path, sync: SyncMode) -> Result<Sim, StoreError> {
         let log = Log::open(path, sync)?;
         let id = log.simulation_id()?;
-        let rebuilt = rebuild_at(&log, &id, log.head_seq())?;
+        let rebuilt = rebuild_at(&log, &id, log.head_seq(), true)?;
         let redo = redo_stack(&log)?;
         let state_hash = rebuilt.world.state_hash();
         Ok(Sim {
@@ -160,7 +162,7 @@ impl Sim {
             sync,
             state_hash,
             redo,
-            steps_since_snapshot: rebuilt.steps_since_snapshot,
+            work_since_snapshot: rebuilt.work_since_snapshot,
             changes_since_snapshot: rebuilt.changes_since_snapshot,
         })
     }
@@ -232,9 +234,7 @@ impl Sim {
         };
         let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
         let result = self.world.apply(&cmd, control);
-        if let Command::StepSimulation { steps } = cmd {
-            self.steps_since_snapshot += steps;
-        }
+        self.work_since_snapshot += work(&cmd, &self.world);
         self.changes_since_snapshot += 1;
         let result_json = result.to_string();
         let mut e = self.event(Kind::Change, tool, args);
@@ -244,7 +244,7 @@ impl Sim {
         e.result = Some(result_json);
         self.state_hash = self.world.state_hash();
         e.state_hash = self.state_hash.clone();
-        let due = self.steps_since_snapshot >= SNAPSHOT_EVERY_STEPS
+        let due = self.work_since_snapshot >= SNAPSHOT_EVERY_BODY_STEPS
             || self.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES;
         let snapshot = due.then(|| {
             let bytes = self.world.snapshot();
@@ -263,7 +263,7 @@ impl Sim {
             return Err(format!("The call could not be recorded and was undone: {err}"));
         }
         if due {
-            self.steps_since_snapshot = 0;
+            self.work_since_snapshot = 0;
             self.changes_since_snapshot = 0;
             self.thin_snapshots();
         }
@@ -343,7 +343,7 @@ impl Sim {
 /// A world rebuilt at some event, with how far it is from the snapshot it started from.
 pub(crate) struct Rebuilt {
     pub(crate) world: World,
-    pub(crate) steps_since_snapshot: u64,
+    pub(crate) work_since_snapshot: u64,
     pub(crate) changes_since_snapshot: u32,
 }
 
@@ -367,7 +367,14 @@ fn gui_of(chain: &[Event]) -> Result<bool, StoreError> {
 /// The world at state-changing event `target`: the nearest snapshot on its chain (hash
 /// verified), then the chain's later events folded, each checked against its recorded hash.
 /// This bounds undo, fork and recovery to one snapshot interval of re-simulation.
-pub(crate) fn rebuild_at(log: &Log, id: &str, target: u64) -> Result<Rebuilt, StoreError> {
+/// With `verify_each`, every event's recorded hash is checked (recovery); otherwise only the
+/// target's (undo: the fold is deterministic, and the target's hash proves it).
+pub(crate) fn rebuild_at(
+    log: &Log,
+    id: &str,
+    target: u64,
+    verify_each: bool,
+) -> Result<Rebuilt, StoreError> {
     let chain = log.chain_to(target)?;
     let gui = gui_of(&chain)?;
     let mut start = None;
@@ -387,23 +394,31 @@ pub(crate) fn rebuild_at(log: &Log, id: &str, target: u64) -> Result<Rebuilt, St
     let (i0, mut world) =
         start.ok_or_else(|| StoreError::Corrupt("no snapshot on the head's chain".into()))?;
     check_hash(&world, &chain[i0])?;
-    let mut rebuilt_steps = 0;
+    let mut rebuilt_work = 0;
     let mut rebuilt_changes = 0;
     for e in &chain[i0 + 1..] {
         let cmd = decode(e)?
             .ok_or_else(|| StoreError::Corrupt(format!("event {} has no command", e.seq)))?;
         world.apply(&cmd, &mut |_| true);
-        check_hash(&world, e)?;
-        if let Command::StepSimulation { steps } = cmd {
-            rebuilt_steps += steps;
+        if verify_each || e.seq == target {
+            check_hash(&world, e)?;
         }
+        rebuilt_work += work(&cmd, &world);
         rebuilt_changes += 1;
     }
     Ok(Rebuilt {
         world,
-        steps_since_snapshot: rebuilt_steps,
+        work_since_snapshot: rebuilt_work,
         changes_since_snapshot: rebuilt_changes,
     })
+}
+
+/// Simulation work a command did, in body-steps (the snapshot policy's measure).
+fn work(cmd: &Command, world: &World) -> u64 {
+    match cmd {
+        Command::StepSimulation { steps } => steps * (world.object_count() as u64).max(1),
+        _ => 0,
+    }
 }
 
 /// What a move (undo/redo) event records, so redo stacks can be rebuilt from the log.

@@ -73,7 +73,7 @@ impl Sim {
             .map_err(|err| format!("The {tool} could not be recorded and was not done: {err}"))?;
         self.world = world;
         self.state_hash = state_hash;
-        (self.steps_since_snapshot, self.changes_since_snapshot) = counters;
+        (self.work_since_snapshot, self.changes_since_snapshot) = counters;
         Ok(())
     }
 
@@ -93,7 +93,7 @@ impl Sim {
             .rev()
             .map(|e| EventRef { seq: e.seq, tool: e.tool.clone() })
             .collect();
-        let rebuilt = rebuild_at(&self.log, self.id(), target.seq).map_err(store_err)?;
+        let rebuilt = rebuild_at(&self.log, self.id(), target.seq, false).map_err(store_err)?;
         let out = Undone {
             undone,
             head_seq: target.seq,
@@ -107,7 +107,7 @@ impl Sim {
             seqs: out.undone.iter().map(|r| r.seq).collect(),
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-        let counters = (rebuilt.steps_since_snapshot, rebuilt.changes_since_snapshot);
+        let counters = (rebuilt.work_since_snapshot, rebuilt.changes_since_snapshot);
         self.commit_move("undo", args, record.clone(), rebuilt.world, counters, result)?;
         self.redo.extend(record.seqs);
         Ok(out)
@@ -127,14 +127,14 @@ impl Sim {
         let mut world = World::restore(self.id(), self.world.gui(), &self.world.snapshot())
             .map_err(|e| format!("Internal error: {e}"))?;
         let mut redone = Vec::new();
-        let (mut steps, mut changes) = (self.steps_since_snapshot, self.changes_since_snapshot);
+        let (mut steps, mut changes) = (self.work_since_snapshot, self.changes_since_snapshot);
         for seq in &seqs {
             let e = self.log.event(*seq).map_err(store_err)?.ok_or("an undone event is missing")?;
             let cmd = decode(&e).map_err(store_err)?.ok_or("an undone event has no command")?;
             world.apply(&cmd, &mut |_| true);
             check_hash(&world, &e).map_err(store_err)?;
             if let Command::StepSimulation { steps: n } = cmd {
-                steps += n;
+                steps += n * (world.object_count() as u64).max(1);
             }
             changes += 1;
             redone.push(EventRef { seq: e.seq, tool: e.tool });
@@ -266,7 +266,7 @@ impl Registry {
             ));
         }
         let chain = p.log().chain_to(at).map_err(store_err)?;
-        let rebuilt = rebuild_at(p.log(), &new_id, at).map_err(store_err)?;
+        let rebuilt = rebuild_at(p.log(), &new_id, at, false).map_err(store_err)?;
         let gui = rebuilt.world.gui();
         let root_cmd = Command::ForkSimulation {
             simulation_id: new_id.clone(),

@@ -1,0 +1,156 @@
+//! Issue 3 benchmark (`cargo bench --bench time_machine`): on the 1000-box pile, with 20 vs
+//! 20,000 further events — undo(1) latency; load time split into (a) read, parse and store
+//! the history and (b) rebuild the world (MAC check, restore, refold); log size and snapshot
+//! count. Prints `REPORT` lines (and the ratios the issue targets).
+
+use std::time::Instant;
+
+use physics_mcp::command::{Command, Shape};
+use physics_mcp::limits::Limits;
+use physics_mcp::save::{log_event, world_from_history, SaveFile};
+use physics_mcp::sim::{lock_sim, Config, Registry};
+use physics_mcp::store::{Log, SyncMode};
+use physics_mcp::value::Args;
+use rand::{Rng, SeedableRng};
+
+fn pile(reg: &Registry, id: &str) {
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    reg.create(root, &Args::new()).unwrap();
+    let s = reg.get(id).unwrap();
+    let mut sim = lock_sim(&s);
+    let (a, l) = (Args::new(), Limits::default());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20261122);
+    let ground = Command::AddBody {
+        shape: Shape::Box { half_extents: [20.0, 20.0, 0.5] },
+        position: [0.0, 0.0, -0.5],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        mass: 0.0,
+        color: None,
+    };
+    sim.change("add_box", &a, Ok(ground), &l, &mut |_| true).unwrap();
+    for i in 0..1000 {
+        let (x, y, z) = ((i % 10) as f32 * 0.25, ((i / 10) % 10) as f32 * 0.25, 0.5 + (i / 100) as f32 * 0.25);
+        let mut j = || rng.gen_range(-0.02f32..=0.02);
+        let p = [x + j(), y + j(), z + j()];
+        let angle: f32 = rng.gen_range(0.0..std::f32::consts::TAU);
+        let (sn, c) = (angle / 2.0).sin_cos();
+        let cmd = Command::AddBody {
+            shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] },
+            position: p,
+            orientation: [0.0, 0.0, sn, c],
+            mass: 1.0,
+            color: None,
+        };
+        sim.change("add_box", &a, Ok(cmd), &l, &mut |_| true).unwrap();
+    }
+    sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 300 }), &l, &mut |_| true).unwrap();
+}
+
+/// `n` further events: velocity changes on rotating bodies, a one-step advance every 100.
+fn more_events(reg: &Registry, id: &str, n: u64) {
+    let s = reg.get(id).unwrap();
+    let mut sim = lock_sim(&s);
+    let (a, l) = (Args::new(), Limits::default());
+    for i in 0..n {
+        let cmd = if i % 100 == 99 {
+            Command::StepSimulation { steps: 1 }
+        } else {
+            let id = 1 + (i % 1000) as u32;
+            Command::SetObjectVelocity { object_id: id, linear_velocity: Some([0.0, 0.0, 0.01 * (i % 7) as f32]), angular_velocity: None }
+        };
+        sim.change("op", &a, Ok(cmd), &l, &mut |_| true).unwrap();
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+struct Figures {
+    events: u64,
+    undo_ms: f64,
+    load_a_ms: f64,
+    load_b_ms: f64,
+    log_bytes: u64,
+    snapshots: usize,
+}
+
+fn measure(n: u64) -> Figures {
+    let dir = tempfile::tempdir().unwrap();
+    let reg = Registry::open(Config {
+        data_dir: dir.path().join("data"),
+        workspace: dir.path().join("ws"),
+        limits: Limits::default(),
+        sync: SyncMode::Normal,
+    })
+    .unwrap();
+    pile(&reg, "pile");
+    more_events(&reg, "pile", n);
+    let s = reg.get("pile").unwrap();
+    let mut sim = lock_sim(&s);
+    let a = Args::new();
+    let undo: Vec<f64> = (0..5)
+        .map(|_| {
+            #[allow(clippy::disallowed_methods)]
+            let t = Instant::now();
+            sim.undo(&a, 1).unwrap();
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            sim.redo(&a, 1).unwrap();
+            ms
+        })
+        .collect();
+    let mut save_args = Args::new();
+    save_args.insert("file_path".into(), serde_json::json!("bench.json"));
+    sim.save(&save_args, &reg).unwrap();
+    sim.flush();
+    sim.log().checkpoint().unwrap();
+    let head = sim.log().head_seq();
+    let events = sim.log().last_seq();
+    let snapshots = sim.log().chain_snapshot_seqs(head).unwrap().len();
+    let log_bytes = sim.log().file_bytes();
+    drop(sim);
+    let path = reg.config().workspace.join("bench.json");
+    let (mut a_ms, mut b_ms) = (Vec::new(), Vec::new());
+    for round in 0..3 {
+        // (a) read, parse and store the history (the inherited chain, in a new log).
+        let t = Instant::now();
+        let bytes = std::fs::read(&path).unwrap();
+        let file: SaveFile = serde_json::from_slice(&bytes).unwrap();
+        let h = file.history.as_ref().unwrap();
+        let chain: Vec<_> = h.events.iter().map(log_event).collect();
+        let mut log = Log::create(&dir.path().join(format!("load{round}.sqlite")), "x", SyncMode::Normal).unwrap();
+        let mut root = chain.last().unwrap().clone();
+        root.seq += 1;
+        root.parent = Some(root.seq - 1);
+        log.append_root_with_ancestry(&chain, root, (b"", "")).unwrap();
+        a_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        // (b) rebuild the world: MAC check, restore, refold the rest.
+        let t = Instant::now();
+        let (world, _) = world_from_history(h, "loaded", reg.mac_key(), reg.limits(), &mut |_, _| {}).unwrap();
+        b_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        assert_eq!(world.state_hash(), lock_sim(&s).state_hash());
+    }
+    Figures { events, undo_ms: median(undo), load_a_ms: median(a_ms), load_b_ms: median(b_ms), log_bytes, snapshots }
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return;
+    }
+    let small = measure(20);
+    let large = measure(20_000);
+    for (name, f) in [("20 events", &small), ("20,000 events", &large)] {
+        let bound = 100 + (f.events as f64).log2().ceil() as usize;
+        println!(
+            "REPORT pile + {name}: {} events in the log; undo(1) {:.1} ms; load (a) read/parse/store {:.1} ms, (b) rebuild {:.1} ms; log {} bytes; {} snapshots on the chain (bound {bound})",
+            f.events, f.undo_ms, f.load_a_ms, f.load_b_ms, f.log_bytes, f.snapshots
+        );
+    }
+    println!(
+        "REPORT ratios 20,000 vs 20 events: undo(1) {:.2}, load (b) {:.2} (targets <= 1.5); load (a) {:.2}",
+        large.undo_ms / small.undo_ms,
+        large.load_b_ms / small.load_b_ms,
+        large.load_a_ms / small.load_a_ms
+    );
+}
