@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
-use physics_mcp::save::{log_event, world_from_history, SaveFile};
+use physics_mcp::save::{log_event, world_from_events, SaveFile};
 use physics_mcp::sim::{lock_sim, Config, Registry};
 use physics_mcp::store::{Log, SyncMode};
 use physics_mcp::value::Args;
@@ -127,7 +127,7 @@ fn measure(n: u64) -> Figures {
         a_ms.push(t.elapsed().as_secs_f64() * 1e3);
         // (b) rebuild the world: MAC check, restore, refold the rest.
         let t = Instant::now();
-        let (world, _) = world_from_history(h, "loaded", reg.mac_key(), reg.limits(), &mut |_, _| {}).unwrap();
+        let world = world_from_events(&chain, h.snapshot.as_ref(), "loaded", reg.mac_key(), reg.limits(), &mut |_, _| {}).unwrap();
         b_ms.push(t.elapsed().as_secs_f64() * 1e3);
         assert_eq!(world.state_hash(), lock_sim(&s).state_hash());
     }

@@ -235,6 +235,20 @@ pub fn world_from_history(
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(World, Vec<Event>), Refusal> {
     let events: Vec<Event> = h.events.iter().map(log_event).collect();
+    let world = world_from_events(&events, h.snapshot.as_ref(), id, key, limits, progress)?;
+    Ok((world, events))
+}
+
+/// `world_from_history` on events already converted (the benchmark times conversion and
+/// storage separately from the rebuild).
+pub fn world_from_events(
+    events: &[Event],
+    snapshot: Option<&SavedSnapshot>,
+    id: &str,
+    key: &[u8; 32],
+    limits: &Limits,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<World, Refusal> {
     let first = events.first().ok_or_else(|| bad("history.events is empty"))?;
     for (i, e) in events.iter().enumerate() {
         if e.version > EVENT_VERSION {
@@ -251,7 +265,7 @@ pub fn world_from_history(
             .ok_or_else(|| bad(format!("event {} has no command", e.seq)))
     };
     // Start from our own snapshot when its MAC proves this server wrote it.
-    let trusted = h.snapshot.as_ref().and_then(|s| {
+    let trusted = snapshot.and_then(|s| {
         let at = events.iter().position(|e| e.seq == s.seq)?;
         let mac_ok = snapshot_mac(key, s.seq, &s.hash, &events[at].state_hash) == s.mac;
         let bytes = base64::engine::general_purpose::STANDARD.decode(&s.bytes).ok()?;
@@ -295,7 +309,7 @@ pub fn world_from_history(
         check(&world, e)?;
         progress(done as u64 + 1, total);
     }
-    Ok((world, events))
+    Ok(world)
 }
 
 /// The commands that re-create an old-server file's objects (no history): the world is

@@ -375,8 +375,18 @@ pub(crate) fn rebuild_at(
     target: u64,
     verify_each: bool,
 ) -> Result<Rebuilt, StoreError> {
-    let chain = log.chain_to(target)?;
-    let gui = gui_of(&chain)?;
+    let snapshots: std::collections::BTreeSet<u64> = log.snapshot_seqs()?.into_iter().collect();
+    let mut chain = log.chain_back(target, |e| snapshots.contains(&e.seq))?;
+    chain.reverse();
+    let gui = match log.own_root_command()? {
+        Some(c) => matches!(
+            serde_json::from_str::<Command>(&c),
+            Ok(Command::CreateSimulation { gui: true, .. }
+                | Command::ForkSimulation { gui: true, .. }
+                | Command::LoadSimulation { gui: true, .. })
+        ),
+        None => gui_of(&chain)?,
+    };
     let mut start = None;
     for (i, e) in chain.iter().enumerate().rev() {
         if let Some((bytes, hash)) = log.snapshot_at(e.seq)? {

@@ -79,18 +79,27 @@ impl Sim {
 
     /// Moves the head back over the last `count` state-changing events of this simulation.
     pub fn undo(&mut self, args: &Args, count: u64) -> Result<Undone, Refusal> {
-        let chain = self.log.chain_to(self.log.head_seq()).map_err(store_err)?;
-        let available = (chain.len() - 1 - Self::own_root_index(&chain)) as u64;
-        if count == 0 || count > available {
+        // Walk back only `count` events (plus the target): undo costs what it undoes.
+        let mut walked = 0u64;
+        let back = self
+            .log
+            .chain_back(self.log.head_seq(), |e| {
+                walked += 1;
+                walked > count || e.kind == Kind::Root
+            })
+            .map_err(store_err)?;
+        let reachable = back.len() as u64 > count && back[..count as usize].iter().all(|e| e.kind != Kind::Root);
+        if count == 0 || !reachable {
+            let chain = self.log.chain_to(self.log.head_seq()).map_err(store_err)?;
+            let available = (chain.len() - 1 - Self::own_root_index(&chain)) as u64;
             let why = format!(
                 "count must be from 1 to {available} (the state-changing events that can be undone); got {count}"
             );
             return Err(self.refuse("undo", args, why));
         }
-        let target = &chain[chain.len() - 1 - count as usize];
-        let undone: Vec<EventRef> = chain[chain.len() - count as usize..]
+        let target = &back[count as usize];
+        let undone: Vec<EventRef> = back[..count as usize]
             .iter()
-            .rev()
             .map(|e| EventRef { seq: e.seq, tool: e.tool.clone() })
             .collect();
         let rebuilt = rebuild_at(&self.log, self.id(), target.seq, false).map_err(store_err)?;

@@ -482,6 +482,38 @@ impl Log {
         Ok(chain)
     }
 
+    /// The chain from `head` back to (and including) the first event `stop` accepts, or to
+    /// the root; newest first. Costs what it walks, not the whole history.
+    pub fn chain_back(&self, head: u64, mut stop: impl FnMut(&Event) -> bool) -> Result<Vec<Event>, StoreError> {
+        let mut out = Vec::new();
+        let mut cur = Some(head);
+        while let Some(seq) = cur {
+            let e = self
+                .event(seq)?
+                .ok_or_else(|| StoreError::Corrupt(format!("event {seq} on the chain is missing")))?;
+            if !e.kind.is_state_changing() || out.len() as u64 > self.last_seq {
+                return Err(StoreError::Corrupt(format!("the chain is broken at event {seq}")));
+            }
+            cur = e.parent;
+            let done = stop(&e);
+            out.push(e);
+            if done {
+                break;
+            }
+        }
+        Ok(out)
+    }
+
+    /// This log's own root command (not an inherited one): it holds the gui flag.
+    pub fn own_root_command(&self) -> Result<Option<String>, StoreError> {
+        Ok(self
+            .conn
+            .prepare_cached("SELECT command FROM events WHERE kind = 'root' AND inherited = 0 ORDER BY seq DESC LIMIT 1")?
+            .query_row([], |r| r.get(0))
+            .optional()?
+            .flatten())
+    }
+
     /// The snapshot at `seq`, if one was taken: (bytes, recorded blake3).
     pub fn snapshot_at(&self, seq: u64) -> Result<Option<(Vec<u8>, String)>, StoreError> {
         Ok(self
