@@ -259,6 +259,11 @@ impl Log {
     pub fn open(path: &Path, sync: SyncMode) -> Result<Log, StoreError> {
         let mut conn = open_conn(path, sync)?;
         migrate(&mut conn)?;
+        Self::from_existing(conn, path)
+    }
+
+    /// A `Log` over an opened existing file: reads where its head and last event are.
+    fn from_existing(conn: Connection, path: &Path) -> Result<Log, StoreError> {
         let head_seq: i64 = conn
             .query_row("SELECT head_seq FROM head WHERE id = 1", [], |r| r.get(0))
             .optional()?
@@ -289,17 +294,7 @@ impl Log {
                 MIGRATIONS.len()
             )));
         }
-        let head_seq: i64 = conn.query_row("SELECT head_seq FROM head WHERE id = 1", [], |r| r.get(0))?;
-        let last_seq: i64 = conn.query_row("SELECT COALESCE(MAX(seq), 0) FROM events", [], |r| r.get(0))?;
-        Ok(Log {
-            conn,
-            path: path.to_path_buf(),
-            last_seq: last_seq as u64,
-            head_seq: head_seq as u64,
-            pending: Vec::new(),
-            commits_since_checkpoint: 0,
-            checkpointing: Arc::default(),
-        })
+        Self::from_existing(conn, path)
     }
 
     /// The file this log lives in.
