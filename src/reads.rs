@@ -21,11 +21,6 @@ pub struct ReadContext<'a> {
     pub state_hash: &'a str,
 }
 
-fn link_index(a: &Args) -> Result<i32, Refusal> {
-    let i = value::integer_or(a, "link_index", -1)?;
-    i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
-}
-
 /// get_object_state.
 pub fn object_state(cx: &ReadContext, a: &Args) -> Result<ObjectState, Refusal> {
     let id = value::object_id(a, "object_id")?;
@@ -41,7 +36,7 @@ pub fn dynamics_info(cx: &ReadContext, a: &Args) -> Result<DynamicsInfo, Refusal
     if !w.has_object(id) {
         return Err(object_not_found(id, w.simulation_id()));
     }
-    w.check_link(id, link_index(a)?)?;
+    w.check_link(id, value::link_index(a)?)?;
     w.dynamics_info(id).ok_or_else(|| object_not_found(id, w.simulation_id()))
 }
 

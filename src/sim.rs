@@ -109,9 +109,7 @@ impl Sim {
     ) -> Result<(Sim, Value), String> {
         let (world, result) = World::create(&root).ok_or("not a root command")?;
         let mut log = Log::create(path, world.simulation_id(), sync).map_err(|e| e.to_string())?;
-        let args_json = log
-            .store_arguments(Value::Object(args.clone()).to_string())
-            .map_err(|e| e.to_string())?;
+        let args_json = log.store_arguments(serde_json::to_string(args).unwrap_or_default());
         let result_json = result.to_string();
         let snapshot = world.snapshot();
         let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
@@ -188,8 +186,8 @@ impl Sim {
     }
 
     pub(crate) fn event(&mut self, kind: Kind, tool: &str, args: &Args) -> Event {
-        let raw = Value::Object(args.clone()).to_string();
-        let arguments = self.log.store_arguments(raw.clone()).unwrap_or(raw);
+        let raw = serde_json::to_string(args).unwrap_or_default();
+        let arguments = self.log.store_arguments(raw);
         Event {
             seq: self.log.next_seq(),
             kind,

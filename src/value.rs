@@ -211,6 +211,12 @@ pub fn string(args: &Args, name: &str) -> Result<String, Refusal> {
     }
 }
 
+/// Reads `link_index`: −1 (the base, the default) or a link index; the world checks range.
+pub fn link_index(args: &Args) -> Result<i32, Refusal> {
+    let i = integer_or(args, "link_index", -1)?;
+    i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
+}
+
 /// Reads an object id: a non-negative integer. Whether it exists is the world's question.
 pub fn object_id(args: &Args, name: &str) -> Result<u32, Refusal> {
     let v = required(args, name, "an object id (integer >= 0)")?;

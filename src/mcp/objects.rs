@@ -51,11 +51,6 @@ fn decide_capsule(a: &Args) -> Result<Command, Refusal> {
     decide_add(a, Shape::Capsule { radius, height })
 }
 
-fn link_index(a: &Args) -> Result<i32, Refusal> {
-    let i = value::integer_or(a, "link_index", -1)?;
-    i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
-}
-
 fn decide_pose(a: &Args) -> Result<Command, Refusal> {
     Ok(Command::SetObjectPose {
         object_id: value::object_id(a, "object_id")?,
@@ -69,7 +64,7 @@ fn decide_force(a: &Args) -> Result<Command, Refusal> {
         object_id: value::object_id(a, "object_id")?,
         force: value::req_vec3(a, "force")?,
         position: value::opt_vec3(a, "position")?,
-        link_index: link_index(a)?,
+        link_index: value::link_index(a)?,
     })
 }
 
@@ -77,7 +72,7 @@ fn decide_torque(a: &Args) -> Result<Command, Refusal> {
     Ok(Command::ApplyTorque {
         object_id: value::object_id(a, "object_id")?,
         torque: value::req_vec3(a, "torque")?,
-        link_index: link_index(a)?,
+        link_index: value::link_index(a)?,
     })
 }
 
@@ -97,7 +92,7 @@ fn decide_velocity(a: &Args) -> Result<Command, Refusal> {
 
 fn decide_dynamics(a: &Args) -> Result<Command, Refusal> {
     let object_id = value::object_id(a, "object_id")?;
-    let link_index = link_index(a)?;
+    let link_index = value::link_index(a)?;
     let get = |name: &str| arg(a, name).map(|v| value::non_negative(name, v)).transpose();
     let change = DynamicsChange {
         mass: get("mass")?,

@@ -327,16 +327,22 @@ impl Log {
     }
 
     /// Stores arguments inline, or as a blob when they are over 64 KB (returns the reference).
-    pub fn store_arguments(&mut self, args_json: String) -> Result<String, StoreError> {
+    /// If the blob cannot be written the arguments stay inline: the event is still recorded.
+    pub fn store_arguments(&mut self, args_json: String) -> String {
         if args_json.len() <= INLINE_ARGS_MAX {
-            return Ok(args_json);
+            return args_json;
         }
         let hash = blake3::hash(args_json.as_bytes()).to_hex().to_string();
-        self.conn.execute(
+        match self.conn.execute(
             "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
             params![hash, args_json.as_bytes()],
-        )?;
-        Ok(serde_json::json!({"blob": hash, "bytes": args_json.len()}).to_string())
+        ) {
+            Ok(_) => serde_json::json!({"blob": hash, "bytes": args_json.len()}).to_string(),
+            Err(e) => {
+                tracing::warn!("could not store large arguments as a blob: {e}");
+                args_json
+            }
+        }
     }
 
     /// Commits a root, change or move event — with the buffered events, `head` as the new
