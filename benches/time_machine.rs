@@ -127,7 +127,7 @@ fn measure(n: u64) -> Figures {
         a_ms.push(t.elapsed().as_secs_f64() * 1e3);
         // (b) rebuild the world: MAC check, restore, refold the rest.
         let t = Instant::now();
-        let world = world_from_events(&chain, h.snapshot.as_ref(), "loaded", reg.mac_key(), reg.limits(), &mut |_, _| {}).unwrap();
+        let world = world_from_events(&chain, &physics_mcp::save::SavedBlobs(&h.blobs), h.snapshot.as_ref(), "loaded", reg.mac_key(), reg.limits(), &mut |_, _| {}).unwrap();
         b_ms.push(t.elapsed().as_secs_f64() * 1e3);
         assert_eq!(world.state_hash(), lock_sim(&s).state_hash());
     }

@@ -7,7 +7,10 @@
 //! back exactly the command that was applied. Never change what an existing variant means: add
 //! a new one and bump `EVENT_VERSION`.
 
-use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::limits::Limits;
 use crate::value::Refusal;
@@ -70,6 +73,92 @@ impl Shape {
             }
         }
     }
+}
+
+/// Bytes a command needs (a URDF's text, a mesh), kept once in the log's `blobs` table under
+/// their blake3 and referenced from the event by that hash. It serialises as the hash alone, so
+/// events stay small; whoever decodes an event fills the bytes back in with `Command::hydrate`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Blob {
+    /// blake3 (hex) of the bytes.
+    pub hash: String,
+    /// The bytes; empty until hydrated.
+    pub bytes: Arc<Vec<u8>>,
+}
+
+impl Blob {
+    /// A blob holding `bytes`.
+    pub fn new(bytes: Vec<u8>) -> Blob {
+        Blob {
+            hash: blake3::hash(&bytes).to_hex().to_string(),
+            bytes: Arc::new(bytes),
+        }
+    }
+
+    /// Whether the bytes are present and match the hash.
+    pub fn is_loaded(&self) -> bool {
+        blake3::hash(&self.bytes).to_hex().as_str() == self.hash
+    }
+}
+
+impl Serialize for Blob {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.hash)
+    }
+}
+
+impl<'de> Deserialize<'de> for Blob {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Blob, D::Error> {
+        Ok(Blob {
+            hash: String::deserialize(d)?,
+            bytes: Arc::new(Vec::new()),
+        })
+    }
+}
+
+/// Where decoded events find their blobs' bytes: a log's `blobs` table, a saved file's map.
+pub trait BlobSource {
+    /// The bytes stored under `hash`, if any.
+    fn blob(&self, hash: &str) -> Option<Vec<u8>>;
+}
+
+/// For decoding events that carry no blobs (roots, counting steps).
+pub struct NoBlobs;
+
+impl BlobSource for NoBlobs {
+    fn blob(&self, _hash: &str) -> Option<Vec<u8>> {
+        None
+    }
+}
+
+/// A joint motor's control mode (PyBullet's names).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
+pub enum ControlMode {
+    /// Drive toward a target position (and velocity).
+    PositionControl,
+    /// Drive toward a target velocity.
+    VelocityControl,
+    /// Apply a given torque (force for prismatic joints) each step.
+    TorqueControl,
+}
+
+/// A motor setting as set_joint_motor_control gives it; `force` None = the URDF effort limit
+/// (else 500), resolved when applied.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct MotorSpec {
+    /// The control mode.
+    pub mode: ControlMode,
+    /// Target position (POSITION_CONTROL).
+    pub target_position: f32,
+    /// Target velocity.
+    pub target_velocity: f32,
+    /// Maximum effort (POSITION/VELOCITY) or the torque itself (TORQUE).
+    pub force: Option<f32>,
+    /// PyBullet's positionGain.
+    pub position_gain: f32,
+    /// PyBullet's velocityGain.
+    pub velocity_gain: f32,
 }
 
 /// Properties `change_dynamics` may set; `None` leaves a property as it is.
@@ -227,10 +316,47 @@ pub enum Command {
         /// Target object.
         object_id: u32,
     },
+    /// Load a URDF robot: its text and every mesh it uses travel with the event as blobs.
+    LoadUrdf {
+        /// The path as the client gave it (reported, saved).
+        file_path: String,
+        /// The URDF text.
+        urdf: Blob,
+        /// Mesh bytes by the file name written in the URDF.
+        meshes: BTreeMap<String, Blob>,
+        /// World position of the base link frame.
+        position: [f32; 3],
+        /// Orientation of the base (normalised).
+        orientation: [f32; 4],
+        /// Fix the base to the world.
+        fixed_base: bool,
+    },
+    /// Set (or replace) a joint motor; it acts on every later step.
+    SetJointMotor {
+        /// The robot.
+        object_id: u32,
+        /// PyBullet joint index.
+        joint_index: u32,
+        /// The motor.
+        motor: MotorSpec,
+    },
 }
 
 fn base_link() -> i32 {
     -1
+}
+
+/// Refuses a new object once the simulation holds `--max-objects`.
+fn room_for_object(world: &World, limits: &Limits) -> Result<(), Refusal> {
+    if world.object_count() >= limits.max_objects {
+        Err(format!(
+            "Object limit reached: {} objects in simulation {} (--max-objects)",
+            limits.max_objects,
+            world.simulation_id()
+        ))
+    } else {
+        Ok(())
+    }
 }
 
 /// The standard "object not found" sentence (SPEC).
@@ -239,6 +365,34 @@ pub fn object_not_found(object_id: u32, sim_id: &str) -> Refusal {
 }
 
 impl Command {
+    /// The blobs this command carries (stored beside its event).
+    pub fn blobs(&self) -> Vec<&Blob> {
+        match self {
+            Command::LoadUrdf { urdf, meshes, .. } => {
+                std::iter::once(urdf).chain(meshes.values()).collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// Fills in the bytes of every blob from `src`, checking each against its hash.
+    pub fn hydrate(&mut self, src: &dyn BlobSource) -> Result<(), String> {
+        if let Command::LoadUrdf { urdf, meshes, .. } = self {
+            for b in std::iter::once(urdf).chain(meshes.values_mut()) {
+                if b.is_loaded() {
+                    continue;
+                }
+                let bytes = src.blob(&b.hash).ok_or_else(|| format!("blob {} is missing", b.hash))?;
+                *b = Blob::new(bytes);
+            }
+            let loaded = self.blobs().iter().all(|b| b.is_loaded());
+            if !loaded {
+                return Err("a blob does not match its hash".into());
+            }
+        }
+        Ok(())
+    }
+
     /// Checks the command against the current world and limits. An `Ok` here guarantees
     /// `World::apply` succeeds; an `Err` is the one-sentence reason, and nothing changes.
     pub fn check(&self, world: &World, limits: &Limits) -> Result<(), Refusal> {
@@ -264,17 +418,15 @@ impl Command {
                 }
             }
             Command::SetTimestep { .. } => Ok(()),
-            Command::AddBody { .. } => {
-                if world.object_count() >= limits.max_objects {
-                    Err(format!(
-                        "Object limit reached: {} objects in simulation {} (--max-objects)",
-                        limits.max_objects,
-                        world.simulation_id()
-                    ))
-                } else {
-                    Ok(())
-                }
+            Command::LoadUrdf { urdf, meshes, .. } => {
+                room_for_object(world, limits)?;
+                crate::world::urdf_model(urdf, meshes).map(|_| ())
             }
+            Command::SetJointMotor { object_id, joint_index, motor } => {
+                exists(*object_id)?;
+                world.check_motor(*object_id, *joint_index, motor)
+            }
+            Command::AddBody { .. } => room_for_object(world, limits),
             Command::SetObjectPose { object_id, .. }
             | Command::SetObjectVelocity { object_id, .. }
             | Command::RemoveObject { object_id } => exists(*object_id),

@@ -14,6 +14,8 @@
 //! - `replay`  — replay, history and diff of a log (the CLI).
 //! - `save`    — the saved-file format, save and load.
 //! - `workspace` — the path sandbox for user files.
+//! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
+//!   writing generate_revolute_joint's URDFs.
 //! - `limits`  — the CLI limits every request is checked against.
 #![warn(missing_docs)]
 
@@ -30,4 +32,5 @@ pub mod world;
 pub mod sim;
 pub mod store;
 pub mod timeline;
+pub mod urdf_files;
 pub mod mcp;

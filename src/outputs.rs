@@ -316,3 +316,91 @@ pub struct Loaded {
     /// Its state hash (equal to the saved one for files with history).
     pub state_hash: String,
 }
+
+/// Result of load_urdf.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct UrdfLoaded {
+    /// The robot's object id.
+    pub object_id: u32,
+    /// The path as given.
+    pub file_path: String,
+    /// Base position [x, y, z].
+    pub position: [f64; 3],
+    /// Number of joints (fixed ones included, as PyBullet counts).
+    pub num_joints: usize,
+}
+
+/// Result of get_num_joints.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct NumJoints {
+    /// Number of joints (0 for primitives).
+    pub num_joints: usize,
+}
+
+/// Result of get_joint_info.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct JointInfo {
+    /// PyBullet joint index.
+    pub joint_index: usize,
+    /// URDF joint name.
+    pub joint_name: String,
+    /// revolute, continuous, prismatic or fixed.
+    pub joint_type: String,
+    /// Lower limit (0 with upper −1 means no limit).
+    pub lower_limit: f64,
+    /// Upper limit.
+    pub upper_limit: f64,
+    /// URDF effort limit (0 when not given).
+    pub max_force: f64,
+    /// URDF velocity limit (0 when not given).
+    pub max_velocity: f64,
+    /// Axis in the joint frame.
+    pub joint_axis: [f64; 3],
+    /// The child link's name.
+    pub link_name: String,
+    /// The parent link's index (−1 = the base).
+    pub parent_index: i32,
+}
+
+/// Result of get_joint_state.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct JointState {
+    /// Position (rad or m).
+    pub joint_position: f64,
+    /// Velocity (rad/s or m/s).
+    pub joint_velocity: f64,
+    /// Reaction wrench [Fx, Fy, Fz, Mx, My, Mz]: zeros (no force/torque sensor, as PyBullet).
+    pub reaction_forces: [f64; 6],
+    /// Torque (or force) the motor applied in the last step.
+    pub motor_torque: f64,
+}
+
+/// Result of calculate_inverse_kinematics.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct IkSolution {
+    /// One position per movable joint, in PyBullet joint order.
+    pub joint_positions: Vec<f64>,
+    /// Distance (m) from the end-effector link frame to the target position.
+    pub position_error: f64,
+    /// Angle (rad) between the reached and the target orientation (0 without a target).
+    pub orientation_error: f64,
+    /// Solver iterations used (all restarts included).
+    pub iterations: usize,
+}
+
+/// Result of generate_revolute_joint.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct GeneratedUrdf {
+    /// Where the URDF was written (absolute).
+    pub urdf_path: String,
+    /// Parent link shape.
+    pub parent_shape: String,
+    /// Child link shape.
+    pub child_shape: String,
+    /// Always "revolute".
+    pub joint_type: String,
+    /// Joint axis.
+    pub joint_axis: [f64; 3],
+    /// [lower, upper] in rad.
+    pub joint_limits: [f64; 2],
+}

@@ -5,7 +5,7 @@ use base64::Engine;
 use crate::command::Command;
 use crate::outputs::{Loaded, Saved};
 use crate::save::{
-    commands_from_readable, disagreeing_fields, readable, saved_event, snapshot_mac,
+    chain_blobs, commands_from_readable, disagreeing_fields, readable, saved_event, snapshot_mac,
     world_from_history, SaveFile, SavedHistory, SavedSnapshot, MAX_SAVE_BYTES, SAVE_FORMAT,
     SAVE_FORMAT_VERSION,
 };
@@ -42,7 +42,7 @@ impl Sim {
             readable: readable(&self.world),
             history: Some(SavedHistory {
                 events: chain.iter().map(saved_event).collect(),
-                blobs: Default::default(),
+                blobs: chain_blobs(&chain, &self.log),
                 snapshot: Some(SavedSnapshot {
                     seq: snap_seq,
                     mac: snapshot_mac(reg.mac_key(), snap_seq, &hash, &at.state_hash),
@@ -98,7 +98,7 @@ impl Registry {
                 let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui };
                 let out = Loaded { simulation_id: new_id.clone(), file_path: user.clone(), state_hash: world.state_hash() };
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-                self.adopt(&chain, &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
+                self.adopt((&chain, &crate::save::SavedBlobs(&h.blobs)), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
             }
             None => self.load_readable(&file, &new_id, gui, args)?,
         };

@@ -135,7 +135,7 @@ impl Replayer<'_> {
     fn event(&mut self, e: &Event) -> Result<(), ReplayError> {
         match e.kind {
             Kind::Root => {
-                let cmd = decode(e)?.ok_or_else(|| Self::diverged(e, "command", "a root command", "none"))?;
+                let cmd = decode(e, self.log)?.ok_or_else(|| Self::diverged(e, "command", "a root command", "none"))?;
                 match &cmd {
                     Command::CreateSimulation { .. } => {
                         let (w, result) = World::create(&cmd)
@@ -156,7 +156,7 @@ impl Replayer<'_> {
                 self.check_snapshot(e)?;
             }
             Kind::Change => {
-                let cmd = decode(e)?.ok_or_else(|| Self::diverged(e, "command", "a command", "none"))?;
+                let cmd = decode(e, self.log)?.ok_or_else(|| Self::diverged(e, "command", "a command", "none"))?;
                 if e.parent != Some(self.head) {
                     let expected = format!("{:?}", e.parent);
                     return Err(Self::diverged(e, "parent", &expected, &self.head.to_string()));
@@ -278,7 +278,7 @@ pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<S
         })?;
     let steps = chain
         .iter()
-        .filter_map(|e| match decode(e) {
+        .filter_map(|e| match decode(e, &crate::command::NoBlobs) {
             Ok(Some(Command::StepSimulation { steps })) => Some(steps),
             _ => None,
         })

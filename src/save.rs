@@ -10,7 +10,7 @@ use base64::Engine;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 
-use crate::command::{Command, Shape, EVENT_VERSION};
+use crate::command::{BlobSource, Command, Shape, EVENT_VERSION};
 use crate::limits::Limits;
 use crate::sim::decode;
 use crate::store::{Event, Kind};
@@ -125,20 +125,37 @@ pub fn readable(world: &World) -> Readable {
         .iter()
         .filter_map(|(id, obj)| {
             let st = world.object_state(*id)?;
-            let ObjectKind::Primitive { shape } = &obj.kind;
             let is_static = world.body(*id).is_some_and(|b| b.is_fixed());
-            Some(json!({
-                "object_id": id,
-                "type": "primitive",
-                "shape": shape.name(),
-                "dimensions": shape.dimensions().into_iter().map(r32).collect::<Vec<_>>(),
+            let mut o = match &obj.kind {
+                ObjectKind::Primitive { shape } => json!({
+                    "object_id": id,
+                    "type": "primitive",
+                    "shape": shape.name(),
+                    "dimensions": shape.dimensions().into_iter().map(r32).collect::<Vec<_>>(),
+                }),
+                ObjectKind::Robot { robot } => json!({
+                    "object_id": id,
+                    "type": "urdf",
+                    "file_path": robot.file_path,
+                    "use_fixed_base": robot.fixed_base,
+                    "num_joints": robot.links.len(),
+                    "joint_positions": (0..robot.links.len())
+                        .filter_map(|i| world.joint_state(*id, i).map(|j| j.joint_position))
+                        .collect::<Vec<_>>(),
+                }),
+            };
+            let fields = json!({
                 "mass": if is_static { 0.0 } else { r32(obj.mass) },
                 "color": obj.color.map(r32s),
                 "position": st.position,
                 "orientation": st.orientation,
                 "linear_velocity": st.linear_velocity,
                 "angular_velocity": st.angular_velocity,
-            }))
+            });
+            if let (Some(o), Some(f)) = (o.as_object_mut(), fields.as_object()) {
+                o.extend(f.clone());
+            }
+            Some(o)
         })
         .collect();
     Readable {
@@ -184,6 +201,29 @@ pub fn disagreeing_fields(file: &Readable, actual: &Readable) -> Option<String> 
         bad.truncate(8);
         bad.join(", ")
     })
+}
+
+/// A saved file's blobs (base64 by blake3) as a source for decoding its events.
+pub struct SavedBlobs<'a>(pub &'a std::collections::BTreeMap<String, String>);
+
+impl BlobSource for SavedBlobs<'_> {
+    fn blob(&self, hash: &str) -> Option<Vec<u8>> {
+        base64::engine::general_purpose::STANDARD.decode(self.0.get(hash)?).ok()
+    }
+}
+
+/// The blobs the commands of `chain` refer to, base64 by hash, read from `src` (for saving).
+pub fn chain_blobs(chain: &[Event], src: &dyn BlobSource) -> std::collections::BTreeMap<String, String> {
+    let mut out = std::collections::BTreeMap::new();
+    for e in chain {
+        let Some(cmd) = e.command.as_deref().and_then(|c| serde_json::from_str::<Command>(c).ok()) else { continue };
+        for b in cmd.blobs() {
+            if let Some(bytes) = src.blob(&b.hash) {
+                out.insert(b.hash.clone(), base64::engine::general_purpose::STANDARD.encode(bytes));
+            }
+        }
+    }
+    out
 }
 
 /// The saved form of a chain event.
@@ -235,7 +275,7 @@ pub fn world_from_history(
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(World, Vec<Event>), Refusal> {
     let events: Vec<Event> = h.events.iter().map(log_event).collect();
-    let world = world_from_events(&events, h.snapshot.as_ref(), id, key, limits, progress)?;
+    let world = world_from_events(&events, &SavedBlobs(&h.blobs), h.snapshot.as_ref(), id, key, limits, progress)?;
     Ok((world, events))
 }
 
@@ -243,6 +283,7 @@ pub fn world_from_history(
 /// storage separately from the rebuild).
 pub fn world_from_events(
     events: &[Event],
+    blobs: &dyn BlobSource,
     snapshot: Option<&SavedSnapshot>,
     id: &str,
     key: &[u8; 32],
@@ -260,7 +301,7 @@ pub fn world_from_events(
         }
     }
     let decode_at = |e: &Event| -> Result<Command, Refusal> {
-        decode(e)
+        decode(e, blobs)
             .map_err(bad)?
             .ok_or_else(|| bad(format!("event {} has no command", e.seq)))
     };

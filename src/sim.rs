@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use serde::Serialize;
 use serde_json::Value;
 
-use crate::command::{Command, EVENT_VERSION};
+use crate::command::{BlobSource, Command, EVENT_VERSION};
 use crate::limits::Limits;
 use crate::outputs::{Message, SimulationList, SimulationSummary};
 use crate::reads::ReadContext;
@@ -230,6 +230,11 @@ impl Sim {
             Ok(c) => c,
             Err(why) => return Err(self.refuse(tool, args, why)),
         };
+        for b in cmd.blobs() {
+            if let Err(err) = self.log.put_blob(&b.hash, &b.bytes) {
+                return Err(self.refuse(tool, args, format!("The call's files could not be recorded: {err}")));
+            }
+        }
         let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
         let result = self.world.apply(&cmd, control);
         self.work_since_snapshot += work(&cmd, &self.world);
@@ -353,7 +358,7 @@ fn gui_of(chain: &[Event]) -> Result<bool, StoreError> {
         .find(|e| e.kind == Kind::Root)
         .ok_or_else(|| StoreError::Corrupt("the chain has no root event".into()))?;
     Ok(matches!(
-        decode(root)?,
+        decode(root, &crate::command::NoBlobs)?,
         Some(
             Command::CreateSimulation { gui: true, .. }
                 | Command::ForkSimulation { gui: true, .. }
@@ -405,7 +410,7 @@ pub(crate) fn rebuild_at(
     let mut rebuilt_work = 0;
     let mut rebuilt_changes = 0;
     for e in &chain[i0 + 1..] {
-        let cmd = decode(e)?
+        let cmd = decode(e, log)?
             .ok_or_else(|| StoreError::Corrupt(format!("event {} has no command", e.seq)))?;
         world.apply(&cmd, &mut |_| true);
         if verify_each || e.seq == target {
@@ -465,14 +470,16 @@ fn redo_stack(log: &Log) -> Result<Vec<u64>, StoreError> {
     Ok(stack)
 }
 
-pub(crate) fn decode(e: &Event) -> Result<Option<Command>, StoreError> {
-    e.command
-        .as_deref()
-        .map(|c| {
-            serde_json::from_str(c)
-                .map_err(|err| StoreError::Corrupt(format!("event {} does not decode: {err}", e.seq)))
-        })
-        .transpose()
+/// The command an event recorded, with its blobs' bytes filled in from `blobs`.
+pub(crate) fn decode(e: &Event, blobs: &dyn BlobSource) -> Result<Option<Command>, StoreError> {
+    let Some(text) = e.command.as_deref() else {
+        return Ok(None);
+    };
+    let mut cmd: Command = serde_json::from_str(text)
+        .map_err(|err| StoreError::Corrupt(format!("event {} does not decode: {err}", e.seq)))?;
+    cmd.hydrate(blobs)
+        .map_err(|err| StoreError::Corrupt(format!("event {}: {err}", e.seq)))?;
+    Ok(Some(cmd))
 }
 
 pub(crate) fn check_hash(world: &World, e: &Event) -> Result<(), StoreError> {

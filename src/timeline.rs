@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 
 use serde_json::Value;
 
-use crate::command::{Command, EVENT_VERSION};
+use crate::command::{BlobSource, Command, EVENT_VERSION};
 use crate::outputs::{
     Divergence, EventRef, Forked, History, HistoryEvent, Redone, Undone, Verified,
 };
@@ -139,7 +139,7 @@ impl Sim {
         let (mut steps, mut changes) = (self.work_since_snapshot, self.changes_since_snapshot);
         for seq in &seqs {
             let e = self.log.event(*seq).map_err(store_err)?.ok_or("an undone event is missing")?;
-            let cmd = decode(&e).map_err(store_err)?.ok_or("an undone event has no command")?;
+            let cmd = decode(&e, &self.log).map_err(store_err)?.ok_or("an undone event has no command")?;
             world.apply(&cmd, &mut |_| true);
             check_hash(&world, &e).map_err(store_err)?;
             if let Command::StepSimulation { steps: n } = cmd {
@@ -205,13 +205,13 @@ impl Sim {
             }
         };
         let first = chain.first().ok_or("the log has no root")?;
-        let root = decode(first).map_err(store_err)?.ok_or("the root has no command")?;
+        let root = decode(first, &self.log).map_err(store_err)?.ok_or("the root has no command")?;
         let Some((mut world, _)) = World::create(&root) else {
             return Err("the chain does not start with create_simulation".into());
         };
         for e in &chain {
             if e.seq != first.seq {
-                let cmd = decode(e).map_err(store_err)?.ok_or("an event has no command")?;
+                let cmd = decode(e, &self.log).map_err(store_err)?.ok_or("an event has no command")?;
                 world.apply(&cmd, &mut |_| true);
             }
             out.events_checked += 1;
@@ -290,7 +290,7 @@ impl Registry {
             state_hash: rebuilt.world.state_hash(),
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-        let sim = self.adopt(&chain, &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
+        let sim = self.adopt((&chain, p.log()), &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
         Ok((out, sim))
     }
 
@@ -299,7 +299,7 @@ impl Registry {
     /// failure leaves no file behind.
     pub(crate) fn adopt(
         &self,
-        chain: &[Event],
+        (chain, blobs): (&[Event], &dyn BlobSource),
         world: &World,
         root_cmd: Command,
         tool: &str,
@@ -332,6 +332,11 @@ impl Registry {
         let path = self.path_for(&id);
         let built = (|| {
             let mut log = Log::create(&path, &id, self.config().sync).map_err(store_err)?;
+            for (hash, bytes) in &crate::save::chain_blobs(chain, blobs) {
+                let raw = base64::Engine::decode(&base64::engine::general_purpose::STANDARD, bytes)
+                    .map_err(|e| e.to_string())?;
+                log.put_blob(hash, &raw).map_err(store_err)?;
+            }
             let snapshot = world.snapshot();
             let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
             log.append_root_with_ancestry(chain, root, (&snapshot, &snap_hash))

@@ -177,6 +177,35 @@ pub fn non_negative_or(args: &Args, name: &str, default: f32) -> Result<f32, Ref
     arg(args, name).map(|v| non_negative(name, v)).unwrap_or(Ok(default))
 }
 
+/// Reads an optional number > 0 with a default.
+pub fn positive_or(args: &Args, name: &str, default: f32) -> Result<f32, Refusal> {
+    arg(args, name).map(|v| positive(name, v)).unwrap_or(Ok(default))
+}
+
+/// Reads an optional finite number with a default.
+pub fn number_or(args: &Args, name: &str, default: f32) -> Result<f32, Refusal> {
+    arg(args, name).map(|v| number(name, v)).unwrap_or(Ok(default))
+}
+
+/// Reads a list of finite numbers (any length; a JSON string holding one is accepted), as
+/// f64 for the callers that compute with them (IK limits and poses, generated URDFs).
+pub fn number_list(name: &str, v: &Value) -> Result<Vec<f64>, Refusal> {
+    let fail = || format!("{name} must be a list of finite numbers; got {}", show(v));
+    let inner = decode_string(v).ok_or_else(fail)?;
+    let items = inner.as_array().ok_or_else(fail)?;
+    items.iter().map(|x| finite(x).ok_or_else(fail)).collect()
+}
+
+/// Reads an optional list of exactly `n` finite numbers (one per movable joint).
+pub fn opt_list_of(args: &Args, name: &str, n: usize) -> Result<Option<Vec<f64>>, Refusal> {
+    let Some(v) = arg(args, name) else { return Ok(None) };
+    let list = number_list(name, v)?;
+    if list.len() != n {
+        return Err(format!("{name} must have one value per movable joint ({n}); got {}", list.len()));
+    }
+    Ok(Some(list))
+}
+
 /// Reads an integer; integral floats (`10.0`) are accepted, `10.5` and strings are not.
 pub fn integer(name: &str, v: &Value) -> Result<i64, Refusal> {
     let fail = || format!("{name} must be an integer; got {}", show(v));

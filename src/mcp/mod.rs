@@ -9,6 +9,7 @@
 mod objects;
 mod params;
 mod persistence;
+mod robots;
 mod simulations;
 mod timeline;
 pub mod transport;
@@ -49,7 +50,8 @@ impl PhysicsServer {
             tool_router: Self::simulation_router()
                 + Self::object_router()
                 + Self::timeline_router()
-                + Self::persistence_router(),
+                + Self::persistence_router()
+                + Self::robot_router(),
         }
     }
 
@@ -80,7 +82,7 @@ impl PhysicsServer {
         &self,
         tool: &'static str,
         args: Args,
-        decide: Decide,
+        decide: impl FnOnce(&Args) -> Result<Command, Refusal> + Send + 'static,
         mut control: impl FnMut(u64) -> bool + Send + 'static,
     ) -> ToolResult<T> {
         let out = self
@@ -99,7 +101,7 @@ impl PhysicsServer {
         &self,
         tool: &'static str,
         args: Args,
-        decide: Decide,
+        decide: impl FnOnce(&Args) -> Result<Command, Refusal> + Send + 'static,
     ) -> ToolResult<T> {
         self.change_with(tool, args, decide, |_| true).await
     }

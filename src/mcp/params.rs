@@ -248,3 +248,107 @@ pub struct Load {
     /// Show the loaded simulation in the web viewer (default false).
     pub gui: Option<bool>,
 }
+
+/// load_urdf parameters.
+#[derive(JsonSchema)]
+pub struct LoadUrdf {
+    /// Simulation id.
+    pub sim_id: String,
+    /// URDF file relative to the workspace, or a built-in: plane.urdf, cube.urdf, sphere.urdf.
+    pub file_path: String,
+    /// World position [x, y, z] of the base link frame (default [0, 0, 0]).
+    pub position: Option<[f64; 3]>,
+    /// Base orientation [x, y, z, w] (default identity).
+    pub orientation: Option<[f64; 4]>,
+    /// Fix the base to the world (default false; a base of mass 0 is static anyway).
+    pub use_fixed_base: Option<bool>,
+}
+
+/// Parameters naming a joint of an object.
+#[derive(JsonSchema)]
+pub struct JointRef {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id of the robot.
+    pub object_id: u32,
+    /// Joint index (PyBullet numbering, from 0).
+    pub joint_index: u32,
+}
+
+/// set_joint_motor_control parameters.
+#[derive(JsonSchema)]
+pub struct MotorControl {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id of the robot.
+    pub object_id: u32,
+    /// Joint index (PyBullet numbering).
+    pub joint_index: u32,
+    /// POSITION_CONTROL, VELOCITY_CONTROL or TORQUE_CONTROL.
+    pub control_mode: String,
+    /// Target position (rad or m); required for POSITION_CONTROL.
+    pub target_position: Option<f64>,
+    /// Target velocity (default 0).
+    pub target_velocity: Option<f64>,
+    /// Maximum effort (POSITION/VELOCITY; default the URDF effort limit, else 500) or the
+    /// torque to apply (TORQUE_CONTROL; required).
+    pub force: Option<f64>,
+    /// Position gain (default 0.1).
+    pub position_gain: Option<f64>,
+    /// Velocity gain (default 1.0).
+    pub velocity_gain: Option<f64>,
+}
+
+/// calculate_inverse_kinematics parameters.
+#[derive(JsonSchema)]
+pub struct InverseKinematics {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object id of the robot.
+    pub object_id: u32,
+    /// The link whose frame must reach the target.
+    pub end_effector_link_index: u32,
+    /// Target position [x, y, z] (world).
+    pub target_position: [f64; 3],
+    /// Target orientation [x, y, z, w] (world), optional.
+    pub target_orientation: Option<[f64; 4]>,
+    /// Lower limits, one per movable joint (default: the URDF's).
+    pub lower_limits: Option<Vec<f64>>,
+    /// Upper limits, one per movable joint (default: the URDF's).
+    pub upper_limits: Option<Vec<f64>>,
+    /// Joint ranges, one per movable joint (accepted for PyBullet compatibility).
+    pub joint_ranges: Option<Vec<f64>>,
+    /// Starting configuration, one per movable joint (default: the current one).
+    pub rest_poses: Option<Vec<f64>>,
+}
+
+/// generate_revolute_joint parameters.
+#[derive(JsonSchema)]
+pub struct GenerateRevolute {
+    /// box, sphere or cylinder.
+    pub parent_shape: String,
+    /// box, sphere or cylinder.
+    pub child_shape: String,
+    /// Box half-extents [hx, hy, hz], sphere [radius], cylinder [radius, height].
+    pub parent_dimensions: Vec<f64>,
+    /// As parent_dimensions.
+    pub child_dimensions: Vec<f64>,
+    /// Parent mass in kg (default 1).
+    pub parent_mass: Option<f64>,
+    /// Child mass in kg (default 1).
+    pub child_mass: Option<f64>,
+    /// Joint axis in the parent frame (default [0, 0, 1]).
+    pub joint_axis: Option<[f64; 3]>,
+    /// Joint position in the parent frame (default [0, 0, 0]).
+    pub joint_origin: Option<[f64; 3]>,
+    /// Lower limit in rad (default -3.14159).
+    pub joint_lower_limit: Option<f64>,
+    /// Upper limit in rad (default 3.14159).
+    pub joint_upper_limit: Option<f64>,
+    /// Effort limit (default 100).
+    pub max_effort: Option<f64>,
+    /// Velocity limit (default 10).
+    pub max_velocity: Option<f64>,
+    /// Where to write, relative to the workspace (default generated/revolute_<n>.urdf).
+    pub output_path: Option<String>,
+}

@@ -326,6 +326,23 @@ impl Log {
         self.last_seq + 1
     }
 
+    /// Stores a command's blob (URDF text, mesh) under its hash; storing it twice is a no-op.
+    /// Written before the event that refers to it, so a committed event always finds it.
+    pub fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError> {
+        self.conn.execute(
+            "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
+            params![hash, bytes],
+        )?;
+        Ok(())
+    }
+
+    /// The bytes stored under `hash`.
+    pub fn get_blob(&self, hash: &str) -> Option<Vec<u8>> {
+        self.conn
+            .query_row("SELECT bytes FROM blobs WHERE hash = ?1", params![hash], |r| r.get(0))
+            .ok()
+    }
+
     /// Stores arguments inline, or as a blob when they are over 64 KB (returns the reference).
     /// If the blob cannot be written the arguments stay inline: the event is still recorded.
     pub fn store_arguments(&mut self, args_json: String) -> String {
@@ -582,5 +599,11 @@ impl Log {
 impl Drop for Log {
     fn drop(&mut self) {
         let _ = self.flush();
+    }
+}
+
+impl crate::command::BlobSource for Log {
+    fn blob(&self, hash: &str) -> Option<Vec<u8>> {
+        self.get_blob(hash)
     }
 }

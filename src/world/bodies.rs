@@ -54,7 +54,11 @@ impl World {
                 orientation,
             } => {
                 let pose = Pose::from_parts(v3(*position), quat(*orientation));
-                if let Some(b) = self.body_mut(*object_id) {
+                if self.robot(*object_id).is_some() {
+                    if let Some(base) = self.tables.objects.get(object_id).map(|o| o.body) {
+                        self.set_robot_pose(base, pose);
+                    }
+                } else if let Some(b) = self.body_mut(*object_id) {
                     b.set_position(pose, true);
                 }
                 BodyOutcome::Message(Message::new(format!("Object {object_id} pose set")))
@@ -63,9 +67,9 @@ impl World {
                 object_id,
                 force,
                 position,
-                ..
+                link_index,
             } => {
-                if let Some(b) = self.body_mut(*object_id) {
+                if let Some(b) = self.part_mut(*object_id, *link_index) {
                     match position {
                         Some(p) => b.add_force_at_point(v3(*force), v3(*p), true),
                         None => b.add_force(v3(*force), true),
@@ -77,9 +81,11 @@ impl World {
                 )))
             }
             Command::ApplyTorque {
-                object_id, torque, ..
+                object_id,
+                torque,
+                link_index,
             } => {
-                if let Some(b) = self.body_mut(*object_id) {
+                if let Some(b) = self.part_mut(*object_id, *link_index) {
                     b.add_torque(v3(*torque), true);
                 }
                 self.tables.pending_wrench.insert(*object_id);
@@ -100,12 +106,15 @@ impl World {
                         b.set_angvel(v3(*w), true);
                     }
                 }
+                self.set_robot_base_velocity(*object_id, *linear_velocity, *angular_velocity);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} velocity set")))
             }
             Command::ChangeDynamics {
-                object_id, change, ..
+                object_id,
+                change,
+                link_index,
             } => {
-                self.change_dynamics(*object_id, change);
+                self.change_dynamics(*object_id, *link_index, change);
                 BodyOutcome::Changed(DynamicsChanged {
                     message: format!("Dynamics of object {object_id} changed"),
                     changed: change.names().into_iter().map(String::from).collect(),
@@ -113,7 +122,12 @@ impl World {
             }
             Command::RemoveObject { object_id } => {
                 if let Some(obj) = self.tables.objects.remove(object_id) {
-                    self.physics.remove_body(obj.body);
+                    match &obj.kind {
+                        ObjectKind::Robot { robot } => self.remove_robot_bodies(obj.body, robot),
+                        ObjectKind::Primitive { .. } => {
+                            self.physics.remove_body(obj.body);
+                        }
+                    }
                 }
                 self.tables.pending_wrench.remove(object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
@@ -122,7 +136,9 @@ impl World {
             | Command::ForkSimulation { .. }
             | Command::LoadSimulation { .. }
             | Command::StepSimulation { .. }
-            | Command::SetTimestep { .. } => {
+            | Command::SetTimestep { .. }
+            | Command::LoadUrdf { .. }
+            | Command::SetJointMotor { .. } => {
                 BodyOutcome::Message(Message::new("not a body command"))
             }
         }
@@ -174,12 +190,21 @@ impl World {
         }
     }
 
-    fn change_dynamics(&mut self, id: u32, c: &DynamicsChange) {
+    fn change_dynamics(&mut self, id: u32, link_index: i32, c: &DynamicsChange) {
+        let Some((bh, colliders)) = self.part(id, link_index) else {
+            return;
+        };
         let Some(obj) = self.tables.objects.get_mut(&id) else {
             return;
         };
-        let (bh, ch) = (obj.body, obj.collider);
-        let e = &mut obj.extras;
+        let is_link = link_index >= 0;
+        let e = match (&mut obj.kind, is_link) {
+            (ObjectKind::Robot { robot }, true) => match robot.links.get_mut(link_index as usize) {
+                Some(l) => &mut l.extras,
+                None => return,
+            },
+            _ => &mut obj.extras,
+        };
         let set = |dst: &mut f32, src: Option<f32>| {
             if let Some(v) = src {
                 *dst = v;
@@ -189,21 +214,24 @@ impl World {
         set(&mut e.spinning_friction, c.spinning_friction);
         set(&mut e.contact_stiffness, c.contact_stiffness);
         set(&mut e.contact_damping, c.contact_damping);
-        if let Some(m) = c.mass {
+        let robot = matches!(obj.kind, ObjectKind::Robot { .. });
+        if let (Some(m), false) = (c.mass, is_link) {
             obj.mass = m;
         }
-        if let Some(col) = self.physics.colliders.get_mut(ch) {
-            if let Some(f) = c.lateral_friction {
-                col.set_friction(f);
-            }
-            if let Some(r) = c.restitution {
-                col.set_restitution(r);
-            }
-            if let Some(m) = c.mass.filter(|m| *m > 0.0) {
-                col.set_mass(m);
+        for ch in &colliders {
+            if let Some(col) = self.physics.colliders.get_mut(*ch) {
+                if let Some(f) = c.lateral_friction {
+                    col.set_friction(f);
+                }
+                if let Some(r) = c.restitution {
+                    col.set_restitution(r);
+                }
+                if let (Some(m), false) = (c.mass.filter(|m| *m > 0.0), robot) {
+                    col.set_mass(m);
+                }
             }
         }
-        let colliders = &self.physics.colliders;
+        let colliders_set = &self.physics.colliders;
         if let Some(b) = self.physics.bodies.get_mut(bh) {
             if let Some(d) = c.linear_damping {
                 b.set_linear_damping(d);
@@ -220,7 +248,16 @@ impl World {
                 if b.body_type() != wanted {
                     b.set_body_type(wanted, true);
                 }
-                b.recompute_mass_properties_from_colliders(colliders);
+                if robot && m > 0.0 {
+                    // URDF links carry their inertial as additional mass properties: scale
+                    // them (inertia with mass) so the shape of the distribution is kept.
+                    let mut scaled = b.mass_properties().local_mprops;
+                    let old = if scaled.mass() > 0.0 { scaled.mass() } else { 1.0 };
+                    scaled.inv_mass = 1.0 / m;
+                    scaled.inv_principal_inertia *= old / m;
+                    b.set_additional_mass_properties(scaled, true);
+                }
+                b.recompute_mass_properties_from_colliders(colliders_set);
                 b.wake_up(true);
             }
         }
@@ -230,6 +267,7 @@ impl World {
     pub(super) fn clear_pending_wrench(&mut self) {
         let pending = std::mem::take(&mut self.tables.pending_wrench);
         for id in pending {
+            self.clear_robot_forces(id);
             if let Some(b) = self.body_mut(id) {
                 b.reset_forces(false);
                 b.reset_torques(false);
@@ -245,7 +283,48 @@ impl World {
     /// Number of links (beyond the base) an object has: 0 for primitives.
     pub fn link_count(&self, id: u32) -> usize {
         match self.tables.objects.get(&id).map(|o| &o.kind) {
+            Some(ObjectKind::Robot { robot }) => robot.links.len(),
             Some(ObjectKind::Primitive { .. }) | None => 0,
+        }
+    }
+
+    /// The body and colliders of an object's base (−1) or of one of its links.
+    fn part(&self, id: u32, link_index: i32) -> Option<(RigidBodyHandle, Vec<ColliderHandle>)> {
+        let obj = self.tables.objects.get(&id)?;
+        match (&obj.kind, link_index) {
+            (ObjectKind::Robot { robot }, i) if i >= 0 => {
+                let l = robot.links.get(i as usize)?;
+                Some((l.body, l.colliders.clone()))
+            }
+            (ObjectKind::Robot { robot }, _) => Some((obj.body, robot.base_colliders.clone())),
+            (ObjectKind::Primitive { .. }, _) => Some((obj.body, vec![obj.collider])),
+        }
+    }
+
+    fn part_mut(&mut self, id: u32, link_index: i32) -> Option<&mut RigidBody> {
+        let (h, _) = self.part(id, link_index)?;
+        self.physics.bodies.get_mut(h)
+    }
+
+    /// A robot's free base moves through its multibody's root coordinates, not its body.
+    fn set_robot_base_velocity(&mut self, id: u32, lin: Option<[f32; 3]>, ang: Option<[f32; 3]>) {
+        let Some(base) = self.robot(id).and(self.tables.objects.get(&id)).map(|o| o.body) else {
+            return;
+        };
+        let mbs = &mut self.physics.multibody_joints;
+        let Some(lid) = mbs.rigid_body_link(base).copied() else { return };
+        let Some(mb) = mbs.get_multibody_mut(lid.multibody) else { return };
+        if mb.root().joint().ndofs() != 6 {
+            return;
+        }
+        let mut gv = mb.generalized_velocity_mut();
+        for k in 0..3 {
+            if let Some(v) = lin {
+                gv[k] = v[k];
+            }
+            if let Some(w) = ang {
+                gv[3 + k] = w[k];
+            }
         }
     }
 
@@ -280,10 +359,18 @@ impl World {
     }
 
     /// get_dynamics_info: the values in force.
-    pub fn dynamics_info(&self, id: u32) -> Option<DynamicsInfo> {
+    pub fn dynamics_info(&self, id: u32, link_index: i32) -> Option<DynamicsInfo> {
         let obj = self.tables.objects.get(&id)?;
-        let b = self.physics.bodies.get(obj.body)?;
-        let c = self.physics.colliders.get(obj.collider)?;
+        let (bh, colliders) = self.part(id, link_index)?;
+        let extras = match (&obj.kind, link_index) {
+            (ObjectKind::Robot { robot }, i) if i >= 0 => &robot.links.get(i as usize)?.extras,
+            _ => &obj.extras,
+        };
+        let b = self.physics.bodies.get(bh)?;
+        let c = colliders.first().and_then(|h| self.physics.colliders.get(*h));
+        let friction = c.map_or(DEFAULT_FRICTION, |c| c.friction());
+        let restitution = c.map_or(0.0, |c| c.restitution());
+        let skin = c.map_or(0.0, |c| c.contact_skin());
         let mp = &b.mass_properties().local_mprops;
         let fixed = b.is_fixed();
         let body_type = match b.body_type() {
@@ -294,7 +381,7 @@ impl World {
         let zero3 = [0.0f32; 3];
         Some(DynamicsInfo {
             mass: if fixed { 0.0 } else { r32(b.mass()) },
-            lateral_friction: r32(c.friction()),
+            lateral_friction: r32(friction),
             local_inertia_diagonal: r32s(if fixed {
                 zero3
             } else {
@@ -302,13 +389,13 @@ impl World {
             }),
             local_inertia_pos: r32s(mp.local_com.to_array()),
             local_inertia_orn: r32s(mp.principal_inertia_local_frame.to_array()),
-            restitution: r32(c.restitution()),
-            rolling_friction: r32(obj.extras.rolling_friction),
-            spinning_friction: r32(obj.extras.spinning_friction),
-            contact_damping: r32(obj.extras.contact_damping),
-            contact_stiffness: r32(obj.extras.contact_stiffness),
+            restitution: r32(restitution),
+            rolling_friction: r32(extras.rolling_friction),
+            spinning_friction: r32(extras.spinning_friction),
+            contact_damping: r32(extras.contact_damping),
+            contact_stiffness: r32(extras.contact_stiffness),
             body_type: body_type.to_string(),
-            collision_margin: r32(c.contact_skin()),
+            collision_margin: r32(skin),
             linear_damping: r32(b.linear_damping()),
             angular_damping: r32(b.angular_damping()),
         })
@@ -326,7 +413,14 @@ impl World {
                     .get(obj.body)
                     .map(|b| b.translation().to_array())
                     .unwrap_or_default();
-                let ObjectKind::Primitive { shape } = &obj.kind;
+                let (kind, shape, dimensions) = match &obj.kind {
+                    ObjectKind::Primitive { shape } => (
+                        "primitive",
+                        shape.name().to_string(),
+                        shape.dimensions().into_iter().map(r32).collect(),
+                    ),
+                    ObjectKind::Robot { robot } => ("urdf", robot.file_path.clone(), Vec::new()),
+                };
                 let is_static = self
                     .physics
                     .bodies
@@ -334,9 +428,9 @@ impl World {
                     .is_some_and(|b| b.is_fixed());
                 ObjectSummary {
                     object_id: *id,
-                    kind: "primitive".into(),
-                    shape: shape.name().into(),
-                    dimensions: shape.dimensions().into_iter().map(r32).collect(),
+                    kind: kind.into(),
+                    shape,
+                    dimensions,
                     mass: if is_static { 0.0 } else { r32(obj.mass) },
                     position: r32s(pos),
                 }

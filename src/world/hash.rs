@@ -7,7 +7,9 @@
 
 use serde::Serialize;
 
-use super::{DynamicsExtras, ObjectKind, Viewer, World};
+use rapier3d::prelude::{RigidBody, RigidBodyHandle};
+
+use super::{DynamicsExtras, Object, ObjectKind, Robot, Viewer, World};
 
 /// Version prefix of the canonical encoding.
 pub const STATE_HASH_VERSION: &str = "physics-mcp/state/v1";
@@ -55,6 +57,7 @@ pub(super) fn state_hash(w: &World) -> String {
         .tables
         .objects
         .iter()
+        .filter(|(_, obj)| matches!(obj.kind, ObjectKind::Primitive { .. }))
         .filter_map(|(id, obj)| {
             let b = w.physics.bodies.get(obj.body)?;
             let c = w.physics.colliders.get(obj.collider)?;
@@ -95,6 +98,92 @@ pub(super) fn state_hash(w: &World) -> String {
         viewer: &w.tables.viewer,
         bodies,
     };
-    let bytes = postcard::to_stdvec(&view).unwrap_or_default();
+    let mut bytes = postcard::to_stdvec(&view).unwrap_or_default();
+    // Robots are appended only when there are some, so worlds of primitives keep the hashes
+    // recorded before robots existed.
+    let robots: Vec<RobotView> = w
+        .tables
+        .objects
+        .iter()
+        .filter_map(|(id, obj)| match &obj.kind {
+            ObjectKind::Robot { robot } => Some(robot_view(w, *id, obj, robot)),
+            ObjectKind::Primitive { .. } => None,
+        })
+        .collect();
+    if !robots.is_empty() {
+        bytes.extend(postcard::to_stdvec(&robots).unwrap_or_default());
+    }
     blake3::hash(&bytes).to_hex().to_string()
+}
+
+/// The dynamic state of one body of a robot.
+#[derive(Serialize)]
+struct PartView {
+    body_type: u8,
+    translation: [f32; 3],
+    rotation: [f32; 4],
+    linvel: [f32; 3],
+    angvel: [f32; 3],
+    mass: f32,
+    local_com: [f32; 3],
+    principal_inertia: [f32; 3],
+    inertia_frame: [f32; 4],
+    linear_damping: f32,
+    angular_damping: f32,
+    user_force: [f32; 3],
+    user_torque: [f32; 3],
+    frictions: Vec<[f32; 2]>,
+    joint: [f32; 2],
+}
+
+#[derive(Serialize)]
+struct RobotView<'a> {
+    id: u32,
+    robot: &'a Robot,
+    color: Option<[f32; 4]>,
+    mass_requested: f32,
+    extras: &'a DynamicsExtras,
+    parts: Vec<Option<PartView>>,
+}
+
+fn part_view(w: &World, h: RigidBodyHandle, colliders: &[rapier3d::prelude::ColliderHandle], joint: [f32; 2]) -> Option<PartView> {
+    let b: &RigidBody = w.physics.bodies.get(h)?;
+    let mp = &b.mass_properties().local_mprops;
+    Some(PartView {
+        body_type: b.body_type() as u8,
+        translation: b.translation().to_array(),
+        rotation: b.rotation().to_array(),
+        linvel: b.linvel().to_array(),
+        angvel: b.angvel().to_array(),
+        mass: b.mass(),
+        local_com: mp.local_com.to_array(),
+        principal_inertia: mp.principal_inertia().to_array(),
+        inertia_frame: mp.principal_inertia_local_frame.to_array(),
+        linear_damping: b.linear_damping(),
+        angular_damping: b.angular_damping(),
+        user_force: b.user_force().to_array(),
+        user_torque: b.user_torque().to_array(),
+        frictions: colliders
+            .iter()
+            .filter_map(|c| w.physics.colliders.get(*c))
+            .map(|c| [c.friction(), c.restitution()])
+            .collect(),
+        joint,
+    })
+}
+
+fn robot_view<'a>(w: &World, id: u32, obj: &'a Object, robot: &'a Robot) -> RobotView<'a> {
+    let mut parts = vec![part_view(w, obj.body, &robot.base_colliders, [0.0; 2])];
+    for l in &robot.links {
+        let (q, v) = w.joint_coordinates(l.body, l.joint.kind);
+        parts.push(part_view(w, l.body, &l.colliders, [q, v]));
+    }
+    RobotView {
+        id,
+        robot,
+        color: obj.color,
+        mass_requested: obj.mass,
+        extras: &obj.extras,
+        parts,
+    }
 }

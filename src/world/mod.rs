@@ -8,6 +8,9 @@
 
 mod bodies;
 mod hash;
+pub mod ik;
+mod robot;
+pub mod urdf;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -20,6 +23,21 @@ use crate::outputs::{Created, Message, Stepped, TimestepSet};
 use crate::value::r32s;
 
 pub use hash::STATE_HASH_VERSION;
+pub use robot::{Robot, RobotLink, DEFAULT_MOTOR_FORCE};
+
+/// The robot model a LoadUrdf command's blobs describe (the check and the fold share it).
+pub fn urdf_model(
+    urdf: &crate::command::Blob,
+    meshes: &std::collections::BTreeMap<String, crate::command::Blob>,
+) -> Result<urdf::RobotModel, crate::value::Refusal> {
+    if !urdf.is_loaded() || meshes.values().any(|m| !m.is_loaded()) {
+        return Err("the URDF or one of its meshes is missing from the event".into());
+    }
+    let text = std::str::from_utf8(&urdf.bytes).map_err(|_| "file_path is not a valid URDF: it is not UTF-8 text".to_string())?;
+    let bytes: std::collections::BTreeMap<String, Vec<u8>> =
+        meshes.iter().map(|(k, b)| (k.clone(), b.bytes.to_vec())).collect();
+    urdf::build(text, &bytes)
+}
 
 /// PyBullet's default timestep.
 pub const DEFAULT_TIMESTEP: f32 = 1.0 / 240.0;
@@ -36,6 +54,11 @@ pub enum ObjectKind {
     Primitive {
         /// Its shape and dimensions.
         shape: Shape,
+    },
+    /// A robot loaded from a URDF.
+    Robot {
+        /// Its links, joints and motors.
+        robot: Box<Robot>,
     },
 }
 
@@ -230,6 +253,21 @@ impl World {
                     timestep: crate::value::r32(*timestep),
                 })
             }
+            Command::LoadUrdf { file_path, urdf, meshes, position, orientation, fixed_base } => {
+                match urdf_model(urdf, meshes) {
+                    Ok(model) => {
+                        let pose = Pose::from_parts(
+                            Vector::from_array(*position),
+                            Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
+                        );
+                        to_value(&self.insert_robot(model, file_path, (urdf, meshes), pose, *fixed_base))
+                    }
+                    Err(why) => to_value(&Message::new(why)),
+                }
+            }
+            Command::SetJointMotor { object_id, joint_index, motor } => {
+                to_value(&Message::new(self.set_motor(*object_id, *joint_index, motor)))
+            }
             other => to_value(&self.apply_body_command(other)),
         }
     }
@@ -239,7 +277,11 @@ impl World {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
         while taken < n {
+            let watches = self.drive_motors();
             self.physics.step();
+            if !watches.is_empty() {
+                self.record_motor_torques(watches);
+            }
             self.clear_pending_wrench();
             self.tables.time_s += self.physics.integration_parameters.dt as f64;
             self.tables.steps += 1;

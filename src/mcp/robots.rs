@@ -1,0 +1,117 @@
+//! Robot tools: load_urdf, joints, motors, inverse kinematics, generate_revolute_joint.
+
+use rmcp::handler::server::common::schema_for_type;
+use rmcp::handler::server::wrapper::Json;
+use rmcp::model::JsonObject;
+use rmcp::{tool, tool_router};
+
+use super::{params, PhysicsServer, ToolResult};
+use crate::command::{Command, ControlMode, MotorSpec};
+use crate::outputs::{GeneratedUrdf, IkSolution, JointInfo, JointState, Message, NumJoints, UrdfLoaded};
+use crate::reads;
+use crate::value::{self, arg, Args, Refusal};
+
+fn decide_motor(a: &Args) -> Result<Command, Refusal> {
+    let object_id = value::object_id(a, "object_id")?;
+    let joint_index = value::integer("joint_index", value::required(a, "joint_index", "a joint index (integer >= 0)")?)?;
+    let joint_index = u32::try_from(joint_index)
+        .map_err(|_| format!("Joint index {joint_index} out of range: object {object_id} has no such joint"))?;
+    let mode = match value::string(a, "control_mode")?.as_str() {
+        "POSITION_CONTROL" => ControlMode::PositionControl,
+        "VELOCITY_CONTROL" => ControlMode::VelocityControl,
+        "TORQUE_CONTROL" => ControlMode::TorqueControl,
+        other => {
+            return Err(format!(
+                "control_mode must be POSITION_CONTROL, VELOCITY_CONTROL or TORQUE_CONTROL; got {other}"
+            ))
+        }
+    };
+    let number = |name: &str| arg(a, name).map(|v| value::number(name, v)).transpose();
+    let target_position = number("target_position")?;
+    let force = number("force")?;
+    let target_position = match (mode, target_position) {
+        (ControlMode::PositionControl, None) => {
+            return Err("target_position is required for POSITION_CONTROL".into())
+        }
+        (_, p) => p.unwrap_or(0.0),
+    };
+    if mode == ControlMode::TorqueControl && force.is_none() {
+        return Err("force is required for TORQUE_CONTROL (it is the torque applied each step)".into());
+    }
+    Ok(Command::SetJointMotor {
+        object_id,
+        joint_index,
+        motor: MotorSpec {
+            mode,
+            target_position,
+            target_velocity: number("target_velocity")?.unwrap_or(0.0),
+            force,
+            position_gain: value::non_negative_or(a, "position_gain", 0.1)?,
+            velocity_gain: value::non_negative_or(a, "velocity_gain", 1.0)?,
+        },
+    })
+}
+
+#[tool_router(router = robot_router, vis = "pub(crate)")]
+impl PhysicsServer {
+    /// Load a URDF robot from the workspace (or the built-in plane.urdf, cube.urdf,
+    /// sphere.urdf). Joints are numbered as PyBullet numbers them and start free (no motor).
+    /// The URDF and its meshes are stored in the simulation's log, so replay, undo and load
+    /// never depend on the files again.
+    #[tool(input_schema = schema_for_type::<params::LoadUrdf>())]
+    async fn load_urdf(&self, args: JsonObject) -> ToolResult<UrdfLoaded> {
+        let reg = self.reg.clone();
+        self.change("load_urdf", args, move |a| crate::urdf_files::decide_load_urdf(reg.sandbox(), a))
+            .await
+    }
+
+    /// Number of joints of an object (fixed joints included; 0 for primitives).
+    #[tool(input_schema = schema_for_type::<params::ObjectRef>(), annotations(read_only_hint = true))]
+    async fn get_num_joints(&self, args: JsonObject) -> ToolResult<NumJoints> {
+        self.read("get_num_joints", args, |sim, a| reads::num_joints(&sim.read_context(), a)).await
+    }
+
+    /// A joint's name, type, limits (lower 0 / upper -1 = none), effort and velocity limits,
+    /// axis, child link name and parent link index.
+    #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
+    async fn get_joint_info(&self, args: JsonObject) -> ToolResult<JointInfo> {
+        self.read("get_joint_info", args, |sim, a| reads::joint_info(&sim.read_context(), a)).await
+    }
+
+    /// A joint's position, velocity, reaction forces (zeros: no force/torque sensor) and the
+    /// torque its motor applied in the last step.
+    #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
+    async fn get_joint_state(&self, args: JsonObject) -> ToolResult<JointState> {
+        self.read("get_joint_state", args, |sim, a| reads::joint_state(&sim.read_context(), a)).await
+    }
+
+    /// Set a joint motor, acting on every later step until changed. POSITION_CONTROL and
+    /// VELOCITY_CONTROL drive the joint velocity toward position_gain·(target_position − q)/dt
+    /// + velocity_gain·target_velocity (VELOCITY_CONTROL: target_velocity) with at most `force`
+    /// of effort (default: the URDF effort limit, else 500); TORQUE_CONTROL applies `force`.
+    #[tool(input_schema = schema_for_type::<params::MotorControl>())]
+    async fn set_joint_motor_control(&self, args: JsonObject) -> ToolResult<Message> {
+        self.change("set_joint_motor_control", args, decide_motor).await
+    }
+
+    /// Joint positions (one per movable joint, PyBullet order) that put the end-effector
+    /// link's frame at target_position (and target_orientation), within joint limits.
+    #[tool(input_schema = schema_for_type::<params::InverseKinematics>(), annotations(read_only_hint = true))]
+    async fn calculate_inverse_kinematics(&self, args: JsonObject) -> ToolResult<IkSolution> {
+        self.read("calculate_inverse_kinematics", args, |sim, a| {
+            reads::inverse_kinematics(&sim.read_context(), a)
+        })
+        .await
+    }
+
+    /// Write a two-link URDF (parent and child primitives joined by a revolute joint) inside
+    /// the workspace, ready for load_urdf. Default path: generated/revolute_<n>.urdf.
+    #[tool(input_schema = schema_for_type::<params::GenerateRevolute>())]
+    async fn generate_revolute_joint(&self, args: JsonObject) -> ToolResult<GeneratedUrdf> {
+        let reg = self.reg.clone();
+        tokio::task::spawn_blocking(move || crate::urdf_files::generate_revolute_joint(reg.sandbox(), &args))
+            .await
+            .map_err(|_| "Internal error: nothing was written".to_string())?
+            .map(Json)
+    }
+}

@@ -1,0 +1,613 @@
+//! URDF robots in the world: insertion as a rapier multibody (reduced coordinates, like
+//! PyBullet's btMultiBody), joint reads, motors and their applied torque.
+//!
+//! Every link is a rapier body whose position is the URDF link frame (the joint frame of its
+//! parent joint) and whose mass properties are the URDF inertial. Joints are multibody joints
+//! whose free axis (AngX / LinX) is the URDF axis, so a joint coordinate is exactly the URDF
+//! joint position. Joints start free: multibody joints' built-in damping is set to the URDF
+//! `<dynamics damping>` (0 by default), not rapier's default 0.1.
+
+use std::collections::BTreeMap;
+
+use rapier3d::glamx::{Mat3, Quat, Vec3};
+use rapier3d::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::urdf::{Geom, JointKind, JointSpec, RobotModel};
+use super::{DynamicsExtras, Object, ObjectKind, World, DEFAULT_DAMPING, DEFAULT_FRICTION};
+use crate::command::{Blob, ControlMode, MotorSpec};
+use crate::outputs::{JointInfo, JointState, UrdfLoaded};
+use crate::value::{r32, r32s, Refusal};
+
+/// The `force` a motor gets when neither the call nor the URDF gives one (PyBullet's habit).
+pub const DEFAULT_MOTOR_FORCE: f32 = 500.0;
+/// Damping factor that makes rapier's velocity motor a hard constraint (bounded by max force),
+/// as Bullet's motor is: the constraint mixing term becomes ~1e-7.
+const HARD_MOTOR: f32 = 1.0e9;
+
+/// A motor in force on a joint, with its effort resolved.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Motor {
+    /// As set_joint_motor_control gave it.
+    pub spec: MotorSpec,
+    /// Max effort (POSITION/VELOCITY) or applied torque (TORQUE).
+    pub force: f32,
+}
+
+/// One link of a robot (PyBullet link i = the child of joint i).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct RobotLink {
+    /// URDF link name.
+    pub name: String,
+    /// Its rapier body.
+    pub body: RigidBodyHandle,
+    /// Its colliders.
+    pub colliders: Vec<ColliderHandle>,
+    /// The joint to its parent, as written.
+    pub joint: JointSpec,
+    /// The motor, if one was set.
+    pub motor: Option<Motor>,
+    /// Torque (or force) the motor applied in the last step.
+    pub motor_torque: f32,
+    /// RGBA from the URDF material.
+    pub color: Option<[f32; 4]>,
+    /// Properties stored for PyBullet fidelity.
+    pub extras: DynamicsExtras,
+}
+
+/// A loaded robot: what the tools report and what motors need, beside rapier's sets.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Robot {
+    /// The path the client gave.
+    pub file_path: String,
+    /// blake3 of the URDF text (its blob in the log).
+    pub urdf_hash: String,
+    /// blake3 of each mesh, by the name written in the URDF.
+    pub mesh_hashes: BTreeMap<String, String>,
+    /// `<robot name>`.
+    pub name: String,
+    /// Whether the base was fixed to the world by the call.
+    pub fixed_base: bool,
+    /// The base link's name.
+    pub base_name: String,
+    /// The base's colliders.
+    pub base_colliders: Vec<ColliderHandle>,
+    /// Links in PyBullet order.
+    pub links: Vec<RobotLink>,
+}
+
+impl Robot {
+    /// Indices of the joints that move (IK and motors act on these), in PyBullet order.
+    pub fn movable(&self) -> Vec<usize> {
+        (0..self.links.len()).filter(|i| self.links[*i].joint.kind.movable()).collect()
+    }
+
+    /// The body of link `link_index` (−1 = the base, whose body is `base`).
+    pub fn link_body(&self, base: RigidBodyHandle, link_index: i32) -> Option<RigidBodyHandle> {
+        if link_index < 0 {
+            Some(base)
+        } else {
+            self.links.get(link_index as usize).map(|l| l.body)
+        }
+    }
+}
+
+fn pose_f64(pos: [f64; 3], rot: [f64; 4]) -> Pose {
+    Pose::from_parts(
+        Vector::new(pos[0] as f32, pos[1] as f32, pos[2] as f32),
+        Rotation::from_xyzw(rot[0] as f32, rot[1] as f32, rot[2] as f32, rot[3] as f32).normalize(),
+    )
+}
+
+/// Rotation taking the joint frame's x axis onto the URDF axis (rapier moves along AngX/LinX).
+fn axis_frame(axis: [f64; 3]) -> Rotation {
+    let a = Vec3::new(axis[0] as f32, axis[1] as f32, axis[2] as f32).normalize();
+    Quat::from_rotation_arc(Vec3::X, a)
+}
+
+fn collider(geom: &Geom, pos: [f32; 3], rot: [f32; 4]) -> ColliderBuilder {
+    let local = Pose::from_parts(Vector::from_array(pos), Rotation::from_xyzw(rot[0], rot[1], rot[2], rot[3]).normalize());
+    let y_to_z = Pose::from_rotation(Rotation::from_rotation_x(std::f32::consts::FRAC_PI_2));
+    let (builder, pose) = match geom {
+        Geom::Box(h) => (ColliderBuilder::cuboid(h[0], h[1], h[2]), local),
+        Geom::Sphere(r) => (ColliderBuilder::ball(*r), local),
+        Geom::Cylinder(r, l) => (ColliderBuilder::cylinder(l / 2.0, *r), local * y_to_z),
+        Geom::Capsule(r, l) => (ColliderBuilder::capsule_z(l / 2.0, *r), local),
+        Geom::Hull(points) => {
+            let pts: Vec<Vector> = points.iter().map(|p| Vector::from_array(*p)).collect();
+            // The model builder proved the hull exists; a ball is an unreachable fallback.
+            (ColliderBuilder::convex_hull(&pts).unwrap_or_else(|| ColliderBuilder::ball(0.01)), local)
+        }
+    };
+    builder
+        .position(pose)
+        .density(0.0)
+        .friction(DEFAULT_FRICTION)
+        .restitution(0.0)
+        .friction_combine_rule(CoefficientCombineRule::Multiply)
+        .restitution_combine_rule(CoefficientCombineRule::Multiply)
+}
+
+fn generic_joint(spec: &JointSpec) -> GenericJoint {
+    let origin = pose_f64(spec.origin_pos, spec.origin_rot);
+    let locked = match spec.kind {
+        JointKind::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
+        JointKind::Revolute | JointKind::Continuous => JointAxesMask::LOCKED_REVOLUTE_AXES,
+        JointKind::Prismatic => JointAxesMask::LOCKED_PRISMATIC_AXES,
+    };
+    let frame = if spec.kind.movable() { Pose::from_rotation(axis_frame(spec.axis)) } else { Pose::IDENTITY };
+    let mut b = GenericJointBuilder::new(locked)
+        .local_frame1(origin * frame)
+        .local_frame2(frame)
+        .contacts_enabled(false);
+    if spec.limited() {
+        let axis = if spec.kind == JointKind::Prismatic { JointAxis::LinX } else { JointAxis::AngX };
+        b = b.limits(axis, [spec.lower as f32, spec.upper as f32]);
+    }
+    b.build()
+}
+
+/// The rapier axis a joint moves along.
+fn joint_axis(kind: JointKind) -> JointAxis {
+    if kind == JointKind::Prismatic {
+        JointAxis::LinX
+    } else {
+        JointAxis::AngX
+    }
+}
+
+impl World {
+    /// Inserts a robot built from `model` with its base at `pose`; returns its object id.
+    pub(super) fn insert_robot(
+        &mut self,
+        model: RobotModel,
+        file_path: &str,
+        blobs: (&Blob, &BTreeMap<String, Blob>),
+        pose: Pose,
+        fixed_base: bool,
+    ) -> UrdfLoaded {
+        let mut world_pose: Vec<Pose> = Vec::with_capacity(model.links.len());
+        let mut bodies = Vec::with_capacity(model.links.len());
+        let mut colliders = Vec::with_capacity(model.links.len());
+        for (i, link) in model.links.iter().enumerate() {
+            let p = match &link.joint {
+                None => pose,
+                Some(j) => world_pose[(j.parent + 1) as usize] * pose_f64(j.origin_pos, j.origin_rot),
+            };
+            world_pose.push(p);
+            let root_fixed = i == 0 && (fixed_base || link.mass == 0.0);
+            let ty = if root_fixed { RigidBodyType::Fixed } else { RigidBodyType::Dynamic };
+            let inertia = Mat3::from_cols_array_2d(&link.inertia.map(|c| c.map(|x| x as f32)));
+            let com = Vector::new(link.com[0] as f32, link.com[1] as f32, link.com[2] as f32);
+            // Articulations never sleep: rapier would freeze a slow pendulum at its turning
+            // point (its sleep test is a plain velocity threshold), and motors must act.
+            let mut rb = RigidBodyBuilder::new(ty)
+                .can_sleep(false)
+                .pose(p)
+                .linear_damping(DEFAULT_DAMPING)
+                .angular_damping(DEFAULT_DAMPING);
+            if link.mass > 0.0 {
+                rb = rb.additional_mass_properties(MassProperties::with_inertia_matrix(com, link.mass as f32, inertia));
+            }
+            let body = self.physics.insert_body(rb);
+            let cs: Vec<ColliderHandle> = link
+                .parts
+                .iter()
+                .map(|part| self.physics.insert_collider(collider(&part.geom, part.pos, part.rot), Some(body)))
+                .collect();
+            bodies.push(body);
+            colliders.push(cs);
+        }
+        let mut links = Vec::new();
+        for (i, link) in model.links.iter().enumerate().skip(1) {
+            let Some(spec) = &link.joint else { continue };
+            let parent = bodies[(spec.parent + 1) as usize];
+            self.physics.multibody_joints.insert(parent, bodies[i], generic_joint(spec), true);
+            links.push(RobotLink {
+                name: link.name.clone(),
+                body: bodies[i],
+                colliders: colliders[i].clone(),
+                joint: spec.clone(),
+                motor: None,
+                motor_torque: 0.0,
+                color: link.color,
+                extras: DynamicsExtras::default(),
+            });
+        }
+        self.set_joint_damping(&links);
+        let base = &model.links[0];
+        let robot = Robot {
+            file_path: file_path.to_string(),
+            urdf_hash: blobs.0.hash.clone(),
+            mesh_hashes: blobs.1.iter().map(|(k, b)| (k.clone(), b.hash.clone())).collect(),
+            name: model.name.clone(),
+            fixed_base,
+            base_name: base.name.clone(),
+            base_colliders: colliders[0].clone(),
+            links,
+        };
+        let num_joints = robot.links.len();
+        let id = self.tables.next_object_id;
+        self.tables.next_object_id += 1;
+        self.tables.objects.insert(
+            id,
+            Object {
+                body: bodies[0],
+                collider: colliders[0].first().copied().unwrap_or_else(ColliderHandle::invalid),
+                kind: ObjectKind::Robot { robot: Box::new(robot) },
+                color: base.color,
+                mass: base.mass as f32,
+                extras: DynamicsExtras::default(),
+            },
+        );
+        UrdfLoaded {
+            object_id: id,
+            file_path: file_path.to_string(),
+            position: r32s(pose.translation.to_array()),
+            num_joints,
+        }
+    }
+
+    /// Multibody joints get rapier's default damping (0.1 on angular axes); a URDF joint is
+    /// free unless its `<dynamics damping>` says otherwise, and a free base is undamped here
+    /// too (its bodies keep PyBullet's 0.04 as reported values).
+    fn set_joint_damping(&mut self, links: &[RobotLink]) {
+        let mbs = &mut self.physics.multibody_joints;
+        let mut seen = std::collections::BTreeSet::new();
+        for l in links {
+            let Some(id) = mbs.rigid_body_link(l.body).copied() else { continue };
+            let Some(mb) = mbs.get_multibody_mut(id.multibody) else { continue };
+            if seen.insert(format!("{:?}", id.multibody)) {
+                mb.damping_mut().fill(0.0);
+            }
+            let Some(link) = mb.link(id.id) else { continue };
+            let (start, n) = (link.assembly_id(), link.joint().ndofs());
+            if n > 0 {
+                mb.damping_mut().rows_mut(start, n).fill(l.joint.damping as f32);
+            }
+        }
+    }
+
+    /// The robot an object is, if it is one.
+    pub fn robot(&self, id: u32) -> Option<&Robot> {
+        match &self.tables.objects.get(&id)?.kind {
+            ObjectKind::Robot { robot } => Some(robot),
+            ObjectKind::Primitive { .. } => None,
+        }
+    }
+
+    fn robot_mut(&mut self, id: u32) -> Option<&mut Robot> {
+        match &mut self.tables.objects.get_mut(&id)?.kind {
+            ObjectKind::Robot { robot } => Some(robot),
+            ObjectKind::Primitive { .. } => None,
+        }
+    }
+
+    /// The standard out-of-range sentence unless `joint_index` names a joint of `id`.
+    pub fn check_joint(&self, id: u32, joint_index: i64) -> Result<usize, Refusal> {
+        let n = self.link_count(id);
+        if joint_index >= 0 && (joint_index as usize) < n {
+            Ok(joint_index as usize)
+        } else {
+            Err(format!("Joint index {joint_index} out of range: object {id} has {n} joints"))
+        }
+    }
+
+    /// Checks a motor command: the joint exists and moves, and the values make sense.
+    pub fn check_motor(&self, id: u32, joint_index: u32, m: &MotorSpec) -> Result<(), Refusal> {
+        let i = self.check_joint(id, joint_index as i64)?;
+        let robot = self.robot(id).ok_or_else(|| format!("Joint index {joint_index} out of range: object {id} has 0 joints"))?;
+        if !robot.links[i].joint.kind.movable() {
+            return Err(format!("joint_index {joint_index} is a fixed joint ({}); it cannot have a motor", robot.links[i].joint.name));
+        }
+        if m.force.is_some_and(|f| m.mode != ControlMode::TorqueControl && f < 0.0) {
+            return Err("force must be >= 0 for POSITION_CONTROL and VELOCITY_CONTROL (it is the maximum effort)".into());
+        }
+        Ok(())
+    }
+
+    /// set_joint_motor_control: replaces the joint's motor (acts from the next step on).
+    pub(super) fn set_motor(&mut self, id: u32, joint_index: u32, spec: &MotorSpec) -> String {
+        let Some(robot) = self.robot_mut(id) else { return String::new() };
+        let Some(link) = robot.links.get_mut(joint_index as usize) else { return String::new() };
+        let effort = link.joint.effort as f32;
+        let force = spec.force.unwrap_or(if effort > 0.0 { effort } else { DEFAULT_MOTOR_FORCE });
+        link.motor = Some(Motor { spec: spec.clone(), force });
+        let (body, kind) = (link.body, link.joint.kind);
+        if spec.mode == ControlMode::TorqueControl {
+            self.with_mb_link(body, |joint| {
+                joint.data.motor_axes.remove(joint_axis(kind).into());
+            });
+        }
+        self.physics.wake_up(body, true);
+        format!("Motor of joint {joint_index} of object {id} set to {:?}", spec.mode)
+    }
+
+    fn with_mb_link(&mut self, body: RigidBodyHandle, f: impl FnOnce(&mut rapier3d::dynamics::MultibodyJoint)) {
+        let mbs = &mut self.physics.multibody_joints;
+        let Some(id) = mbs.rigid_body_link(body).copied() else { return };
+        if let Some(link) = mbs.get_multibody_mut(id.multibody).and_then(|mb| mb.link_mut(id.id)) {
+            f(&mut link.joint);
+        }
+    }
+
+    /// Joint position and velocity (rad, rad/s or m, m/s) of a link's parent joint.
+    pub fn joint_coordinates(&self, body: RigidBodyHandle, kind: JointKind) -> (f32, f32) {
+        let mbs = &self.physics.multibody_joints;
+        let Some(id) = mbs.rigid_body_link(body) else { return (0.0, 0.0) };
+        let Some(mb) = mbs.get_multibody(id.multibody) else { return (0.0, 0.0) };
+        let Some(link) = mb.link(id.id) else { return (0.0, 0.0) };
+        let q = match kind {
+            JointKind::Revolute | JointKind::Continuous => link.joint().coords()[3],
+            JointKind::Prismatic => link.joint().coords()[0],
+            JointKind::Fixed => return (0.0, 0.0),
+        };
+        let v = mb.joint_velocity(link);
+        (q, if v.is_empty() { 0.0 } else { v[0] })
+    }
+
+    /// Before a step: aims every position/velocity motor at this step's target velocity and
+    /// applies every torque motor. Returns what `record_motor_torques` needs after the step.
+    pub(super) fn drive_motors(&mut self) -> Vec<MotorWatch> {
+        let dt = self.timestep();
+        let mut watches = Vec::new();
+        let mut torque_robots = Vec::new();
+        let robots: Vec<(u32, RigidBodyHandle)> = self
+            .tables
+            .objects
+            .iter()
+            .filter(|(_, o)| matches!(&o.kind, ObjectKind::Robot { robot } if robot.links.iter().any(|l| l.motor.is_some())))
+            .map(|(id, o)| (*id, o.body))
+            .collect();
+        for (id, base) in robots {
+            let Some(robot) = self.robot(id).cloned() else { continue };
+            for (i, link) in robot.links.iter().enumerate() {
+                let Some(motor) = &link.motor else { continue };
+                let kind = link.joint.kind;
+                let (q, v) = self.joint_coordinates(link.body, kind);
+                let s = &motor.spec;
+                match s.mode {
+                    ControlMode::TorqueControl => {
+                        let parent = robot.link_body(base, link.joint.parent).unwrap_or(base);
+                        self.apply_joint_effort(link.body, parent, &link.joint, motor.force);
+                        torque_robots.push(id);
+                    }
+                    ControlMode::PositionControl | ControlMode::VelocityControl => {
+                        let mut target = if s.mode == ControlMode::PositionControl {
+                            s.position_gain * (s.target_position - q) / dt + s.velocity_gain * s.target_velocity
+                        } else {
+                            s.target_velocity
+                        };
+                        let vmax = link.joint.velocity as f32;
+                        if vmax > 0.0 {
+                            target = target.clamp(-vmax, vmax);
+                        }
+                        let axis = joint_axis(kind);
+                        let force = motor.force;
+                        self.with_mb_link(link.body, |joint| {
+                            joint.data.set_motor_velocity(axis, target, HARD_MOTOR);
+                            joint.data.set_motor_max_force(axis, force);
+                        });
+                        if let Some(w) = self.watch(id, i, link.body, force, v) {
+                            watches.push(w);
+                        }
+                    }
+                }
+            }
+        }
+        for id in torque_robots {
+            self.tables.pending_wrench.insert(id);
+        }
+        watches
+    }
+
+    /// Applies a joint torque (revolute) or force (prismatic) as equal and opposite efforts on
+    /// the child and parent bodies, so only that joint's coordinate feels it.
+    fn apply_joint_effort(&mut self, child: RigidBodyHandle, parent: RigidBodyHandle, joint: &JointSpec, effort: f32) {
+        let Some(c) = self.physics.bodies.get(child) else { return };
+        let axis = *c.rotation() * Vector::new(joint.axis[0] as f32, joint.axis[1] as f32, joint.axis[2] as f32);
+        let at = c.center_of_mass();
+        let bodies = &mut self.physics.bodies;
+        match joint.kind {
+            JointKind::Prismatic => {
+                if let Some(b) = bodies.get_mut(child) {
+                    b.add_force(axis * effort, true);
+                }
+                if let Some(b) = bodies.get_mut(parent) {
+                    b.add_force_at_point(-axis * effort, at, true);
+                }
+            }
+            _ => {
+                if let Some(b) = bodies.get_mut(child) {
+                    b.add_torque(axis * effort, true);
+                }
+                if let Some(b) = bodies.get_mut(parent) {
+                    b.add_torque(-axis * effort, true);
+                }
+            }
+        }
+        if let Some(robot) = self.robots_with_body(child) {
+            robot.1.motor_torque = effort;
+        }
+    }
+
+    fn robots_with_body(&mut self, body: RigidBodyHandle) -> Option<(u32, &mut RobotLink)> {
+        self.tables.objects.iter_mut().find_map(|(id, o)| match &mut o.kind {
+            ObjectKind::Robot { robot } => robot.links.iter_mut().find(|l| l.body == body).map(|l| (*id, l)),
+            ObjectKind::Primitive { .. } => None,
+        })
+    }
+
+    fn watch(&self, id: u32, link: usize, body: RigidBodyHandle, force: f32, _v: f32) -> Option<MotorWatch> {
+        let mbs = &self.physics.multibody_joints;
+        let lid = mbs.rigid_body_link(body)?;
+        let mb = mbs.get_multibody(lid.multibody)?;
+        let l = mb.link(lid.id)?;
+        Some(MotorWatch {
+            object: id,
+            link,
+            body,
+            dof: l.assembly_id(),
+            force,
+            before: mb.generalized_velocity().iter().copied().collect(),
+        })
+    }
+
+    /// After a step: the torque each position/velocity motor applied. rapier does not report
+    /// multibody motor impulses, so it is recovered from the dynamics: the generalized impulse
+    /// the constraints added, M·(Δq̇/dt − q̈_free), at the motor's coordinate, clamped to its
+    /// force. Contacts or limits acting on the same coordinate in that step are included.
+    pub(super) fn record_motor_torques(&mut self, watches: Vec<MotorWatch>) {
+        let dt = self.timestep();
+        for w in watches {
+            let tau = (|| {
+                let mbs = &self.physics.multibody_joints;
+                let lid = mbs.rigid_body_link(w.body)?;
+                let mb = mbs.get_multibody(lid.multibody)?;
+                let n = mb.ndofs();
+                if w.before.len() != n || w.dof >= n {
+                    return None;
+                }
+                let v = mb.generalized_velocity();
+                let a = mb.generalized_acceleration();
+                let x = rapier3d::na::DVector::<f32>::from_fn(n, |i, _| (v[i] - w.before[i]) / dt - a[i]);
+                let lu = mb.inv_augmented_mass();
+                let mut y = lu.l() * (lu.u() * x);
+                lu.p().inv_permute_rows(&mut y);
+                Some(y[w.dof])
+            })();
+            let tau = tau.unwrap_or(0.0).clamp(-w.force, w.force);
+            if let Some(robot) = self.robot_mut(w.object) {
+                if let Some(l) = robot.links.get_mut(w.link) {
+                    l.motor_torque = tau;
+                }
+            }
+        }
+    }
+
+    /// get_joint_info.
+    pub fn joint_info(&self, id: u32, i: usize) -> Option<JointInfo> {
+        let robot = self.robot(id)?;
+        let l = robot.links.get(i)?;
+        let j = &l.joint;
+        Some(JointInfo {
+            joint_index: i,
+            joint_name: j.name.clone(),
+            joint_type: j.kind.name().into(),
+            lower_limit: r32(j.lower as f32),
+            upper_limit: r32(j.upper as f32),
+            max_force: r32(j.effort as f32),
+            max_velocity: r32(j.velocity as f32),
+            joint_axis: r32s(j.axis.map(|x| x as f32)),
+            link_name: l.name.clone(),
+            parent_index: j.parent,
+        })
+    }
+
+    /// get_joint_state.
+    pub fn joint_state(&self, id: u32, i: usize) -> Option<JointState> {
+        let robot = self.robot(id)?;
+        let l = robot.links.get(i)?;
+        let (q, v) = self.joint_coordinates(l.body, l.joint.kind);
+        Some(JointState {
+            joint_position: r32(q),
+            joint_velocity: r32(v),
+            reaction_forces: [0.0; 6],
+            motor_torque: r32(l.motor_torque),
+        })
+    }
+
+    /// calculate_inverse_kinematics: one position per movable joint reaching the target with
+    /// link `ee`'s frame, within limits (the URDF's unless given), starting from `rest`
+    /// (else the current configuration).
+    #[allow(clippy::too_many_arguments)]
+    pub fn inverse_kinematics(
+        &self,
+        id: u32,
+        ee: usize,
+        target_position: [f32; 3],
+        target_orientation: Option<[f32; 4]>,
+        lower: Option<Vec<f64>>,
+        upper: Option<Vec<f64>>,
+        rest: Option<Vec<f64>>,
+    ) -> Option<crate::outputs::IkSolution> {
+        use rapier3d::glamx::{DQuat, DVec3};
+        let robot = self.robot(id)?;
+        let base = self.body(id)?.position();
+        let joints: Vec<JointSpec> = robot.links.iter().map(|l| l.joint.clone()).collect();
+        let movable = robot.movable();
+        let limit = |m: usize, upper: bool| {
+            let j = &joints[movable[m]];
+            if j.limited() { if upper { j.upper } else { j.lower } } else if upper { -1.0 } else { 0.0 }
+        };
+        let lower = lower.unwrap_or_else(|| (0..movable.len()).map(|m| limit(m, false)).collect());
+        let upper = upper.unwrap_or_else(|| (0..movable.len()).map(|m| limit(m, true)).collect());
+        let start = rest.unwrap_or_else(|| {
+            movable.iter().map(|i| self.joint_coordinates(robot.links[*i].body, joints[*i].kind).0 as f64).collect()
+        });
+        let t = base.translation;
+        let r = base.rotation;
+        let q = super::ik::IkQuery {
+            joints: &joints,
+            base_pos: DVec3::new(t.x as f64, t.y as f64, t.z as f64),
+            base_rot: DQuat::from_xyzw(r.x as f64, r.y as f64, r.z as f64, r.w as f64).normalize(),
+            end_effector: ee,
+            target_pos: DVec3::from_array(target_position.map(|x| x as f64)),
+            target_rot: target_orientation
+                .map(|o| DQuat::from_xyzw(o[0] as f64, o[1] as f64, o[2] as f64, o[3] as f64).normalize()),
+            lower,
+            upper,
+            start,
+        };
+        let ans = super::ik::solve(&q);
+        Some(crate::outputs::IkSolution {
+            joint_positions: ans.q,
+            position_error: ans.position_error,
+            orientation_error: ans.orientation_error,
+            iterations: ans.iterations,
+        })
+    }
+
+    /// Moves a robot's base; the links follow through forward kinematics.
+    pub(super) fn set_robot_pose(&mut self, base: RigidBodyHandle, pose: Pose) {
+        if let Some(b) = self.physics.bodies.get_mut(base) {
+            b.set_position(pose, true);
+        }
+        let mbs = &mut self.physics.multibody_joints;
+        let Some(id) = mbs.rigid_body_link(base).copied() else { return };
+        if let Some(mb) = mbs.get_multibody_mut(id.multibody) {
+            mb.forward_kinematics(&self.physics.bodies, true);
+            mb.update_rigid_bodies(&mut self.physics.bodies, true);
+        }
+    }
+
+    /// Removes every body of a robot (leaves first).
+    pub(super) fn remove_robot_bodies(&mut self, base: RigidBodyHandle, robot: &Robot) {
+        for l in robot.links.iter().rev() {
+            self.physics.remove_body(l.body);
+        }
+        self.physics.remove_body(base);
+    }
+
+    /// Clears one-step forces on every body of a robot.
+    pub(super) fn clear_robot_forces(&mut self, id: u32) {
+        let Some(robot) = self.robot(id) else { return };
+        let bodies: Vec<RigidBodyHandle> = robot.links.iter().map(|l| l.body).collect();
+        for h in bodies {
+            if let Some(b) = self.physics.bodies.get_mut(h) {
+                b.reset_forces(false);
+                b.reset_torques(false);
+            }
+        }
+    }
+}
+
+/// What `record_motor_torques` needs about one motor: where it is and the velocities before.
+pub(super) struct MotorWatch {
+    object: u32,
+    link: usize,
+    body: RigidBodyHandle,
+    dof: usize,
+    force: f32,
+    before: Vec<f32>,
+}

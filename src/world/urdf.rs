@@ -1,0 +1,402 @@
+//! URDF text and mesh bytes → a robot model in PyBullet's numbering. Pure: no files, no rapier
+//! sets; the adapter reads the files, `Command::check` builds the model to refuse bad input,
+//! and `World::apply` builds it again (the same bytes give the same model) to insert it.
+//!
+//! PyBullet numbers joints depth-first in pre-order from the root link, children in the order
+//! their joints appear in the file, fixed joints included; link i is the child of joint i and
+//! −1 is the base. `RobotModel::links[0]` is the base, `links[i + 1]` is link i.
+
+use std::collections::BTreeMap;
+
+use rapier3d::glamx::{DQuat, DVec3, EulerRot};
+use serde::{Deserialize, Serialize};
+
+use crate::value::Refusal;
+
+/// Mass given to a non-root link whose URDF has no (or a zero) inertial: rapier cannot move a
+/// massless link of an articulation. Small enough not to change a real robot's dynamics.
+pub const MASSLESS_LINK_MASS: f64 = 1.0e-3;
+/// Inertia (kg·m², each principal axis) given with `MASSLESS_LINK_MASS`.
+pub const MASSLESS_LINK_INERTIA: f64 = 1.0e-6;
+
+/// A URDF joint type this server simulates.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum JointKind {
+    /// Rotation about the axis, within limits.
+    Revolute,
+    /// Rotation about the axis, no limits.
+    Continuous,
+    /// Translation along the axis, within limits.
+    Prismatic,
+    /// No motion (still numbered, as in PyBullet).
+    Fixed,
+}
+
+impl JointKind {
+    /// The name get_joint_info reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            JointKind::Revolute => "revolute",
+            JointKind::Continuous => "continuous",
+            JointKind::Prismatic => "prismatic",
+            JointKind::Fixed => "fixed",
+        }
+    }
+
+    /// Whether the joint has a degree of freedom (IK and motors act on these).
+    pub fn movable(self) -> bool {
+        self != JointKind::Fixed
+    }
+}
+
+/// A joint as written in the URDF, with its place in PyBullet's numbering.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct JointSpec {
+    /// The joint's name.
+    pub name: String,
+    /// Its type.
+    pub kind: JointKind,
+    /// The parent link's index (−1 = the base).
+    pub parent: i32,
+    /// Joint frame position in the parent link frame.
+    pub origin_pos: [f64; 3],
+    /// Joint frame orientation in the parent link frame, [x, y, z, w].
+    pub origin_rot: [f64; 4],
+    /// Unit axis in the joint frame.
+    pub axis: [f64; 3],
+    /// Lower limit (rad or m); continuous joints report 0 and upper −1 (PyBullet's "none").
+    pub lower: f64,
+    /// Upper limit.
+    pub upper: f64,
+    /// URDF effort limit (N·m or N); 0 when not given.
+    pub effort: f64,
+    /// URDF velocity limit; 0 when not given.
+    pub velocity: f64,
+    /// URDF `<dynamics damping>`.
+    pub damping: f64,
+}
+
+impl JointSpec {
+    /// Whether lower/upper bound the motion (revolute and prismatic with lower ≤ upper).
+    pub fn limited(&self) -> bool {
+        matches!(self.kind, JointKind::Revolute | JointKind::Prismatic) && self.lower <= self.upper
+    }
+}
+
+/// A collision geometry in its link frame.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Geom {
+    /// Box by half-extents.
+    Box([f32; 3]),
+    /// Sphere by radius.
+    Sphere(f32),
+    /// Cylinder along local z: radius, full length.
+    Cylinder(f32, f32),
+    /// Capsule along local z: radius, cylindrical length.
+    Capsule(f32, f32),
+    /// A mesh, collided as its convex hull (as PyBullet does for URDF meshes by default).
+    Hull(Vec<[f32; 3]>),
+}
+
+/// One collision shape of a link.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    /// Position in the link frame.
+    pub pos: [f32; 3],
+    /// Orientation in the link frame, [x, y, z, w].
+    pub rot: [f32; 4],
+    /// The shape.
+    pub geom: Geom,
+}
+
+/// A link: inertial, collision shapes, color, and the joint that attaches it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinkModel {
+    /// The link's name.
+    pub name: String,
+    /// Mass in kg (0 on the base means a static base, as in PyBullet).
+    pub mass: f64,
+    /// Centre of mass in the link frame.
+    pub com: [f64; 3],
+    /// Inertia tensor about the centre of mass, in the link frame (symmetric).
+    pub inertia: [[f64; 3]; 3],
+    /// Collision shapes.
+    pub parts: Vec<Part>,
+    /// The first visual's material color, if any.
+    pub color: Option<[f32; 4]>,
+    /// The joint to its parent (None for the base).
+    pub joint: Option<JointSpec>,
+}
+
+/// A robot ready to insert: the base and its links in PyBullet order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotModel {
+    /// The `<robot name>`.
+    pub name: String,
+    /// `links[0]` is the base; `links[i + 1]` is PyBullet link i.
+    pub links: Vec<LinkModel>,
+}
+
+/// Quaternion [x, y, z, w] of a URDF fixed-axis roll-pitch-yaw: Rz(yaw)·Ry(pitch)·Rx(roll).
+pub fn rpy_quat(rpy: [f64; 3]) -> [f64; 4] {
+    DQuat::from_euler(EulerRot::ZYX, rpy[2], rpy[1], rpy[0]).to_array()
+}
+
+fn f32s<const N: usize>(a: [f64; N]) -> [f32; N] {
+    a.map(|x| x as f32)
+}
+
+/// The mesh file names a URDF refers to (as written), for the adapter to resolve and read.
+pub fn mesh_names(urdf: &str) -> Result<Vec<String>, Refusal> {
+    let robot = parse(urdf)?;
+    let mut names: Vec<String> = robot
+        .links
+        .iter()
+        .flat_map(|l| l.collision.iter().map(|c| &c.geometry))
+        .filter_map(|g| match g {
+            urdf_rs::Geometry::Mesh { filename, .. } => Some(filename.clone()),
+            _ => None,
+        })
+        .collect();
+    names.sort();
+    names.dedup();
+    Ok(names)
+}
+
+fn parse(urdf: &str) -> Result<urdf_rs::Robot, Refusal> {
+    urdf_rs::read_from_string(urdf).map_err(|e| {
+        let msg = e.to_string();
+        let first = msg.lines().next().unwrap_or("").trim();
+        format!("file_path is not a valid URDF: {first}")
+    })
+}
+
+/// Builds the model: checks the tree (one root, known links, no loops, supported joint types),
+/// numbers it as PyBullet does, and turns every mesh into a hull from its bytes.
+pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>) -> Result<RobotModel, Refusal> {
+    let robot = parse(urdf)?;
+    if robot.links.is_empty() {
+        return Err("file_path is not a valid URDF: it has no links".into());
+    }
+    let index: BTreeMap<&str, usize> =
+        robot.links.iter().enumerate().map(|(i, l)| (l.name.as_str(), i)).collect();
+    if index.len() != robot.links.len() {
+        return Err("file_path is not a valid URDF: two links share a name".into());
+    }
+    let mut parent_joint: Vec<Option<usize>> = vec![None; robot.links.len()];
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); robot.links.len()];
+    for (j, joint) in robot.joints.iter().enumerate() {
+        let unknown = |n: &str| format!("file_path is not a valid URDF: joint {} refers to unknown link {n}", joint.name);
+        let p = *index.get(joint.parent.link.as_str()).ok_or_else(|| unknown(&joint.parent.link))?;
+        let c = *index.get(joint.child.link.as_str()).ok_or_else(|| unknown(&joint.child.link))?;
+        if parent_joint[c].replace(j).is_some() {
+            return Err(format!("file_path is not a valid URDF: link {} has two parent joints", joint.child.link));
+        }
+        children[p].push(j);
+    }
+    let roots: Vec<usize> = (0..robot.links.len()).filter(|i| parent_joint[*i].is_none()).collect();
+    let [root] = roots[..] else {
+        return Err(format!(
+            "file_path is not a valid URDF: it must have exactly one root link; it has {}",
+            roots.len()
+        ));
+    };
+    // Depth-first pre-order; children in file order (pushed reversed onto the stack).
+    let mut order: Vec<(usize, i32)> = Vec::new(); // (joint, parent link index in PyBullet numbering)
+    let mut stack: Vec<(usize, i32)> = children[root].iter().rev().map(|j| (*j, -1)).collect();
+    while let Some((j, parent)) = stack.pop() {
+        let me = order.len() as i32;
+        order.push((j, parent));
+        let child = index[robot.joints[j].child.link.as_str()];
+        stack.extend(children[child].iter().rev().map(|c| (*c, me)));
+    }
+    if order.len() != robot.joints.len() {
+        return Err("file_path is not a valid URDF: its joints form a loop".into());
+    }
+    let materials: BTreeMap<&str, [f32; 4]> = robot
+        .materials
+        .iter()
+        .filter_map(|m| Some((m.name.as_str(), f32s(m.color.as_ref()?.rgba.0))))
+        .collect();
+    let mut links = vec![link_model(&robot.links[root], None, &materials, meshes, true)?];
+    for (j, parent) in order {
+        let joint = &robot.joints[j];
+        let spec = joint_spec(joint, parent)?;
+        let child = &robot.links[index[joint.child.link.as_str()]];
+        links.push(link_model(child, Some(spec), &materials, meshes, false)?);
+    }
+    Ok(RobotModel { name: robot.name, links })
+}
+
+fn joint_spec(joint: &urdf_rs::Joint, parent: i32) -> Result<JointSpec, Refusal> {
+    use urdf_rs::JointType as T;
+    let kind = match joint.joint_type {
+        T::Revolute => JointKind::Revolute,
+        T::Continuous => JointKind::Continuous,
+        T::Prismatic => JointKind::Prismatic,
+        T::Fixed => JointKind::Fixed,
+        ref other => {
+            return Err(format!(
+                "joint {} has type {other:?}, which is not supported (revolute, continuous, prismatic, fixed)",
+                joint.name
+            ))
+        }
+    };
+    let axis = DVec3::from_array(joint.axis.xyz.0);
+    if kind.movable() && !(axis.is_finite() && axis.length() > 1e-9) {
+        return Err(format!("joint {} has a zero or invalid axis", joint.name));
+    }
+    let axis = if kind.movable() { axis.normalize() } else { DVec3::ZERO };
+    let (lower, upper) = match kind {
+        JointKind::Continuous => (0.0, -1.0),
+        JointKind::Fixed => (0.0, -1.0),
+        _ => (joint.limit.lower, joint.limit.upper),
+    };
+    let all = [lower, upper, joint.limit.effort, joint.limit.velocity]
+        .into_iter()
+        .chain(joint.origin.xyz.0)
+        .chain(joint.origin.rpy.0);
+    if all.into_iter().any(|x| !x.is_finite()) {
+        return Err(format!("joint {} has a non-finite origin or limit", joint.name));
+    }
+    Ok(JointSpec {
+        name: joint.name.clone(),
+        kind,
+        parent,
+        origin_pos: joint.origin.xyz.0,
+        origin_rot: rpy_quat(joint.origin.rpy.0),
+        axis: axis.to_array(),
+        lower,
+        upper,
+        effort: joint.limit.effort.max(0.0),
+        velocity: joint.limit.velocity.max(0.0),
+        damping: joint.dynamics.as_ref().map_or(0.0, |d| d.damping.max(0.0)),
+    })
+}
+
+fn link_model(
+    link: &urdf_rs::Link,
+    joint: Option<JointSpec>,
+    materials: &BTreeMap<&str, [f32; 4]>,
+    meshes: &BTreeMap<String, Vec<u8>>,
+    is_root: bool,
+) -> Result<LinkModel, Refusal> {
+    let inertial = &link.inertial;
+    let i = &inertial.inertia;
+    let mut mass = inertial.mass.value;
+    let rot = rapier3d::glamx::DMat3::from_quat(DQuat::from_array(rpy_quat(inertial.origin.rpy.0)));
+    let local = rapier3d::glamx::DMat3::from_cols_array(&[i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz]);
+    let mut inertia_m = rot * local * rot.transpose();
+    if !(mass.is_finite() && mass >= 0.0 && inertia_m.is_finite()) {
+        return Err(format!("link {} has a negative or non-finite mass or inertia", link.name));
+    }
+    if mass == 0.0 && !is_root {
+        mass = MASSLESS_LINK_MASS;
+        inertia_m = rapier3d::glamx::DMat3::from_diagonal(DVec3::splat(MASSLESS_LINK_INERTIA));
+    }
+    let mut parts = Vec::new();
+    for c in &link.collision {
+        let geom = geometry(&link.name, &c.geometry, meshes)?;
+        if let Some(geom) = geom {
+            parts.push(Part {
+                pos: f32s(c.origin.xyz.0),
+                rot: f32s(rpy_quat(c.origin.rpy.0)),
+                geom,
+            });
+        }
+    }
+    let color = link.visual.iter().find_map(|v| {
+        let m = v.material.as_ref()?;
+        m.color.as_ref().map(|c| f32s(c.rgba.0)).or_else(|| materials.get(m.name.as_str()).copied())
+    });
+    let c = inertia_m.to_cols_array_2d();
+    Ok(LinkModel {
+        name: link.name.clone(),
+        mass,
+        com: inertial.origin.xyz.0,
+        inertia: c,
+        parts,
+        color,
+        joint,
+    })
+}
+
+fn geometry(
+    link: &str,
+    g: &urdf_rs::Geometry,
+    meshes: &BTreeMap<String, Vec<u8>>,
+) -> Result<Option<Geom>, Refusal> {
+    use urdf_rs::Geometry as G;
+    let positive = |x: f64, what: &str| {
+        if x.is_finite() && x > 0.0 {
+            Ok(x as f32)
+        } else {
+            Err(format!("link {link} has a {what} that is not a positive number"))
+        }
+    };
+    Ok(Some(match g {
+        G::Box { size } => {
+            if size.0 == [0.0; 3] {
+                return Ok(None);
+            }
+            Geom::Box([
+                positive(size.0[0], "box size")? / 2.0,
+                positive(size.0[1], "box size")? / 2.0,
+                positive(size.0[2], "box size")? / 2.0,
+            ])
+        }
+        G::Sphere { radius } => Geom::Sphere(positive(*radius, "sphere radius")?),
+        G::Cylinder { radius, length } => {
+            Geom::Cylinder(positive(*radius, "cylinder radius")?, positive(*length, "cylinder length")?)
+        }
+        G::Capsule { radius, length } => {
+            Geom::Capsule(positive(*radius, "capsule radius")?, positive(*length, "capsule length")?)
+        }
+        G::Mesh { filename, scale } => {
+            let bytes = meshes
+                .get(filename)
+                .ok_or_else(|| format!("mesh {filename} of link {link} was not provided"))?;
+            let s = scale.as_ref().map_or([1.0; 3], |s| s.0);
+            if s.iter().any(|x| !x.is_finite() || *x == 0.0) {
+                return Err(format!("mesh {filename} of link {link} has an invalid scale"));
+            }
+            let points = mesh_points(filename, bytes)?
+                .into_iter()
+                .map(|p| [p[0] * s[0] as f32, p[1] * s[1] as f32, p[2] * s[2] as f32])
+                .collect::<Vec<_>>();
+            let pts: Vec<rapier3d::math::Vector> =
+                points.iter().map(|p| rapier3d::math::Vector::from_array(*p)).collect();
+            if rapier3d::prelude::SharedShape::convex_hull(&pts).is_none() {
+                return Err(format!("mesh {filename} of link {link} has no volume (its convex hull is degenerate)"));
+            }
+            Geom::Hull(points)
+        }
+    }))
+}
+
+/// The vertices of an STL (binary or ASCII) or OBJ mesh, from its bytes.
+pub fn mesh_points(name: &str, bytes: &[u8]) -> Result<Vec<[f32; 3]>, Refusal> {
+    let lower = name.to_ascii_lowercase();
+    let points: Vec<[f32; 3]> = if lower.ends_with(".stl") {
+        let mesh = stl_io::read_stl(&mut std::io::Cursor::new(bytes))
+            .map_err(|e| format!("mesh {name} is not a readable STL file: {e}"))?;
+        mesh.vertices.iter().map(|v| v.0).collect()
+    } else if lower.ends_with(".obj") {
+        let opts = tobj::LoadOptions { triangulate: true, ..Default::default() };
+        let (models, _) = tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &opts, |_| {
+            Err(tobj::LoadError::GenericFailure)
+        })
+        .map_err(|e| format!("mesh {name} is not a readable OBJ file: {e}"))?;
+        models
+            .iter()
+            .flat_map(|m| m.mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]))
+            .collect()
+    } else {
+        return Err(format!("mesh {name} has an unsupported format (STL and OBJ are supported)"));
+    };
+    if points.is_empty() || points.iter().flatten().any(|x| !x.is_finite()) {
+        return Err(format!("mesh {name} has no vertices or non-finite ones"));
+    }
+    Ok(points)
+}

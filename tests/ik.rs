@@ -1,0 +1,103 @@
+//! Inverse kinematics on the 7-joint KUKA LBR iiwa 14 fixture, in process (the solver is a pure
+//! function of the world; the HTTP path is covered in robots.rs): 500 random reachable targets
+//! from forward kinematics of random in-limit configurations, every query from the all-zeros
+//! pose. Seeded: the seed is printed and `PHYSICS_SEED` replays a run.
+
+use std::collections::BTreeMap;
+
+use physics_mcp::command::{Blob, Command};
+use physics_mcp::world::{ik, World};
+use rand::{Rng, SeedableRng};
+use rapier3d::glamx::{DQuat, DVec3};
+
+fn iiwa_world() -> (World, u32) {
+    let root = Command::CreateSimulation { simulation_id: "ik".into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    let (mut w, _) = World::create(&root).unwrap();
+    let text = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/iiwa14.urdf")).unwrap();
+    let cmd = Command::LoadUrdf {
+        file_path: "iiwa14.urdf".into(),
+        urdf: Blob::new(text),
+        meshes: BTreeMap::new(),
+        position: [0.1, -0.2, 0.3],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        fixed_base: true,
+    };
+    let out = w.apply(&cmd, &mut |_| true);
+    (w, out["object_id"].as_u64().unwrap() as u32)
+}
+
+fn seed() -> u64 {
+    let s = std::env::var("PHYSICS_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0x1ca_7a11);
+    println!("seed={s} (PHYSICS_SEED={s} replays this run)");
+    s
+}
+
+#[test]
+fn ik_reaches_random_reachable_targets_within_limits() {
+    let (w, id) = iiwa_world();
+    let robot = w.robot(id).unwrap().clone();
+    let joints: Vec<_> = robot.links.iter().map(|l| l.joint.clone()).collect();
+    let movable = robot.movable();
+    assert_eq!(movable.len(), 7);
+    let ee = 7; // the fixed flange link
+    let base = (DVec3::new(0.1f32 as f64, -0.2f32 as f64, 0.3f32 as f64), DQuat::IDENTITY);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed());
+    let n = 500;
+    let (mut pos_ok, mut pose_ok) = (0, 0);
+    let mut worst = 0.0f64;
+    for case in 0..2 * n {
+        let with_orientation = case >= n;
+        let config: Vec<f64> = movable.iter().map(|i| rng.gen_range(joints[*i].lower..=joints[*i].upper)).collect();
+        let (p, r) = ik::link_pose(&joints, base.0, base.1, ee, &config);
+        let target_rot = with_orientation.then(|| [r.x as f32, r.y as f32, r.z as f32, r.w as f32]);
+        let target = [p.x as f32, p.y as f32, p.z as f32];
+        let zeros = Some(vec![0.0; 7]);
+        let sol = w.inverse_kinematics(id, ee, target, target_rot, None, None, zeros.clone()).unwrap();
+        let again = w.inverse_kinematics(id, ee, target, target_rot, None, None, zeros).unwrap();
+        assert_eq!(sol.joint_positions, again.joint_positions, "same inputs, different answer");
+        assert_eq!(sol.joint_positions.len(), 7);
+        for (m, v) in sol.joint_positions.iter().enumerate() {
+            let j = &joints[movable[m]];
+            assert!(*v >= j.lower && *v <= j.upper, "joint {m} = {v} outside [{}, {}]", j.lower, j.upper);
+        }
+        // Check the answer independently: forward kinematics of the returned configuration.
+        let (p2, r2) = ik::link_pose(&joints, base.0, base.1, ee, &sol.joint_positions);
+        let target_p = DVec3::new(target[0] as f64, target[1] as f64, target[2] as f64);
+        let pos_err = (p2 - target_p).length();
+        assert!((pos_err - sol.position_error).abs() < 1e-9);
+        if with_orientation {
+            let t = DQuat::from_xyzw(r.x as f32 as f64, r.y as f32 as f64, r.z as f32 as f64, r.w as f32 as f64).normalize();
+            let ang = t.angle_between(r2);
+            if pos_err < 1e-3 && ang < 0.01 {
+                pose_ok += 1;
+            }
+        } else {
+            worst = worst.max(pos_err);
+            if pos_err < 1e-3 {
+                pos_ok += 1;
+            }
+        }
+    }
+    println!("REPORT IK position-only: {pos_ok}/{n} under 1 mm (worst {worst:.2e} m); with orientation: {pose_ok}/{n} under 1 mm and 0.01 rad");
+    assert!(pos_ok * 100 >= 99 * n, "position targets reached: {pos_ok}/{n}");
+    assert!(pose_ok * 100 >= 95 * n, "pose targets reached: {pose_ok}/{n}");
+}
+
+#[test]
+fn ik_respects_given_limits_and_starts_from_rest_poses() {
+    let (w, id) = iiwa_world();
+    // A target straight up at the arm's full height is reached at all zeros: from rest poses
+    // at zero the solver must not move.
+    let joints: Vec<_> = w.robot(id).unwrap().links.iter().map(|l| l.joint.clone()).collect();
+    let (p, _) = ik::link_pose(&joints, DVec3::new(0.1f32 as f64, -0.2f32 as f64, 0.3f32 as f64), DQuat::IDENTITY, 7, &[0.0; 7]);
+    let target = [p.x as f32, p.y as f32, p.z as f32];
+    let sol = w.inverse_kinematics(id, 7, target, None, None, None, Some(vec![0.0; 7])).unwrap();
+    assert!(sol.position_error < 1e-6, "{sol:?}");
+    // Tight limits given by the caller bind every answer.
+    let lower = vec![-0.1; 7];
+    let upper = vec![0.1; 7];
+    let far = [0.6, 0.3, 0.5];
+    let sol = w.inverse_kinematics(id, 7, far, None, Some(lower), Some(upper), None).unwrap();
+    assert!(sol.joint_positions.iter().all(|v| (-0.1..=0.1).contains(v)), "{sol:?}");
+    assert!(sol.position_error > 0.1, "an unreachable target cannot be reached: {sol:?}");
+}

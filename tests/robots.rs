@@ -1,0 +1,354 @@
+//! Robots over MCP/HTTP against the real server: URDF loading and PyBullet's joint numbering,
+//! joint physics (pendulum period, motors and the torque they report), generated URDFs, the
+//! blobs that keep a robot replayable after its files are gone, and refusals.
+
+mod common;
+
+use std::path::Path;
+
+use common::{Client, Server};
+use serde_json::{json, Value};
+
+/// Copies the fixtures into the server's workspace.
+fn fixtures(server: &Server) {
+    fn copy(from: &Path, to: &Path) {
+        std::fs::create_dir_all(to).unwrap();
+        for e in std::fs::read_dir(from).unwrap() {
+            let e = e.unwrap();
+            let target = to.join(e.file_name());
+            if e.file_type().unwrap().is_dir() {
+                copy(&e.path(), &target);
+            } else {
+                std::fs::copy(e.path(), target).unwrap();
+            }
+        }
+    }
+    copy(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures"), &server.workspace);
+}
+
+async fn start(dir: &Path) -> (Server, Client) {
+    let server = Server::start(dir, &[]);
+    fixtures(&server);
+    let client = server.client().await;
+    (server, client)
+}
+
+async fn load(c: &Client, sim: &str, file: &str, extra: Value) -> u64 {
+    let mut args = json!({"sim_id": sim, "file_path": file});
+    if let (Some(a), Some(e)) = (args.as_object_mut(), extra.as_object()) {
+        a.extend(e.clone());
+    }
+    c.call("load_urdf", args).await["object_id"].as_u64().unwrap()
+}
+
+async fn joint(c: &Client, sim: &str, id: u64, j: u64) -> Value {
+    c.call("get_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": j})).await
+}
+
+async fn q(c: &Client, sim: &str, id: u64, j: u64) -> f64 {
+    joint(c, sim, id, j).await["joint_position"].as_f64().unwrap()
+}
+
+async fn motor(c: &Client, sim: &str, id: u64, j: u64, args: Value) {
+    let mut a = json!({"sim_id": sim, "object_id": id, "joint_index": j});
+    if let (Some(a), Some(e)) = (a.as_object_mut(), args.as_object()) {
+        a.extend(e.clone());
+    }
+    c.call("set_joint_motor_control", a).await;
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn fixtures_load_with_pybullet_numbering() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+    let sim = c.new_sim(json!({})).await;
+
+    // Branching tree listed out of order: depth-first pre-order, children in file order.
+    let wb = load(&c, &sim, "wheeled_base.urdf", json!({"position": [0, 0, 1]})).await;
+    let expected = [
+        ("left_wheel_joint", "continuous", "left_wheel", -1, 0.0, -1.0, 20.0, 30.0),
+        ("right_wheel_joint", "continuous", "right_wheel", -1, 0.0, -1.0, 20.0, 30.0),
+        ("mast_joint", "fixed", "mast", -1, 0.0, -1.0, 0.0, 0.0),
+        ("pan_joint", "revolute", "pan", 2, -1.5, 1.5, 5.0, 2.0),
+        ("tilt_joint", "prismatic", "tilt", 3, 0.0, 0.2, 50.0, 0.5),
+        ("caster_joint", "continuous", "caster", -1, 0.0, -1.0, 0.0, 0.0),
+    ];
+    let n = c.call("get_num_joints", json!({"sim_id": sim, "object_id": wb})).await;
+    assert_eq!(n["num_joints"], 6);
+    for (i, (name, ty, link, parent, lo, hi, effort, vel)) in expected.iter().enumerate() {
+        let info = c.call("get_joint_info", json!({"sim_id": sim, "object_id": wb, "joint_index": i})).await;
+        assert_eq!(info["joint_index"], i as u64);
+        assert_eq!(info["joint_name"], *name, "{info}");
+        assert_eq!(info["joint_type"], *ty, "{info}");
+        assert_eq!(info["link_name"], *link, "{info}");
+        assert_eq!(info["parent_index"], *parent, "{info}");
+        assert_eq!(info["lower_limit"].as_f64().unwrap(), *lo, "{info}");
+        assert_eq!(info["upper_limit"].as_f64().unwrap(), *hi, "{info}");
+        assert_eq!(info["max_force"].as_f64().unwrap(), *effort, "{info}");
+        assert_eq!(info["max_velocity"].as_f64().unwrap(), *vel, "{info}");
+    }
+
+    // The 7-joint arm: names, types, published limits, axes; the flange is a fixed joint 7.
+    let arm = load(&c, &sim, "iiwa14.urdf", json!({"use_fixed_base": true, "position": [2, 0, 0]})).await;
+    let limits_deg: [f64; 7] = [170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0];
+    let axes = [[0, 0, 1], [0, 1, 0], [0, 0, 1], [0, -1, 0], [0, 0, 1], [0, 1, 0], [0, 0, 1]];
+    for (i, lim) in limits_deg.iter().enumerate() {
+        let info = c.call("get_joint_info", json!({"sim_id": sim, "object_id": arm, "joint_index": i})).await;
+        assert_eq!(info["joint_name"], format!("iiwa_joint_{}", i + 1));
+        assert_eq!(info["joint_type"], "revolute");
+        assert_eq!(info["parent_index"], i as i64 - 1);
+        let want = lim.to_radians();
+        assert!((info["upper_limit"].as_f64().unwrap() - want).abs() < 1e-6, "{info}");
+        assert!((info["lower_limit"].as_f64().unwrap() + want).abs() < 1e-6, "{info}");
+        assert_eq!(info["joint_axis"], json!(axes[i].map(|x| x as f64)));
+    }
+    let ee = c.call("get_joint_info", json!({"sim_id": sim, "object_id": arm, "joint_index": 7})).await;
+    assert_eq!(ee["joint_type"], "fixed");
+    assert_eq!(ee["link_name"], "iiwa_link_ee");
+
+    // Meshes by package:// (STL) and a relative path (OBJ) become real colliders: the mesh
+    // robot, dropped on the built-in plane, comes to rest on its 0.2 m cube.
+    let ground = load(&c, &sim, "plane.urdf", json!({})).await;
+    let bot = load(&c, &sim, "mesh_bot/urdf/mesh_bot.urdf", json!({"position": [-3, 0, 0.5]})).await;
+    assert_eq!(c.call("get_num_joints", json!({"sim_id": sim, "object_id": bot})).await["num_joints"], 1);
+    assert_eq!(c.call("get_num_joints", json!({"sim_id": sim, "object_id": ground})).await["num_joints"], 0);
+    c.step(&sim, 480).await;
+    let z = c.state(&sim, bot).await["position"][2].as_f64().unwrap();
+    assert!((z - 0.1).abs() < 0.01, "mesh cube rests at z = {z}, expected 0.1");
+}
+
+/// A pendulum URDF: static pivot, one link of mass `m` whose centre hangs `d` below the pivot,
+/// box inertia about its centre; the joint turns about y.
+fn pendulum_urdf(m: f64, d: f64, iyy: f64) -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<robot name="pendulum">
+  <link name="pivot"/>
+  <link name="bob">
+    <inertial><origin xyz="0 0 {z}"/><mass value="{m}"/><inertia ixx="{iyy}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{iyy}"/></inertial>
+    <collision><origin xyz="0 0 {z}"/><geometry><sphere radius="0.05"/></geometry></collision>
+  </link>
+  <joint name="hinge" type="continuous">
+    <parent link="pivot"/><child link="bob"/>
+    <origin xyz="0 0 0"/><axis xyz="0 1 0"/>
+  </joint>
+</robot>
+"#,
+        z = -d
+    )
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn free_pendulum_has_the_small_angle_period() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, c) = start(dir.path()).await;
+    let (m, d, iyy) = (1.0, 0.5, 0.002);
+    std::fs::write(server.workspace.join("pendulum.urdf"), pendulum_urdf(m, d, iyy)).unwrap();
+    let sim = c.new_sim(json!({})).await;
+    let p = load(&c, &sim, "pendulum.urdf", json!({"position": [0, 0, 2]})).await;
+    // A one-step horizontal push on the bob: a small swing (a few degrees).
+    c.call("apply_force", json!({"sim_id": sim, "object_id": p, "link_index": 0, "force": [30, 0, 0]})).await;
+    let dt = 1.0 / 240.0;
+    let mut crossings = Vec::new();
+    let mut prev = 0.0;
+    let mut amplitude: f64 = 0.0;
+    for k in 1..=1200 {
+        c.step(&sim, 2).await;
+        let x = q(&c, &sim, p, 0).await;
+        amplitude = amplitude.max(x.abs());
+        let t = k as f64 * 2.0 * dt;
+        if k > 1 && prev < 0.0 && x >= 0.0 {
+            crossings.push(t - 2.0 * dt * x / (x - prev));
+        }
+        prev = x;
+    }
+    assert!(amplitude > 0.02 && amplitude < 0.2, "swing amplitude {amplitude} rad");
+    assert!(crossings.len() >= 3, "crossings {crossings:?}");
+    let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+    let i_pivot = iyy + m * d * d;
+    let theory = 2.0 * std::f64::consts::PI * (i_pivot / (m * 9.81 * d)).sqrt();
+    let err = (measured - theory).abs() / theory;
+    eprintln!("REPORT pendulum period {measured:.5} s, theory {theory:.5} s, error {:.3} %, amplitude {amplitude:.3} rad", err * 100.0);
+    assert!(err < 0.02, "period {measured:.4} s vs theory {theory:.4} s ({:.2} %)", err * 100.0);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn motors_position_velocity_torque_and_reported_torque() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+
+    // POSITION_CONTROL, default gains, lifts/lowers the shoulder to 1 rad under gravity.
+    let sim = c.new_sim(json!({})).await;
+    let arm = load(&c, &sim, "two_link_arm.urdf", json!({"position": [0, 0, 1]})).await;
+    motor(&c, &sim, arm, 0, json!({"control_mode": "POSITION_CONTROL", "target_position": 1.0})).await;
+    motor(&c, &sim, arm, 1, json!({"control_mode": "POSITION_CONTROL", "target_position": 0.0})).await;
+    c.step(&sim, 480).await;
+    let shoulder = q(&c, &sim, arm, 0).await;
+    assert!((shoulder - 1.0).abs() < 0.01, "shoulder at {shoulder} after 2 s");
+
+    // Held horizontal against gravity: the shoulder's motor carries both links' weight,
+    // g·(m1·0.25 + m2·(0.5 + 0.2)); the elbow carries g·m2·0.2.
+    let sim = c.new_sim(json!({})).await;
+    let arm = load(&c, &sim, "two_link_arm.urdf", json!({"position": [0, 0, 1]})).await;
+    motor(&c, &sim, arm, 0, json!({"control_mode": "POSITION_CONTROL", "target_position": 0.0})).await;
+    motor(&c, &sim, arm, 1, json!({"control_mode": "POSITION_CONTROL", "target_position": 0.0})).await;
+    c.step(&sim, 240).await;
+    let s = joint(&c, &sim, arm, 0).await;
+    let e = joint(&c, &sim, arm, 1).await;
+    let (ts, te) = (s["motor_torque"].as_f64().unwrap(), e["motor_torque"].as_f64().unwrap());
+    let (ws, we) = (9.81 * (1.0 * 0.25 + 0.5 * 0.7), 9.81 * 0.5 * 0.2);
+    eprintln!("REPORT held arm motor_torque shoulder {ts} (|m g d| = {ws}), elbow {te} (|m g d| = {we})");
+    assert!(s["joint_position"].as_f64().unwrap().abs() < 0.01, "{s}");
+    assert!((ts.abs() - ws).abs() / ws < 0.05, "shoulder motor_torque {ts}, expected ±{ws}");
+    assert!((te.abs() - we).abs() / we < 0.05, "elbow motor_torque {te}, expected ±{we}");
+    assert_eq!(s["reaction_forces"], json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]));
+
+    // VELOCITY_CONTROL holds 1 rad/s while gravity's torque on the horizontal link changes.
+    motor(&c, &sim, arm, 0, json!({"control_mode": "VELOCITY_CONTROL", "target_velocity": -1.0})).await;
+    for _ in 0..6 {
+        c.step(&sim, 40).await;
+        let v = joint(&c, &sim, arm, 0).await["joint_velocity"].as_f64().unwrap();
+        assert!((v + 1.0).abs() < 0.02, "shoulder velocity {v}, target -1");
+    }
+
+    // TORQUE_CONTROL on a free, undamped joint (no gravity): α = τ / I.
+    let sim = c.new_sim(json!({"gravity": [0, 0, 0]})).await;
+    let g = c
+        .call(
+            "generate_revolute_joint",
+            json!({"parent_shape": "box", "child_shape": "box", "parent_dimensions": [0.1, 0.1, 0.1],
+                   "child_dimensions": [0.3, 0.05, 0.05], "child_mass": 2.0, "joint_axis": [0, 0, 1],
+                   "joint_origin": [0, 0, 0.3], "joint_lower_limit": -100, "joint_upper_limit": 100}),
+        )
+        .await;
+    assert_eq!(g["joint_type"], "revolute");
+    let path = g["urdf_path"].as_str().unwrap().to_string();
+    assert!(path.contains("generated/revolute_"), "{path}");
+    let pair = load(&c, &sim, &path, json!({"use_fixed_base": true})).await;
+    let tau = 0.5;
+    motor(&c, &sim, pair, 0, json!({"control_mode": "TORQUE_CONTROL", "force": tau})).await;
+    c.step(&sim, 120).await;
+    let st = joint(&c, &sim, pair, 0).await;
+    let i_zz = 2.0 / 3.0 * (0.3f64 * 0.3 + 0.05 * 0.05);
+    let alpha = st["joint_velocity"].as_f64().unwrap() / 0.5;
+    eprintln!("REPORT torque control alpha {alpha} vs tau/I {}", tau / i_zz);
+    assert!((alpha - tau / i_zz).abs() / (tau / i_zz) < 0.02, "alpha {alpha} vs {}", tau / i_zz);
+    assert_eq!(st["motor_torque"].as_f64().unwrap(), tau);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn robot_survives_save_load_undo_and_restart_after_its_files_are_deleted() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, c) = start(dir.path()).await;
+    let sim = c.new_sim(json!({})).await;
+    load(&c, &sim, "plane.urdf", json!({})).await;
+    let arm = load(&c, &sim, "two_link_arm.urdf", json!({"position": [0, 0, 1]})).await;
+    let bot = load(&c, &sim, "mesh_bot/urdf/mesh_bot.urdf", json!({"position": [1, 0, 0.5]})).await;
+    motor(&c, &sim, arm, 0, json!({"control_mode": "POSITION_CONTROL", "target_position": 0.5})).await;
+    c.step(&sim, 100).await;
+    let before_motor = c.hash(&sim).await;
+    motor(&c, &sim, arm, 1, json!({"control_mode": "VELOCITY_CONTROL", "target_velocity": 0.3, "force": 5})).await;
+    c.step(&sim, 100).await;
+    let h = c.hash(&sim).await;
+
+    // The files are gone: everything below works from the log's blobs.
+    std::fs::remove_file(server.workspace.join("two_link_arm.urdf")).unwrap();
+    std::fs::remove_dir_all(server.workspace.join("mesh_bot")).unwrap();
+
+    c.call("save_simulation", json!({"sim_id": sim, "file_path": "robot.json"})).await;
+    let loaded = c.call("load_simulation", json!({"file_path": "robot.json"})).await;
+    let copy = loaded["simulation_id"].as_str().unwrap().to_string();
+    assert_eq!(c.hash(&copy).await, h, "loaded state differs");
+    c.step(&sim, 60).await;
+    c.step(&copy, 60).await;
+    let h2 = c.hash(&sim).await;
+    assert_eq!(c.hash(&copy).await, h2, "loaded copy evolves differently");
+    assert_eq!(joint(&c, &sim, arm, 1).await, joint(&c, &copy, arm, 1).await);
+
+    // Undo three changes (step, motor, step): back to the state before the second motor.
+    c.call("undo", json!({"sim_id": sim, "count": 3})).await;
+    assert_eq!(c.hash(&sim).await, before_motor);
+    c.call("redo", json!({"sim_id": sim, "count": 3})).await;
+    assert_eq!(c.hash(&sim).await, h2);
+
+    // A killed server comes back with the robots exactly as they were.
+    let data = server.data.clone();
+    server.kill();
+    let server = Server::start(dir.path(), &[]);
+    assert_eq!(server.data, data);
+    let c = server.client().await;
+    assert_eq!(c.hash(&sim).await, h2);
+    c.step(&sim, 30).await;
+    c.step(&copy, 30).await;
+    assert_eq!(c.hash(&sim).await, c.hash(&copy).await);
+    let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
+    assert_eq!(v["ok"], true, "{v}");
+    assert!(c.state(&sim, bot).await["position"][2].as_f64().unwrap() > 0.05);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn bad_robot_inputs_are_refused_and_change_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, c) = start(dir.path()).await;
+    let ws = &server.workspace;
+    std::fs::write(ws.join("broken.urdf"), "<robot name=\"x\"><link name=\"a\"></robot>").unwrap();
+    std::fs::write(
+        ws.join("nomesh.urdf"),
+        r#"<robot name="x"><link name="a"><collision><geometry><mesh filename="meshes/missing.stl"/></geometry></collision></link></robot>"#,
+    )
+    .unwrap();
+    std::fs::write(ws.join("notstl.stl"), "this is not an STL file at all").unwrap();
+    std::fs::write(
+        ws.join("badmesh.urdf"),
+        r#"<robot name="x"><link name="a"><collision><geometry><mesh filename="notstl.stl"/></geometry></collision></link></robot>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        ws.join("loop.urdf"),
+        r#"<robot name="x"><link name="a"/><link name="b"/>
+           <joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>
+           <joint name="j2" type="fixed"><parent link="b"/><child link="a"/></joint></robot>"#,
+    )
+    .unwrap();
+    let sim = c.new_sim(json!({})).await;
+    let arm = load(&c, &sim, "two_link_arm.urdf", json!({})).await;
+    let ball = c.call("add_sphere", json!({"sim_id": sim, "radius": 0.1, "position": [3, 0, 1]})).await["object_id"]
+        .as_u64()
+        .unwrap();
+    let hash = c.hash(&sim).await;
+    let s = sim.as_str();
+    let cases: Vec<(&str, Value, &str)> = vec![
+        ("load_urdf", json!({"sim_id": s, "file_path": "missing.urdf"}), "does not exist"),
+        ("load_urdf", json!({"sim_id": s, "file_path": "../outside.urdf"}), "Access denied"),
+        ("load_urdf", json!({"sim_id": s, "file_path": "/etc/passwd"}), "Access denied"),
+        ("load_urdf", json!({"sim_id": s, "file_path": "broken.urdf"}), "not a valid URDF"),
+        ("load_urdf", json!({"sim_id": s, "file_path": "nomesh.urdf"}), "missing.stl"),
+        ("load_urdf", json!({"sim_id": s, "file_path": "badmesh.urdf"}), "notstl.stl"),
+        ("load_urdf", json!({"sim_id": s, "file_path": "loop.urdf"}), "root link"),
+        ("load_urdf", json!({"sim_id": s, "file_path": "plane.urdf", "position": [0, 0]}), "position"),
+        ("get_joint_info", json!({"sim_id": s, "object_id": arm, "joint_index": 2}), "Joint index 2 out of range"),
+        ("get_joint_state", json!({"sim_id": s, "object_id": arm, "joint_index": -1}), "out of range"),
+        ("get_joint_info", json!({"sim_id": s, "object_id": ball, "joint_index": 0}), "has 0 joints"),
+        ("get_joint_state", json!({"sim_id": s, "object_id": 99, "joint_index": 0}), "Object 99 not found"),
+        ("set_joint_motor_control", json!({"sim_id": s, "object_id": arm, "joint_index": 5, "control_mode": "VELOCITY_CONTROL"}), "out of range"),
+        ("set_joint_motor_control", json!({"sim_id": s, "object_id": arm, "joint_index": 0, "control_mode": "PD_CONTROL"}), "control_mode"),
+        ("set_joint_motor_control", json!({"sim_id": s, "object_id": arm, "joint_index": 0, "control_mode": "POSITION_CONTROL"}), "target_position"),
+        ("set_joint_motor_control", json!({"sim_id": s, "object_id": arm, "joint_index": 0, "control_mode": "TORQUE_CONTROL"}), "force"),
+        ("set_joint_motor_control", json!({"sim_id": s, "object_id": arm, "joint_index": 0, "control_mode": "VELOCITY_CONTROL", "force": -1}), "force"),
+        ("calculate_inverse_kinematics", json!({"sim_id": s, "object_id": arm, "end_effector_link_index": 4, "target_position": [0.5, 0, 0]}), "out of range"),
+        ("calculate_inverse_kinematics", json!({"sim_id": s, "object_id": arm, "end_effector_link_index": 1, "target_position": [0.5, 0, 0], "rest_poses": [0]}), "rest_poses"),
+        ("apply_force", json!({"sim_id": s, "object_id": arm, "link_index": 2, "force": [1, 0, 0]}), "link_index 2"),
+        ("change_dynamics", json!({"sim_id": s, "object_id": arm, "link_index": 0, "mass": 0}), "base only"),
+        ("generate_revolute_joint", json!({"parent_shape": "cone", "child_shape": "box", "parent_dimensions": [1], "child_dimensions": [1, 1, 1]}), "parent_shape"),
+        ("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "box", "parent_dimensions": [1, 1], "child_dimensions": [1, 1, 1]}), "parent_dimensions"),
+        ("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "box", "parent_dimensions": [1, 1, 1], "child_dimensions": [1, 1, 1], "output_path": "../escape.urdf"}), "Access denied"),
+    ];
+    for (tool, args, needle) in cases {
+        let err = c.try_call(tool, args.clone()).await.expect_err(&format!("{tool} {args} was accepted"));
+        assert!(err.contains(needle), "{tool} {args}: {err:?} does not mention {needle:?}");
+    }
+    assert_eq!(c.hash(&sim).await, hash, "a refused call changed the world");
+    let info = c.call("get_simulation_info", json!({"sim_id": s})).await;
+    assert_eq!(info["objects"].as_array().unwrap().len(), 2);
+    assert!(!server.workspace.parent().unwrap().join("escape.urdf").exists());
+}
