@@ -143,6 +143,17 @@ pub enum ControlMode {
     TorqueControl,
 }
 
+impl ControlMode {
+    /// PyBullet's name for the mode.
+    pub fn name(self) -> &'static str {
+        match self {
+            ControlMode::PositionControl => "POSITION_CONTROL",
+            ControlMode::VelocityControl => "VELOCITY_CONTROL",
+            ControlMode::TorqueControl => "TORQUE_CONTROL",
+        }
+    }
+}
+
 /// A motor setting as set_joint_motor_control gives it; `force` None = the URDF effort limit
 /// (else 500), resolved when applied.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]

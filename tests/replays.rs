@@ -29,7 +29,7 @@ fn cli(args: &[&str]) -> (bool, String, String) {
 fn every_recorded_session_replays_to_its_recorded_hashes() {
     let files = recorded();
     assert!(files.len() >= 6, "replays/ holds {} logs", files.len());
-    let (mut moves, mut forks, mut refusals, mut loads) = (0, 0, 0, 0);
+    let (mut moves, mut forks, mut refusals, mut loads, mut robots) = (0, 0, 0, 0, 0);
     for f in &files {
         let summary = physics_mcp::replay::replay(f, None, |_, _| {})
             .unwrap_or_else(|e| panic!("{} does not replay: {e}", f.display()));
@@ -42,6 +42,8 @@ fn every_recorded_session_replays_to_its_recorded_hashes() {
         forks += events.iter().filter(|e| e.inherited).count().min(1);
         refusals += events.iter().filter(|e| !e.ok).count();
         loads += events.iter().filter(|e| e.tool == "load_simulation" && !e.inherited).count();
+        // Robots replay from the URDFs stored in the log (the recording's workspace is gone).
+        robots += events.iter().filter(|e| e.tool == "load_urdf" && e.ok).count();
         // And in a fresh process, through the CLI.
         let (ok, stdout, stderr) = cli(&["replay", f.to_str().unwrap(), "--json"]);
         assert!(ok, "{}: {stdout} {stderr}", f.display());
@@ -49,8 +51,8 @@ fn every_recorded_session_replays_to_its_recorded_hashes() {
         assert_eq!(v["summary"]["final_hash"], serde_json::json!(summary.final_hash));
     }
     assert!(
-        moves >= 4 && forks >= 1 && refusals >= 3 && loads >= 1,
-        "coverage: {moves} moves, {forks} forks, {refusals} refusals, {loads} loads"
+        moves >= 4 && forks >= 1 && refusals >= 3 && loads >= 1 && robots >= 2,
+        "coverage: {moves} moves, {forks} forks, {refusals} refusals, {loads} loads, {robots} robots"
     );
 }
 

@@ -320,7 +320,7 @@ impl World {
             });
         }
         self.physics.wake_up(body, true);
-        format!("Motor of joint {joint_index} of object {id} set to {:?}", spec.mode)
+        format!("Motor of joint {joint_index} of object {id} set to {}", spec.mode.name())
     }
 
     fn with_mb_link(&mut self, body: RigidBodyHandle, f: impl FnOnce(&mut rapier3d::dynamics::MultibodyJoint)) {
