@@ -214,7 +214,7 @@ impl World {
                 extras: DynamicsExtras::default(),
             });
         }
-        self.set_joint_damping(&links);
+        self.configure_multibody(&links);
         let base = &model.links[0];
         let robot = Robot {
             file_path: file_path.to_string(),
@@ -250,8 +250,9 @@ impl World {
 
     /// Multibody joints get rapier's default damping (0.1 on angular axes); a URDF joint is
     /// free unless its `<dynamics damping>` says otherwise, and a free base is undamped here
-    /// too (its bodies keep PyBullet's 0.04 as reported values).
-    fn set_joint_damping(&mut self, links: &[RobotLink]) {
+    /// too (its bodies keep PyBullet's 0.04 as reported values). A robot's links do not
+    /// collide with each other (PyBullet's default without URDF_USE_SELF_COLLISION).
+    fn configure_multibody(&mut self, links: &[RobotLink]) {
         let mbs = &mut self.physics.multibody_joints;
         let mut seen = std::collections::BTreeSet::new();
         for l in links {
@@ -259,6 +260,7 @@ impl World {
             let Some(mb) = mbs.get_multibody_mut(id.multibody) else { continue };
             if seen.insert(format!("{:?}", id.multibody)) {
                 mb.damping_mut().fill(0.0);
+                mb.set_self_contacts_enabled(false);
             }
             let Some(link) = mb.link(id.id) else { continue };
             let (start, n) = (link.assembly_id(), link.joint().ndofs());
