@@ -33,11 +33,16 @@ async fn start(dir: &Path) -> (Server, Client) {
     (server, client)
 }
 
-async fn load(c: &Client, sim: &str, file: &str, extra: Value) -> u64 {
-    let mut args = json!({"sim_id": sim, "file_path": file});
-    if let (Some(a), Some(e)) = (args.as_object_mut(), extra.as_object()) {
+/// `base` with the fields of `extra` added.
+fn merged(mut base: Value, extra: Value) -> Value {
+    if let (Some(a), Some(e)) = (base.as_object_mut(), extra.as_object()) {
         a.extend(e.clone());
     }
+    base
+}
+
+async fn load(c: &Client, sim: &str, file: &str, extra: Value) -> u64 {
+    let args = merged(json!({"sim_id": sim, "file_path": file}), extra);
     c.call("load_urdf", args).await["object_id"].as_u64().unwrap()
 }
 
@@ -50,10 +55,7 @@ async fn q(c: &Client, sim: &str, id: u64, j: u64) -> f64 {
 }
 
 async fn motor(c: &Client, sim: &str, id: u64, j: u64, args: Value) {
-    let mut a = json!({"sim_id": sim, "object_id": id, "joint_index": j});
-    if let (Some(a), Some(e)) = (a.as_object_mut(), args.as_object()) {
-        a.extend(e.clone());
-    }
+    let a = merged(json!({"sim_id": sim, "object_id": id, "joint_index": j}), args);
     c.call("set_joint_motor_control", a).await;
 }
 
@@ -351,4 +353,44 @@ async fn bad_robot_inputs_are_refused_and_change_nothing() {
     let info = c.call("get_simulation_info", json!({"sim_id": s})).await;
     assert_eq!(info["objects"].as_array().unwrap().len(), 2);
     assert!(!server.workspace.parent().unwrap().join("escape.urdf").exists());
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn link_dynamics_are_reported_changed_and_felt() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+    let sim = c.new_sim(json!({})).await;
+    let arm = load(&c, &sim, "two_link_arm.urdf", json!({"position": [0, 0, 1]})).await;
+    let info = |link: i64| {
+        let c = &c;
+        let sim = sim.clone();
+        async move { c.call("get_dynamics_info", json!({"sim_id": sim, "object_id": arm, "link_index": link})).await }
+    };
+    let upper = info(0).await;
+    assert_eq!(upper["mass"], 1.0);
+    assert_eq!(upper["local_inertia_pos"], json!([0.25, 0.0, 0.0]));
+    assert_eq!(upper["body_type"], "dynamic");
+    assert_eq!(info(-1).await["body_type"], "static", "a base of mass 0 is static");
+    c.call("change_dynamics", json!({"sim_id": sim, "object_id": arm, "link_index": 0, "mass": 2.0, "lateral_friction": 0.8})).await;
+    let upper = info(0).await;
+    assert_eq!(upper["mass"], 2.0);
+    assert_eq!(upper["lateral_friction"], 0.8);
+    assert_eq!(upper["local_inertia_pos"], json!([0.25, 0.0, 0.0]), "the centre of mass stays");
+    assert_eq!(info(1).await["mass"], 0.5, "the other link is unchanged");
+    // The heavier upper arm is felt by the motor holding the arm: g·(2·0.25 + 0.5·0.7).
+    motor(&c, &sim, arm, 0, json!({"control_mode": "POSITION_CONTROL", "target_position": 0.0})).await;
+    motor(&c, &sim, arm, 1, json!({"control_mode": "POSITION_CONTROL", "target_position": 0.0})).await;
+    c.step(&sim, 240).await;
+    let t = joint(&c, &sim, arm, 0).await["motor_torque"].as_f64().unwrap();
+    let want = 9.81 * (2.0 * 0.25 + 0.5 * 0.7);
+    assert!((t.abs() - want).abs() / want < 0.05, "shoulder torque {t}, expected ±{want}");
+    // A one-step upward force on the forearm's tip lifts it: the elbow turns negative.
+    motor(&c, &sim, arm, 1, json!({"control_mode": "TORQUE_CONTROL", "force": 0.0})).await;
+    c.call("apply_force", json!({"sim_id": sim, "object_id": arm, "link_index": 1, "force": [0, 0, 200], "position": [0.9, 0, 1]})).await;
+    c.step(&sim, 1).await;
+    let v = joint(&c, &sim, arm, 1).await["joint_velocity"].as_f64().unwrap();
+    assert!(v < -1.0, "elbow velocity after the push {v}");
+    // The robot's base reads as an object state.
+    let st = c.state(&sim, arm).await;
+    assert_eq!(st["position"], json!([0.0, 0.0, 1.0]));
 }

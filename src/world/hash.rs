@@ -14,13 +14,10 @@ use super::{DynamicsExtras, Object, ObjectKind, Robot, Viewer, World};
 /// Version prefix of the canonical encoding.
 pub const STATE_HASH_VERSION: &str = "physics-mcp/state/v1";
 
+/// The dynamic state of one rapier body, as hashed (shared by primitives and robot links;
+/// postcard encodes a nested struct exactly as its fields inline, so primitives hash as before).
 #[derive(Serialize)]
-struct BodyView<'a> {
-    id: u32,
-    kind: &'a ObjectKind,
-    color: Option<[f32; 4]>,
-    mass_requested: f32,
-    extras: &'a DynamicsExtras,
+struct Dynamic {
     body_type: u8,
     translation: [f32; 3],
     rotation: [f32; 4],
@@ -34,6 +31,35 @@ struct BodyView<'a> {
     angular_damping: f32,
     user_force: [f32; 3],
     user_torque: [f32; 3],
+}
+
+fn dynamic(b: &RigidBody) -> Dynamic {
+    let mp = &b.mass_properties().local_mprops;
+    Dynamic {
+        body_type: b.body_type() as u8,
+        translation: b.translation().to_array(),
+        rotation: b.rotation().to_array(),
+        linvel: b.linvel().to_array(),
+        angvel: b.angvel().to_array(),
+        mass: b.mass(),
+        local_com: mp.local_com.to_array(),
+        principal_inertia: mp.principal_inertia().to_array(),
+        inertia_frame: mp.principal_inertia_local_frame.to_array(),
+        linear_damping: b.linear_damping(),
+        angular_damping: b.angular_damping(),
+        user_force: b.user_force().to_array(),
+        user_torque: b.user_torque().to_array(),
+    }
+}
+
+#[derive(Serialize)]
+struct BodyView<'a> {
+    id: u32,
+    kind: &'a ObjectKind,
+    color: Option<[f32; 4]>,
+    mass_requested: f32,
+    extras: &'a DynamicsExtras,
+    dynamic: Dynamic,
     friction: f32,
     restitution: f32,
 }
@@ -61,26 +87,13 @@ pub(super) fn state_hash(w: &World) -> String {
         .filter_map(|(id, obj)| {
             let b = w.physics.bodies.get(obj.body)?;
             let c = w.physics.colliders.get(obj.collider)?;
-            let mp = &b.mass_properties().local_mprops;
             Some(BodyView {
                 id: *id,
                 kind: &obj.kind,
                 color: obj.color,
                 mass_requested: obj.mass,
                 extras: &obj.extras,
-                body_type: b.body_type() as u8,
-                translation: b.translation().to_array(),
-                rotation: b.rotation().to_array(),
-                linvel: b.linvel().to_array(),
-                angvel: b.angvel().to_array(),
-                mass: b.mass(),
-                local_com: mp.local_com.to_array(),
-                principal_inertia: mp.principal_inertia().to_array(),
-                inertia_frame: mp.principal_inertia_local_frame.to_array(),
-                linear_damping: b.linear_damping(),
-                angular_damping: b.angular_damping(),
-                user_force: b.user_force().to_array(),
-                user_torque: b.user_torque().to_array(),
+                dynamic: dynamic(b),
                 friction: c.friction(),
                 restitution: c.restitution(),
             })
@@ -116,22 +129,10 @@ pub(super) fn state_hash(w: &World) -> String {
     blake3::hash(&bytes).to_hex().to_string()
 }
 
-/// The dynamic state of one body of a robot.
+/// One body of a robot: its dynamic state, materials and parent joint coordinates.
 #[derive(Serialize)]
 struct PartView {
-    body_type: u8,
-    translation: [f32; 3],
-    rotation: [f32; 4],
-    linvel: [f32; 3],
-    angvel: [f32; 3],
-    mass: f32,
-    local_com: [f32; 3],
-    principal_inertia: [f32; 3],
-    inertia_frame: [f32; 4],
-    linear_damping: f32,
-    angular_damping: f32,
-    user_force: [f32; 3],
-    user_torque: [f32; 3],
+    dynamic: Dynamic,
     frictions: Vec<[f32; 2]>,
     joint: [f32; 2],
 }
@@ -148,21 +149,8 @@ struct RobotView<'a> {
 
 fn part_view(w: &World, h: RigidBodyHandle, colliders: &[rapier3d::prelude::ColliderHandle], joint: [f32; 2]) -> Option<PartView> {
     let b: &RigidBody = w.physics.bodies.get(h)?;
-    let mp = &b.mass_properties().local_mprops;
     Some(PartView {
-        body_type: b.body_type() as u8,
-        translation: b.translation().to_array(),
-        rotation: b.rotation().to_array(),
-        linvel: b.linvel().to_array(),
-        angvel: b.angvel().to_array(),
-        mass: b.mass(),
-        local_com: mp.local_com.to_array(),
-        principal_inertia: mp.principal_inertia().to_array(),
-        inertia_frame: mp.principal_inertia_local_frame.to_array(),
-        linear_damping: b.linear_damping(),
-        angular_damping: b.angular_damping(),
-        user_force: b.user_force().to_array(),
-        user_torque: b.user_torque().to_array(),
+        dynamic: dynamic(b),
         frictions: colliders
             .iter()
             .filter_map(|c| w.physics.colliders.get(*c))

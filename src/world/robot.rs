@@ -195,6 +195,12 @@ impl World {
                 .iter()
                 .map(|part| self.physics.insert_collider(collider(&part.geom, part.pos, part.rot), Some(body)))
                 .collect();
+            // Mass properties are otherwise only folded in at the next step; reads after
+            // load_urdf must already see the URDF's inertials.
+            let set = &self.physics.colliders;
+            if let Some(b) = self.physics.bodies.get_mut(body) {
+                b.recompute_mass_properties_from_colliders(set);
+            }
             bodies.push(body);
             colliders.push(cs);
         }
