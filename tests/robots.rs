@@ -394,3 +394,24 @@ async fn link_dynamics_are_reported_changed_and_felt() {
     let st = c.state(&sim, arm).await;
     assert_eq!(st["position"], json!([0.0, 0.0, 1.0]));
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_robot_base_can_be_teleported_and_pushed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+    let sim = c.new_sim(json!({"gravity": [0, 0, 0]})).await;
+    let bot = load(&c, &sim, "wheeled_base.urdf", json!({"position": [0, 0, 1]})).await;
+    motor(&c, &sim, bot, 3, json!({"control_mode": "POSITION_CONTROL", "target_position": 0.5})).await;
+    c.step(&sim, 120).await;
+    let pan = q(&c, &sim, bot, 3).await;
+    // Teleport the free base: it lands where asked and the joints keep their positions.
+    c.call("set_object_pose", json!({"sim_id": sim, "object_id": bot, "position": [5, -2, 3], "orientation": [0, 0, 0.3826834, 0.9238795]})).await;
+    let st = c.state(&sim, bot).await;
+    assert_eq!(st["position"], json!([5.0, -2.0, 3.0]));
+    assert!((q(&c, &sim, bot, 3).await - pan).abs() < 1e-6);
+    // A base velocity carries the whole robot (no gravity): x grows by v·t.
+    c.call("set_object_velocity", json!({"sim_id": sim, "object_id": bot, "linear_velocity": [1, 0, 0]})).await;
+    c.step(&sim, 240).await;
+    let x = c.state(&sim, bot).await["position"][0].as_f64().unwrap();
+    assert!((x - 6.0).abs() < 0.02, "base x {x}, expected 6");
+}
