@@ -88,7 +88,12 @@ impl PhysicsServer {
         let out = self
             .with_sim(args, move |sim, a, limits| {
                 let ctl: StepControl = &mut control;
-                sim.change(tool, a, decide(a), limits, ctl)
+                #[allow(clippy::disallowed_methods)] // timing for the debug log; never enters the world
+                let started = std::time::Instant::now();
+                let out = sim.change(tool, a, decide(a), limits, ctl);
+                // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).
+                tracing::debug!(target: "physics_mcp::timing", tool, sim_change_ms = started.elapsed().as_secs_f64() * 1e3);
+                out
             })
             .await?;
         serde_json::from_value(out)

@@ -73,10 +73,28 @@ async fn shutdown_signal(ct: CancellationToken) {
     ct.cancel();
 }
 
+/// MCP sessions (in memory): no priming events (see above), and an idle session lives for
+/// `SESSION_IDLE` instead of rmcp's 5 minutes — an agent often thinks longer than that
+/// between calls, and an expired session makes its client start over.
+fn session_manager() -> Arc<LocalSessionManager> {
+    let mut manager = LocalSessionManager::default();
+    manager.session_config.sse_retry = None;
+    manager.session_config.keep_alive = Some(SESSION_IDLE);
+    Arc::new(manager)
+}
+
+/// How long an idle MCP session is kept.
+const SESSION_IDLE: std::time::Duration = std::time::Duration::from_secs(8 * 3600);
+
 /// Serves MCP over streamable HTTP until SIGINT/SIGTERM, then commits buffered events.
 pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result<()> {
     let listener = tokio::net::TcpListener::bind(opts.bind).await?;
     let local = listener.local_addr()?;
+    // A reply is several small writes (headers, SSE events, the final chunk): without
+    // TCP_NODELAY, Nagle's algorithm can hold them back for a delayed ACK (~40 ms).
+    let listener = axum::serve::ListenerExt::tap_io(listener, |tcp: &mut tokio::net::TcpStream| {
+        let _ = tcp.set_nodelay(true);
+    });
     let mut hosts: Vec<String> = vec!["localhost".into(), "127.0.0.1".into(), "::1".into()];
     if !local.ip().is_loopback() {
         hosts.push(local.ip().to_string());
@@ -88,14 +106,17 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     ];
     origins.extend(opts.allow_origin.iter().cloned());
     let ct = CancellationToken::new();
+    // No SSE priming events: they exist so a client can resume a stream from an event store,
+    // and without one (sessions live in memory) they only add an event to parse per reply.
     let config = StreamableHttpServerConfig::default()
+        .with_sse_retry(None)
         .with_allowed_hosts(hosts)
         .with_allowed_origins(origins)
         .with_cancellation_token(ct.child_token());
     let server_reg = reg.clone();
     let service = StreamableHttpService::new(
         move || Ok(PhysicsServer::new(server_reg.clone())),
-        LocalSessionManager::default().into(),
+        session_manager(),
         config,
     );
     let token: Option<Arc<str>> = opts.token.as_deref().map(Arc::from);

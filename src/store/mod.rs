@@ -584,7 +584,15 @@ impl Log {
 
     /// Moves the WAL's contents into the main file (so `file_bytes` measures the log itself).
     pub fn checkpoint(&self) -> Result<(), StoreError> {
-        self.conn.query_row("PRAGMA wal_checkpoint(TRUNCATE)", [], |_| Ok(()))?;
+        // The background checkpointer may hold the WAL at this moment: retry briefly until
+        // the WAL is really truncated, so sizes measured right after are the database's.
+        for _ in 0..100 {
+            let busy: i64 = self.conn.query_row("PRAGMA wal_checkpoint(TRUNCATE)", [], |r| r.get(0))?;
+            if busy == 0 {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
         Ok(())
     }
 

@@ -17,6 +17,8 @@ use serde_json::{json, Value};
 /// A running server process.
 pub struct Server {
     child: Child,
+    /// Every line the server wrote to stderr so far (also echoed as `[server] …`).
+    pub stderr: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
     pub url: String,
     pub data: PathBuf,
     pub workspace: PathBuf,
@@ -25,6 +27,11 @@ pub struct Server {
 impl Server {
     /// Starts `physics-mcp serve` on 127.0.0.1:0 over `dir/data` and `dir/workspace`.
     pub fn start(dir: &Path, extra: &[&str]) -> Server {
+        Self::start_with_env(dir, extra, &[])
+    }
+
+    /// `start` with extra environment variables for the server (e.g. `RUST_LOG`).
+    pub fn start_with_env(dir: &Path, extra: &[&str], env: &[(&str, &str)]) -> Server {
         let data = dir.join("data");
         let workspace = dir.join("workspace");
         let mut child = Command::new(env!("CARGO_BIN_EXE_physics-mcp"))
@@ -33,15 +40,21 @@ impl Server {
             .arg("--workspace")
             .arg(&workspace)
             .args(extra)
+            .envs(env.iter().copied())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
             .expect("start physics-mcp");
         let stderr = child.stderr.take().expect("stderr");
         let (tx, rx) = mpsc::channel();
+        let lines = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let kept = lines.clone();
         std::thread::spawn(move || {
             let mut sent = false;
             for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                if let Ok(mut v) = kept.lock() {
+                    v.push(line.clone());
+                }
                 if !sent {
                     if let Some(rest) = line.strip_prefix("physics-mcp listening on ") {
                         let _ = tx.send(Ok(rest.to_string()));
@@ -49,7 +62,9 @@ impl Server {
                         continue;
                     }
                 }
-                eprintln!("[server] {line}");
+                if !line.contains("physics_mcp::timing") {
+                    eprintln!("[server] {line}");
+                }
                 if !sent && line.starts_with("physics-mcp:") && !line.starts_with("physics-mcp: warning:") {
                     let _ = tx.send(Err(line));
                     sent = true;
@@ -61,7 +76,7 @@ impl Server {
             Ok(Err(e)) => panic!("server refused to start: {e}"),
             Err(_) => panic!("server did not start"),
         };
-        Server { child, url, data, workspace }
+        Server { child, stderr: lines, url, data, workspace }
     }
 
     /// Starts a server expected to refuse to start; returns its stderr.
