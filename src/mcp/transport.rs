@@ -91,7 +91,8 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let listener = tokio::net::TcpListener::bind(opts.bind).await?;
     let local = listener.local_addr()?;
     // A reply is several small writes (headers, SSE events, the final chunk): without
-    // TCP_NODELAY, Nagle's algorithm can hold them back for a delayed ACK (~40 ms).
+    // TCP_NODELAY, Nagle's algorithm can hold them back for a delayed ACK (~40 ms per call,
+    // seen with Python's http.client).
     let listener = axum::serve::ListenerExt::tap_io(listener, |tcp: &mut tokio::net::TcpStream| {
         let _ = tcp.set_nodelay(true);
     });
