@@ -372,12 +372,15 @@ impl World {
             for (i, link) in robot.links.iter().enumerate() {
                 let Some(motor) = &link.motor else { continue };
                 let kind = link.joint.kind;
-                let (q, v) = self.joint_coordinates(link.body, kind);
+                let (q, _) = self.joint_coordinates(link.body, kind);
                 let s = &motor.spec;
                 match s.mode {
                     ControlMode::TorqueControl => {
                         let parent = robot.link_body(base, link.joint.parent).unwrap_or(base);
                         self.apply_joint_effort(link.body, parent, &link.joint, motor.force);
+                        if let Some(l) = self.robot_mut(id).and_then(|r| r.links.get_mut(i)) {
+                            l.motor_torque = motor.force;
+                        }
                         torque_robots.push(id);
                     }
                     ControlMode::PositionControl | ControlMode::VelocityControl => {
@@ -396,7 +399,7 @@ impl World {
                             joint.data.set_motor_velocity(axis, target, HARD_MOTOR);
                             joint.data.set_motor_max_force(axis, force);
                         });
-                        if let Some(w) = self.watch(id, i, link.body, force, v) {
+                        if let Some(w) = self.watch(id, i, link.body, force) {
                             watches.push(w);
                         }
                     }
@@ -434,19 +437,9 @@ impl World {
                 }
             }
         }
-        if let Some(robot) = self.robots_with_body(child) {
-            robot.1.motor_torque = effort;
-        }
     }
 
-    fn robots_with_body(&mut self, body: RigidBodyHandle) -> Option<(u32, &mut RobotLink)> {
-        self.tables.objects.iter_mut().find_map(|(id, o)| match &mut o.kind {
-            ObjectKind::Robot { robot } => robot.links.iter_mut().find(|l| l.body == body).map(|l| (*id, l)),
-            ObjectKind::Primitive { .. } => None,
-        })
-    }
-
-    fn watch(&self, id: u32, link: usize, body: RigidBodyHandle, force: f32, _v: f32) -> Option<MotorWatch> {
+    fn watch(&self, id: u32, link: usize, body: RigidBodyHandle, force: f32) -> Option<MotorWatch> {
         let mbs = &self.physics.multibody_joints;
         let lid = mbs.rigid_body_link(body)?;
         let mb = mbs.get_multibody(lid.multibody)?;
