@@ -127,7 +127,7 @@ async fn bad_paths_and_bad_files_are_refused_and_create_nothing() {
     }
     assert!(!outside.join("x.json").exists());
 
-    let mut write = |name: &str, bytes: Vec<u8>| std::fs::write(ws.join(name), bytes).unwrap();
+    let write = |name: &str, bytes: Vec<u8>| std::fs::write(ws.join(name), bytes).unwrap();
     write("garbage.json", b"{not json".to_vec());
     let full = serde_json::to_vec(&good).unwrap();
     write("truncated.json", full[..full.len() / 2].to_vec());
