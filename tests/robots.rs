@@ -46,6 +46,10 @@ async fn load(c: &Client, sim: &str, file: &str, extra: Value) -> u64 {
     c.call("load_urdf", args).await["object_id"].as_u64().unwrap()
 }
 
+async fn dynamics(c: &Client, sim: &str, id: u64, link: i64) -> Value {
+    c.call("get_dynamics_info", json!({"sim_id": sim, "object_id": id, "link_index": link})).await
+}
+
 async fn joint(c: &Client, sim: &str, id: u64, j: u64) -> Value {
     c.call("get_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": j})).await
 }
@@ -147,7 +151,7 @@ async fn free_pendulum_has_the_small_angle_period() {
     let (m, d, iyy) = (1.0, 0.5, 0.002);
     std::fs::write(server.workspace.join("pendulum.urdf"), pendulum_urdf(m, d, iyy)).unwrap();
     let sim = c.new_sim(json!({})).await;
-    let p = load(&c, &sim, "pendulum.urdf", json!({"position": [0, 0, 2]})).await;
+    let p = load(&c, &sim, "pendulum.urdf", json!({"position": [0, 0, 2], "use_fixed_base": true})).await;
     // A one-step horizontal push on the bob: a small swing (a few degrees).
     c.call("apply_force", json!({"sim_id": sim, "object_id": p, "link_index": 0, "force": [30, 0, 0]})).await;
     let dt = 1.0 / 240.0;
@@ -361,11 +365,7 @@ async fn link_dynamics_are_reported_changed_and_felt() {
     let (_server, c) = start(dir.path()).await;
     let sim = c.new_sim(json!({})).await;
     let arm = load(&c, &sim, "two_link_arm.urdf", json!({"position": [0, 0, 1]})).await;
-    let info = |link: i64| {
-        let c = &c;
-        let sim = sim.clone();
-        async move { c.call("get_dynamics_info", json!({"sim_id": sim, "object_id": arm, "link_index": link})).await }
-    };
+    let info = |link: i64| dynamics(&c, &sim, arm, link);
     let upper = info(0).await;
     assert_eq!(upper["mass"], 1.0);
     assert_eq!(upper["local_inertia_pos"], json!([0.25, 0.0, 0.0]));
@@ -414,4 +414,37 @@ async fn a_robot_base_can_be_teleported_and_pushed() {
     c.step(&sim, 240).await;
     let x = c.state(&sim, bot).await["position"][0].as_f64().unwrap();
     assert!((x - 6.0).abs() < 0.02, "base x {x}, expected 6");
+}
+
+/// A link with no `<inertial>` gets PyBullet's stand-in: 1 kg at the link origin with the
+/// inertia of its collision shapes (values read from pybullet 3.2.7 for this very file), so a
+/// base without one is dynamic and falls unless fixed.
+#[tokio::test(flavor = "multi_thread")]
+async fn links_without_inertial_get_pybullets_one_kilogram() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, c) = start(dir.path()).await;
+    std::fs::write(
+        server.workspace.join("noinertial.urdf"),
+        r#"<robot name="x">
+  <link name="root"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="child"><collision><geometry><sphere radius="0.05"/></geometry></collision></link>
+  <joint name="j" type="revolute"><parent link="root"/><child link="child"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>"#,
+    )
+    .unwrap();
+    let sim = c.new_sim(json!({})).await;
+    let r = load(&c, &sim, "noinertial.urdf", json!({"position": [0, 0, 2]})).await;
+    let info = |link: i64| dynamics(&c, &sim, r, link);
+    let (base, child) = (info(-1).await, info(0).await);
+    assert_eq!(base["mass"], 1.0);
+    assert_eq!(base["body_type"], "dynamic");
+    assert_eq!(child["mass"], 1.0);
+    for (v, want) in [(&base, 0.0016666667), (&child, 0.001)] {
+        for x in v["local_inertia_diagonal"].as_array().unwrap() {
+            assert!((x.as_f64().unwrap() - want).abs() < 1e-6, "{v}");
+        }
+    }
+    c.step(&sim, 240).await;
+    let z = c.state(&sim, r).await["position"][2].as_f64().unwrap();
+    assert!(z < 0.0, "the unfixed base fell: z = {z}");
 }

@@ -13,7 +13,7 @@ use rapier3d::glamx::{Mat3, Quat, Vec3};
 use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::urdf::{Geom, JointKind, JointSpec, RobotModel};
+use super::urdf::{part_shape, JointKind, JointSpec, Part, RobotModel};
 use super::{DynamicsExtras, Object, ObjectKind, World, DEFAULT_DAMPING, DEFAULT_FRICTION};
 use crate::command::{Blob, ControlMode, MotorSpec};
 use crate::outputs::{JointInfo, JointState, UrdfLoaded};
@@ -105,21 +105,10 @@ fn axis_frame(axis: [f64; 3]) -> Rotation {
     Quat::from_rotation_arc(Vec3::X, a)
 }
 
-fn collider(geom: &Geom, pos: [f32; 3], rot: [f32; 4]) -> ColliderBuilder {
-    let local = Pose::from_parts(Vector::from_array(pos), Rotation::from_xyzw(rot[0], rot[1], rot[2], rot[3]).normalize());
-    let y_to_z = Pose::from_rotation(Rotation::from_rotation_x(std::f32::consts::FRAC_PI_2));
-    let (builder, pose) = match geom {
-        Geom::Box(h) => (ColliderBuilder::cuboid(h[0], h[1], h[2]), local),
-        Geom::Sphere(r) => (ColliderBuilder::ball(*r), local),
-        Geom::Cylinder(r, l) => (ColliderBuilder::cylinder(l / 2.0, *r), local * y_to_z),
-        Geom::Capsule(r, l) => (ColliderBuilder::capsule_z(l / 2.0, *r), local),
-        Geom::Hull(points) => {
-            let pts: Vec<Vector> = points.iter().map(|p| Vector::from_array(*p)).collect();
-            // The model builder proved the hull exists; a ball is an unreachable fallback.
-            (ColliderBuilder::convex_hull(&pts).unwrap_or_else(|| ColliderBuilder::ball(0.01)), local)
-        }
-    };
-    builder
+fn collider(part: &Part) -> ColliderBuilder {
+    // The model builder proved every hull exists; a tiny ball is an unreachable fallback.
+    let (shape, pose) = part_shape(part).unwrap_or_else(|| (SharedShape::ball(0.01), Pose::IDENTITY));
+    ColliderBuilder::new(shape)
         .position(pose)
         .density(0.0)
         .friction(DEFAULT_FRICTION)
@@ -193,7 +182,7 @@ impl World {
             let cs: Vec<ColliderHandle> = link
                 .parts
                 .iter()
-                .map(|part| self.physics.insert_collider(collider(&part.geom, part.pos, part.rot), Some(body)))
+                .map(|part| self.physics.insert_collider(collider(part), Some(body)))
                 .collect();
             // Mass properties are otherwise only folded in at the next step; reads after
             // load_urdf must already see the URDF's inertials.

@@ -13,8 +13,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::value::Refusal;
 
-/// Mass given to a non-root link whose URDF has no (or a zero) inertial: rapier cannot move a
-/// massless link of an articulation. Small enough not to change a real robot's dynamics.
+/// Mass given to a non-root link whose `<inertial>` says 0 kg: rapier cannot move a massless
+/// link of an articulation. Small enough not to change a real robot's dynamics. (A link with
+/// no `<inertial>` at all gets PyBullet's 1 kg instead.)
 pub const MASSLESS_LINK_MASS: f64 = 1.0e-3;
 /// Inertia (kg·m², each principal axis) given with `MASSLESS_LINK_MASS`.
 pub const MASSLESS_LINK_INERTIA: f64 = 1.0e-6;
@@ -219,12 +220,14 @@ pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>) -> Result<RobotMode
         .iter()
         .filter_map(|m| Some((m.name.as_str(), f32s(m.color.as_ref()?.rgba.0))))
         .collect();
-    let mut links = vec![link_model(&robot.links[root], None, &materials, meshes, true)?];
+    let inertials = links_with_inertial(urdf);
+    let root_link = &robot.links[root];
+    let mut links = vec![link_model(root_link, None, &materials, meshes, true, inertials.contains(&root_link.name))?];
     for (j, parent) in order {
         let joint = &robot.joints[j];
         let spec = joint_spec(joint, parent)?;
         let child = &robot.links[index[joint.child.link.as_str()]];
-        links.push(link_model(child, Some(spec), &materials, meshes, false)?);
+        links.push(link_model(child, Some(spec), &materials, meshes, false, inertials.contains(&child.name))?);
     }
     Ok(RobotModel { name: robot.name, links })
 }
@@ -275,12 +278,85 @@ fn joint_spec(joint: &urdf_rs::Joint, parent: i32) -> Result<JointSpec, Refusal>
     })
 }
 
+/// Names of the links that have an `<inertial>` element. urdf-rs reads a missing one as all
+/// zeros, but PyBullet treats the two differently (a missing inertial means 1 kg).
+fn links_with_inertial(urdf: &str) -> std::collections::BTreeSet<String> {
+    use xml::reader::{EventReader, XmlEvent};
+    let mut out = std::collections::BTreeSet::new();
+    let mut link: Option<String> = None;
+    let mut depth = 0usize;
+    let mut link_depth = 0usize;
+    for event in EventReader::new(urdf.as_bytes()) {
+        match event {
+            Ok(XmlEvent::StartElement { name, attributes, .. }) => {
+                depth += 1;
+                if name.local_name == "link" && link.is_none() {
+                    link = attributes.iter().find(|a| a.name.local_name == "name").map(|a| a.value.clone());
+                    link_depth = depth;
+                } else if name.local_name == "inertial" && depth == link_depth + 1 {
+                    if let Some(l) = &link {
+                        out.insert(l.clone());
+                    }
+                }
+            }
+            Ok(XmlEvent::EndElement { .. }) => {
+                if depth == link_depth {
+                    link = None;
+                }
+                depth = depth.saturating_sub(1);
+            }
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    out
+}
+
+/// PyBullet's stand-in for a missing `<inertial>`: 1 kg at the link origin, with the inertia
+/// of the collision shapes scaled to that mass (a 2 mm cube's when there are none).
+fn default_inertial(parts: &[Part]) -> [[f64; 3]; 3] {
+    let shapes: Vec<rapier3d::prelude::MassProperties> = parts
+        .iter()
+        .filter_map(|p| {
+            let (shape, pose) = part_shape(p)?;
+            Some(shape.mass_properties(1.0).transform_by(&pose))
+        })
+        .collect();
+    let total: rapier3d::prelude::MassProperties = shapes.into_iter().sum();
+    if total.mass() > 0.0 {
+        let m = total.reconstruct_inertia_matrix() * (1.0 / total.mass());
+        m.to_cols_array_2d().map(|c| c.map(|x| x as f64))
+    } else {
+        let i = 1.0 / 12.0 * 2.0 * 0.002 * 0.002;
+        [[i, 0.0, 0.0], [0.0, i, 0.0], [0.0, 0.0, i]]
+    }
+}
+
+/// A part's shape and its pose in the link frame (rapier's cylinders turned from y to z, as
+/// URDF cylinders are along z). None only for a hull the model builder would have refused.
+pub fn part_shape(p: &Part) -> Option<(rapier3d::prelude::SharedShape, rapier3d::prelude::Pose)> {
+    use rapier3d::prelude::{Pose, Rotation, SharedShape, Vector};
+    let pose = Pose::from_parts(Vector::from_array(p.pos), Rotation::from_xyzw(p.rot[0], p.rot[1], p.rot[2], p.rot[3]).normalize());
+    let y_to_z = Pose::from_rotation(Rotation::from_rotation_x(std::f32::consts::FRAC_PI_2));
+    Some(match &p.geom {
+        Geom::Box(h) => (SharedShape::cuboid(h[0], h[1], h[2]), pose),
+        Geom::Sphere(r) => (SharedShape::ball(*r), pose),
+        Geom::Cylinder(r, l) => (SharedShape::cylinder(l / 2.0, *r), pose * y_to_z),
+        Geom::Capsule(r, l) => (SharedShape::capsule_z(l / 2.0, *r), pose),
+        Geom::Hull(points) => {
+            let pts: Vec<Vector> = points.iter().map(|q| Vector::from_array(*q)).collect();
+            (SharedShape::convex_hull(&pts)?, pose)
+        }
+    })
+}
+
 fn link_model(
     link: &urdf_rs::Link,
     joint: Option<JointSpec>,
     materials: &BTreeMap<&str, [f32; 4]>,
     meshes: &BTreeMap<String, Vec<u8>>,
     is_root: bool,
+    has_inertial: bool,
 ) -> Result<LinkModel, Refusal> {
     let inertial = &link.inertial;
     let i = &inertial.inertia;
@@ -291,7 +367,7 @@ fn link_model(
     if !(mass.is_finite() && mass >= 0.0 && inertia_m.is_finite()) {
         return Err(format!("link {} has a negative or non-finite mass or inertia", link.name));
     }
-    if mass == 0.0 && !is_root {
+    if mass == 0.0 && !is_root && has_inertial {
         mass = MASSLESS_LINK_MASS;
         inertia_m = rapier3d::glamx::DMat3::from_diagonal(DVec3::splat(MASSLESS_LINK_INERTIA));
     }
@@ -310,12 +386,16 @@ fn link_model(
         let m = v.material.as_ref()?;
         m.color.as_ref().map(|c| f32s(c.rgba.0)).or_else(|| materials.get(m.name.as_str()).copied())
     });
-    let c = inertia_m.to_cols_array_2d();
+    let (mass, com, inertia) = if has_inertial {
+        (mass, inertial.origin.xyz.0, inertia_m.to_cols_array_2d())
+    } else {
+        (1.0, [0.0; 3], default_inertial(&parts))
+    };
     Ok(LinkModel {
         name: link.name.clone(),
         mass,
-        com: inertial.origin.xyz.0,
-        inertia: c,
+        com,
+        inertia,
         parts,
         color,
         joint,
