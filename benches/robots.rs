@@ -3,11 +3,12 @@
 //! (forward kinematics of random in-limit configurations), every query from the all-zeros
 //! pose, position-only and with orientation. Prints `REPORT` lines; criterion times one call.
 
-use std::collections::BTreeMap;
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use physics_mcp::command::{Blob, Command};
 use physics_mcp::world::{ik, World};
 use rand::{Rng, SeedableRng};
 use rapier3d::glamx::{DQuat, DVec3};
@@ -15,18 +16,8 @@ use rapier3d::glamx::{DQuat, DVec3};
 type Target = ([f32; 3], Option<[f32; 4]>);
 
 fn iiwa() -> (World, u32) {
-    let root = Command::CreateSimulation { simulation_id: "bench".into(), gravity: [0.0, 0.0, -9.81], gui: false };
-    let (mut w, _) = World::create(&root).unwrap();
-    let text = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/iiwa14.urdf")).unwrap();
-    let cmd = Command::LoadUrdf {
-        file_path: "iiwa14.urdf".into(),
-        urdf: Blob::new(text),
-        meshes: BTreeMap::new(),
-        position: [0.0; 3],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        fixed_base: true,
-    };
-    let id = w.apply(&cmd, &mut |_| true)["object_id"].as_u64().unwrap() as u32;
+    let mut w = common::empty_world("bench");
+    let id = common::load_fixture(&mut w, "iiwa14.urdf", [0.0; 3], true);
     (w, id)
 }
 

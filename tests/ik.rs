@@ -3,27 +3,16 @@
 //! from forward kinematics of random in-limit configurations, every query from the all-zeros
 //! pose. Seeded: the seed is printed and `PHYSICS_SEED` replays a run.
 
-use std::collections::BTreeMap;
+mod common;
 
-use physics_mcp::command::{Blob, Command};
 use physics_mcp::world::{ik, World};
 use rand::{Rng, SeedableRng};
 use rapier3d::glamx::{DQuat, DVec3};
 
 fn iiwa_world() -> (World, u32) {
-    let root = Command::CreateSimulation { simulation_id: "ik".into(), gravity: [0.0, 0.0, -9.81], gui: false };
-    let (mut w, _) = World::create(&root).unwrap();
-    let text = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/iiwa14.urdf")).unwrap();
-    let cmd = Command::LoadUrdf {
-        file_path: "iiwa14.urdf".into(),
-        urdf: Blob::new(text),
-        meshes: BTreeMap::new(),
-        position: [0.1, -0.2, 0.3],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        fixed_base: true,
-    };
-    let out = w.apply(&cmd, &mut |_| true);
-    (w, out["object_id"].as_u64().unwrap() as u32)
+    let mut w = common::empty_world("ik");
+    let id = common::load_fixture(&mut w, "iiwa14.urdf", [0.1, -0.2, 0.3], true);
+    (w, id)
 }
 
 fn seed() -> u64 {

@@ -2,6 +2,8 @@
 //! a 200-body pile of mixed shapes with forces and dynamics changes, snapshotted mid-run,
 //! continues bit-identically; re-serialising a restored snapshot gives the same bytes.
 
+mod common;
+
 use physics_mcp::command::{Command, DynamicsChange, Shape};
 use physics_mcp::world::World;
 
@@ -123,19 +125,8 @@ fn reserialising_a_restored_snapshot_gives_the_same_bytes() {
 /// coordinates, motors and their reported torques included.
 #[test]
 fn robots_with_motors_restore_bit_identically() {
-    use physics_mcp::command::{Blob, ControlMode, MotorSpec};
-    let fixture = |name: &str| Blob::new(std::fs::read(format!("{}/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap());
-    let load = |w: &mut World, name: &str, position: [f32; 3], fixed_base: bool| {
-        let cmd = Command::LoadUrdf {
-            file_path: name.into(),
-            urdf: fixture(name),
-            meshes: Default::default(),
-            position,
-            orientation: [0.0, 0.0, 0.0, 1.0],
-            fixed_base,
-        };
-        w.apply(&cmd, &mut |_| true)["object_id"].as_u64().unwrap() as u32
-    };
+    use physics_mcp::command::{ControlMode, MotorSpec};
+    let load = common::load_fixture;
     let motor = |mode, target_position, target_velocity, force| MotorSpec {
         mode,
         target_position,

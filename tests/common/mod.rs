@@ -205,3 +205,29 @@ pub fn v3(v: &Value) -> [f64; 3] {
 pub fn rel(a: f64, b: f64) -> f64 {
     ((a - b) / b).abs()
 }
+
+/// Loads `tests/fixtures/<name>` into an in-process world as load_urdf would (no meshes: the
+/// fixtures used in process have none) and returns the robot's object id.
+pub fn load_fixture(
+    w: &mut physics_mcp::world::World,
+    name: &str,
+    position: [f32; 3],
+    fixed_base: bool,
+) -> u32 {
+    let text = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)).unwrap();
+    let cmd = physics_mcp::command::Command::LoadUrdf {
+        file_path: name.into(),
+        urdf: physics_mcp::command::Blob::new(text),
+        meshes: Default::default(),
+        position,
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        fixed_base,
+    };
+    w.apply(&cmd, &mut |_| true)["object_id"].as_u64().unwrap() as u32
+}
+
+/// An empty in-process world with PyBullet's gravity.
+pub fn empty_world(id: &str) -> physics_mcp::world::World {
+    let root = physics_mcp::command::Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    physics_mcp::world::World::create(&root).unwrap().0
+}
