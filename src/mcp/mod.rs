@@ -32,9 +32,6 @@ use crate::world::StepControl;
 /// Result type of every tool: structured output, or one sentence with `isError: true`.
 pub type ToolResult<T> = Result<Json<T>, String>;
 
-/// Parses a tool's arguments into a `Command` (shape checks only; the world checks the rest).
-pub type Decide = fn(&Args) -> Result<Command, Refusal>;
-
 /// The MCP server: one instance per session, all sharing the registry.
 #[derive(Clone)]
 pub struct PhysicsServer {
