@@ -351,6 +351,76 @@ pub enum Command {
         /// The motor.
         motor: MotorSpec,
     },
+    /// Join two objects (or an object and the world) with an impulse joint.
+    CreateConstraint {
+        /// What joins what, and where.
+        spec: ConstraintSpec,
+    },
+    /// Remove a constraint.
+    RemoveConstraint {
+        /// Its id.
+        constraint_id: u32,
+    },
+}
+
+/// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ConstraintType {
+    /// All six relative degrees of freedom locked.
+    Fixed,
+    /// Free translation along the axis only.
+    Prismatic,
+    /// Free rotation about the anchor point (PyBullet's point-to-point).
+    Spherical,
+    /// Free rotation about the axis only.
+    Revolute,
+}
+
+impl ConstraintType {
+    /// The name the tools use.
+    pub fn name(self) -> &'static str {
+        match self {
+            ConstraintType::Fixed => "fixed",
+            ConstraintType::Prismatic => "prismatic",
+            ConstraintType::Spherical => "spherical",
+            ConstraintType::Revolute => "revolute",
+        }
+    }
+
+    /// Parses a tool's `joint_type` (PyBullet's `point2point` is accepted for spherical).
+    pub fn parse(s: &str) -> Option<Self> {
+        Some(match s.to_ascii_lowercase().as_str() {
+            "fixed" | "joint_fixed" => ConstraintType::Fixed,
+            "prismatic" | "joint_prismatic" => ConstraintType::Prismatic,
+            "spherical" | "point2point" | "joint_point2point" => ConstraintType::Spherical,
+            "revolute" | "joint_revolute" => ConstraintType::Revolute,
+            _ => return None,
+        })
+    }
+}
+
+/// A constraint as create_constraint describes it (PyBullet's frames: the parent frame in the
+/// parent's body frame, the child frame in the child's, or in world coordinates when the child
+/// is the world; the axis in the parent's constraint frame).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct ConstraintSpec {
+    /// The parent object.
+    pub parent_id: u32,
+    /// The child object, or None for the world (−1 in the tools).
+    pub child_id: Option<u32>,
+    /// The kind of joint.
+    pub joint_type: ConstraintType,
+    /// Unit axis (prismatic, revolute).
+    pub joint_axis: [f32; 3],
+    /// Joint position in the parent's frame.
+    pub parent_frame_position: [f32; 3],
+    /// Joint position in the child's frame (world frame for the world).
+    pub child_frame_position: [f32; 3],
+    /// Joint orientation in the parent's frame (normalised).
+    pub parent_frame_orientation: [f32; 4],
+    /// Joint orientation in the child's frame (normalised).
+    pub child_frame_orientation: [f32; 4],
 }
 
 fn base_link() -> i32 {
@@ -373,6 +443,11 @@ fn room_for_object(world: &World, limits: &Limits) -> Result<(), Refusal> {
 /// The standard "object not found" sentence (SPEC).
 pub fn object_not_found(object_id: u32, sim_id: &str) -> Refusal {
     format!("Object {object_id} not found in simulation {sim_id}")
+}
+
+/// The standard "constraint not found" sentence (SPEC).
+pub fn constraint_not_found(constraint_id: u32, sim_id: &str) -> Refusal {
+    format!("Constraint {constraint_id} not found in simulation {sim_id}")
 }
 
 impl Command {
@@ -438,6 +513,32 @@ impl Command {
                 world.check_motor(*object_id, *joint_index, motor)
             }
             Command::AddBody { .. } => room_for_object(world, limits),
+            Command::CreateConstraint { spec } => {
+                exists(spec.parent_id)?;
+                if let Some(child) = spec.child_id {
+                    exists(child)?;
+                    if child == spec.parent_id {
+                        return Err(format!(
+                            "child_id {child} is the parent itself: a constraint joins two different objects (or an object and the world, -1)"
+                        ));
+                    }
+                }
+                if world.tables.constraints.len() >= limits.max_constraints {
+                    return Err(format!(
+                        "Constraint limit reached: {} constraints in simulation {} (--max-constraints)",
+                        limits.max_constraints,
+                        world.simulation_id()
+                    ));
+                }
+                Ok(())
+            }
+            Command::RemoveConstraint { constraint_id } => {
+                if world.tables.constraints.contains_key(constraint_id) {
+                    Ok(())
+                } else {
+                    Err(constraint_not_found(*constraint_id, world.simulation_id()))
+                }
+            }
             Command::SetObjectPose { object_id, .. }
             | Command::SetObjectVelocity { object_id, .. }
             | Command::RemoveObject { object_id } => exists(*object_id),

@@ -16,6 +16,7 @@
 //! - `workspace` — the path sandbox for user files.
 //! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
 //!   writing generate_revolute_joint's URDFs.
+//! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
 //! - `limits`  — the CLI limits every request is checked against.
 #![warn(missing_docs)]
 
@@ -26,6 +27,7 @@ pub mod persistence;
 pub mod reads;
 pub mod replay;
 pub mod save;
+pub mod sensing;
 pub mod value;
 pub mod workspace;
 pub mod world;

@@ -404,3 +404,113 @@ pub struct GeneratedUrdf {
     /// [lower, upper] in rad.
     pub joint_limits: [f64; 2],
 }
+
+/// Result of create_constraint.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ConstraintCreated {
+    /// Confirmation.
+    pub message: String,
+    /// The new constraint's id (per simulation, from 0).
+    pub constraint_id: u32,
+    /// fixed, prismatic, spherical or revolute.
+    pub joint_type: String,
+}
+
+/// One ray's result (PyBullet's rayTest fields; a miss has object_id −1, hit_fraction 1 and
+/// zero position and normal).
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct RayHit {
+    /// Whether anything was hit.
+    pub hit: bool,
+    /// The object hit, or −1.
+    pub object_id: i64,
+    /// The link hit (−1 = base or a primitive).
+    pub link_index: i64,
+    /// Fraction of the way from ray_from to ray_to where the hit is (1 for a miss).
+    pub hit_fraction: f64,
+    /// World position of the hit.
+    pub hit_position: [f64; 3],
+    /// World surface normal at the hit (unit, facing the ray).
+    pub hit_normal: [f64; 3],
+}
+
+/// Result of ray_test_batch: one result per ray, in the order given.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct RayBatch {
+    /// The results, in the order of the rays.
+    pub results: Vec<RayHit>,
+}
+
+/// One contact point (PyBullet's getContactPoints fields).
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Contact {
+    /// Object A.
+    pub object_a: u32,
+    /// Object B.
+    pub object_b: u32,
+    /// A's link (−1 = base or a primitive).
+    pub link_index_a: i64,
+    /// B's link.
+    pub link_index_b: i64,
+    /// World contact point on A.
+    pub position_on_a: [f64; 3],
+    /// World contact point on B.
+    pub position_on_b: [f64; 3],
+    /// Unit normal pointing from B to A.
+    pub contact_normal: [f64; 3],
+    /// Signed separation (negative = penetration), m.
+    pub contact_distance: f64,
+    /// Normal force the solver applied in the last step (N, ≥ 0).
+    pub normal_force: f64,
+}
+
+/// Result of get_all_collisions / get_collisions_for_pair.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Contacts {
+    /// Contact points of the last step.
+    pub contacts: Vec<Contact>,
+}
+
+/// Result of compute_view_matrix and compute_view_matrix_from_yaw_pitch.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ViewMatrix {
+    /// 4×4 view matrix, column-major (OpenGL), as PyBullet returns it.
+    pub view_matrix: Vec<f64>,
+}
+
+/// Result of compute_projection_matrix.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ProjectionMatrix {
+    /// 4×4 perspective projection matrix, column-major (OpenGL), as PyBullet returns it.
+    pub projection_matrix: Vec<f64>,
+}
+
+/// How much of the image an object covers.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct VisibleObject {
+    /// The object.
+    pub object_id: u32,
+    /// Pixels it covers.
+    pub pixels: u64,
+}
+
+/// The structured part of get_camera_image (the PNG travels as an MCP image content).
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct CameraImage {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Objects seen, by id, with their pixel counts.
+    pub visible_objects: Vec<VisibleObject>,
+    /// Nearest and farthest depth of any object pixel, metres along the view axis (null if
+    /// nothing is seen).
+    pub depth_range: Option<[f64; 2]>,
+    /// Depth in metres along the view axis, row-major from the top-left (far plane where
+    /// nothing is seen); only with include_depth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth: Option<Vec<f64>>,
+    /// Object id per pixel (−1 background), row-major; only with include_segmentation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segmentation: Option<Vec<i64>>,
+}

@@ -6,8 +6,12 @@ use serde_json::Value;
 
 use crate::command::object_not_found;
 use crate::outputs::{
-    DynamicsInfo, IkSolution, JointInfo, JointState, NumJoints, ObjectState, SimulationInfo,
+    CameraImage, Contacts, DynamicsInfo, IkSolution, JointInfo, JointState, NumJoints,
+    ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
+use crate::sensing::camera::{self, Mat4};
+use crate::sensing::scene::Indexed;
+use crate::sensing::{contacts, rays, render};
 use crate::value::{self, r32, r32s, Args, Refusal};
 use crate::world::World;
 
@@ -118,7 +122,7 @@ pub fn simulation_info(cx: &ReadContext, _a: &Args) -> Result<SimulationInfo, Re
         steps: w.tables.steps,
         gui_enabled: w.gui(),
         objects: w.object_summaries(),
-        constraints: Vec::new(),
+        constraints: w.constraint_summaries(),
         head_seq: cx.head_seq,
         last_seq: cx.last_seq,
         state_hash: cx.state_hash.to_string(),
@@ -140,6 +144,127 @@ pub fn replay_read(tool: &str, cx: &ReadContext, a: &Args) -> Option<Result<Valu
         "get_joint_info" => json(joint_info(cx, a)),
         "get_joint_state" => json(joint_state(cx, a)),
         "calculate_inverse_kinematics" => json(inverse_kinematics(cx, a)),
+        "ray_test" => json(ray_test(cx, a)),
+        "ray_test_batch" => json(ray_test_batch(cx, a, usize::MAX)),
+        "get_all_collisions" => json(all_collisions(cx, a)),
+        "get_collisions_for_pair" => json(collisions_for_pair(cx, a)),
+        "get_camera_image" => json(camera_image(cx, a, usize::MAX)),
         _ => return None,
     })
+}
+
+/// ray_test.
+pub fn ray_test(cx: &ReadContext, a: &Args) -> Result<RayHit, Refusal> {
+    let from = value::req_vec3(a, "ray_from")?;
+    let to = value::req_vec3(a, "ray_to")?;
+    Ok(rays::cast(&Indexed::new(cx.world), from, to))
+}
+
+/// ray_test_batch (at most `max_rays` rays).
+pub fn ray_test_batch(cx: &ReadContext, a: &Args, max_rays: usize) -> Result<RayBatch, Refusal> {
+    let list = |name: &str| value::vec3_list(name, value::required(a, name, "a list of [x, y, z] vectors")?);
+    let (from, to) = (list("rays_from")?, list("rays_to")?);
+    if from.len() != to.len() {
+        return Err(format!(
+            "rays_from and rays_to must have the same length; got {} and {}",
+            from.len(),
+            to.len()
+        ));
+    }
+    if from.is_empty() {
+        return Err("rays_from must hold at least one ray; got []".into());
+    }
+    if from.len() > max_rays {
+        return Err(format!("Too many rays: {} in one batch (at most {max_rays}, --max-rays)", from.len()));
+    }
+    let rays: Vec<_> = from.into_iter().zip(to).collect();
+    Ok(RayBatch { results: rays::cast_batch(&Indexed::new(cx.world), &rays) })
+}
+
+/// get_all_collisions.
+pub fn all_collisions(cx: &ReadContext, _a: &Args) -> Result<Contacts, Refusal> {
+    Ok(Contacts { contacts: contacts::contacts(cx.world, None) })
+}
+
+/// get_collisions_for_pair.
+pub fn collisions_for_pair(cx: &ReadContext, a: &Args) -> Result<Contacts, Refusal> {
+    let w = cx.world;
+    let (oa, ob) = (value::object_id(a, "obj_a")?, value::object_id(a, "obj_b")?);
+    for id in [oa, ob] {
+        if !w.has_object(id) {
+            return Err(object_not_found(id, w.simulation_id()));
+        }
+    }
+    Ok(Contacts { contacts: contacts::contacts(w, Some((oa, ob))) })
+}
+
+/// A rendered image: the structured summary, and the PNG that travels beside it as MCP image
+/// content (not part of the recorded result).
+#[derive(serde::Serialize)]
+pub struct Rendered {
+    /// The structured result.
+    #[serde(flatten)]
+    pub summary: CameraImage,
+    /// PNG bytes of the RGB image.
+    #[serde(skip)]
+    pub png: Vec<u8>,
+}
+
+/// A 4×4 matrix argument, or `default` when absent.
+fn matrix(a: &Args, name: &str, default: impl FnOnce() -> Mat4) -> Result<Mat4, Refusal> {
+    match value::arg(a, name) {
+        Some(v) => value::numbers64(name, v, "16 finite numbers (a 4x4 matrix, column-major)"),
+        None => Ok(default()),
+    }
+}
+
+/// get_camera_image (at most `max_px` pixels).
+pub fn camera_image(cx: &ReadContext, a: &Args, max_px: usize) -> Result<Rendered, Refusal> {
+    let w = cx.world;
+    let side = |name: &str| -> Result<u32, Refusal> {
+        let v = value::integer(name, value::required(a, name, "an image size in pixels (integer >= 1)")?)?;
+        u32::try_from(v)
+            .ok()
+            .filter(|v| *v >= 1)
+            .ok_or_else(|| format!("{name} must be an integer >= 1; got {v}"))
+    };
+    let (width, height) = (side("width")?, side("height")?);
+    let px = width as u64 * height as u64;
+    if px > max_px as u64 {
+        return Err(format!(
+            "Image too large: {width}x{height} = {px} pixels (at most {max_px}, --max-image-px)"
+        ));
+    }
+    let cam = &w.tables.viewer;
+    let view = matrix(a, "view_matrix", || {
+        let t = cam.target.map(f64::from);
+        camera::view_matrix_from_yaw_pitch(t, cam.distance.into(), cam.yaw.into(), cam.pitch.into(), 2)
+    })?;
+    let proj = matrix(a, "projection_matrix", || {
+        camera::projection_matrix(60.0, f64::from(width) / f64::from(height), 0.01, 100.0)
+    })?;
+    let include_depth = value::bool_or(a, "include_depth", false)?;
+    let include_segmentation = value::bool_or(a, "include_segmentation", false)?;
+    let frame = render::render(w, width, height, &view, &proj);
+    let mut counts = std::collections::BTreeMap::<u32, u64>::new();
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for (id, d) in frame.segmentation.iter().zip(&frame.depth) {
+        if let Ok(id) = u32::try_from(*id) {
+            *counts.entry(id).or_default() += 1;
+            lo = lo.min(*d);
+            hi = hi.max(*d);
+        }
+    }
+    let far = render::Frame::far_plane(&proj).unwrap_or(0.0);
+    let summary = CameraImage {
+        width,
+        height,
+        visible_objects: counts.into_iter().map(|(object_id, pixels)| VisibleObject { object_id, pixels }).collect(),
+        depth_range: (lo <= hi).then(|| [r32(lo), r32(hi)]),
+        depth: include_depth.then(|| {
+            frame.depth.iter().map(|d| if d.is_finite() { r32(*d) } else { far }).collect()
+        }),
+        segmentation: include_segmentation.then(|| frame.segmentation.clone()),
+    };
+    Ok(Rendered { png: frame.png()?, summary })
 }

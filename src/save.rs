@@ -163,7 +163,7 @@ pub fn readable(world: &World) -> Readable {
         timestep: Some(json!(r32(world.timestep()))),
         simulation_time: Some(json!(world.tables.time_s)),
         objects,
-        constraints: Vec::new(),
+        constraints: world.constraint_summaries(),
     }
 }
 
@@ -368,6 +368,13 @@ pub fn commands_from_readable(r: &Readable, id: &str) -> Result<Vec<(String, Com
         out.push(("set_timestep".into(), Command::SetTimestep { timestep: value::positive("timestep", t).map_err(bad)? }));
     }
     let empty = serde_json::Map::new();
+    // The file's object ids → the ids the re-created objects get (0, 1, … in file order).
+    let mut ids = std::collections::BTreeMap::new();
+    for (i, o) in r.objects.iter().enumerate() {
+        if let Some(old) = o.get("object_id").and_then(Value::as_i64) {
+            ids.insert(old, i as u32);
+        }
+    }
     for (i, o) in r.objects.iter().enumerate() {
         let o = o.as_object().unwrap_or(&empty);
         let field = |k: &str| value::arg(o, k);
@@ -408,5 +415,47 @@ pub fn commands_from_readable(r: &Readable, id: &str) -> Result<Vec<(String, Com
             ));
         }
     }
+    for (i, c) in r.constraints.iter().enumerate() {
+        out.push(("create_constraint".into(), constraint_from_readable(c, i, &ids)?));
+    }
     Ok(out)
+}
+
+/// One readable constraint as the command that re-creates it (object ids mapped to the
+/// re-created objects').
+fn constraint_from_readable(
+    c: &Value,
+    i: usize,
+    ids: &std::collections::BTreeMap<i64, u32>,
+) -> Result<Command, Refusal> {
+    let empty = serde_json::Map::new();
+    let c = c.as_object().unwrap_or(&empty);
+    let name = |k: &str| format!("constraints[{i}].{k}");
+    let object = |k: &str| -> Result<Option<u32>, Refusal> {
+        let v = value::arg(c, k).ok_or_else(|| bad(format!("{} is missing", name(k))))?;
+        let id = value::integer(&name(k), v).map_err(bad)?;
+        if id == -1 && k == "child_id" {
+            return Ok(None);
+        }
+        ids.get(&id).copied().map(Some).ok_or_else(|| bad(format!("{} names no saved object ({id})", name(k))))
+    };
+    let parent_id = object("parent_id")?.ok_or_else(|| bad(format!("{} is missing", name("parent_id"))))?;
+    let joint_type = value::arg(c, "joint_type")
+        .and_then(Value::as_str)
+        .and_then(crate::command::ConstraintType::parse)
+        .ok_or_else(|| bad(format!("{} is not fixed, prismatic, spherical or revolute", name("joint_type"))))?;
+    let v3 = |k: &str, d: [f32; 3]| value::arg(c, k).map(|v| value::vec3(&name(k), v)).transpose().map(|v| v.unwrap_or(d)).map_err(bad);
+    let q = |k: &str| value::arg(c, k).map(|v| value::quat(&name(k), v)).transpose().map(|v| v.unwrap_or([0.0, 0.0, 0.0, 1.0])).map_err(bad);
+    Ok(Command::CreateConstraint {
+        spec: crate::command::ConstraintSpec {
+            parent_id,
+            child_id: object("child_id")?,
+            joint_type,
+            joint_axis: v3("joint_axis", [0.0, 0.0, 1.0])?,
+            parent_frame_position: v3("parent_frame_position", [0.0; 3])?,
+            child_frame_position: v3("child_frame_position", [0.0; 3])?,
+            parent_frame_orientation: q("parent_frame_orientation")?,
+            child_frame_orientation: q("child_frame_orientation")?,
+        },
+    })
 }

@@ -196,6 +196,35 @@ pub fn number_list(name: &str, v: &Value) -> Result<Vec<f64>, Refusal> {
     items.iter().map(|x| finite(x).ok_or_else(fail)).collect()
 }
 
+/// Reads a finite number at full precision (camera matrices are computed in f64).
+pub fn number64(name: &str, v: &Value) -> Result<f64, Refusal> {
+    finite(v).ok_or_else(|| format!("{name} must be a finite number; got {}", show(v)))
+}
+
+/// Reads exactly `n` finite numbers at full precision (`shape` describes them for the error).
+pub fn numbers64<const N: usize>(name: &str, v: &Value, shape: &str) -> Result<[f64; N], Refusal> {
+    let fail = || format!("{name} must be {shape}; got {}", show(v));
+    let list = number_list(name, v).map_err(|_| fail())?;
+    list.try_into().map_err(|_| fail())
+}
+
+/// Reads a required `[x, y, z]` at full precision.
+pub fn req_vec3_64(args: &Args, name: &str) -> Result<[f64; 3], Refusal> {
+    numbers64(name, required(args, name, "3 finite numbers [x, y, z]")?, "3 finite numbers [x, y, z]")
+}
+
+/// Reads a list of `[x, y, z]` vectors (a JSON string holding the list is accepted too).
+pub fn vec3_list(name: &str, v: &Value) -> Result<Vec<[f32; 3]>, Refusal> {
+    let fail = || format!("{name} must be a list of [x, y, z] vectors; got {}", show(v));
+    let inner = decode_string(v).ok_or_else(fail)?;
+    let items = inner.as_array().ok_or_else(fail)?;
+    items
+        .iter()
+        .enumerate()
+        .map(|(i, x)| vec3(&format!("{name}[{i}]"), x))
+        .collect()
+}
+
 /// Reads an optional list of exactly `n` finite numbers (one per movable joint).
 pub fn opt_list_of(args: &Args, name: &str, n: usize) -> Result<Option<Vec<f64>>, Refusal> {
     let Some(v) = arg(args, name) else { return Ok(None) };

@@ -6,10 +6,12 @@
 //! schema from `params.rs` and its output schema from `outputs.rs`. Errors are one sentence
 //! with `isError: true`; sim work runs on the blocking pool, one call at a time per simulation.
 
+mod constraints;
 mod objects;
 mod params;
 mod persistence;
 mod robots;
+mod sensing;
 mod simulations;
 mod timeline;
 pub mod transport;
@@ -48,7 +50,9 @@ impl PhysicsServer {
                 + Self::object_router()
                 + Self::timeline_router()
                 + Self::persistence_router()
-                + Self::robot_router(),
+                + Self::robot_router()
+                + Self::constraint_router()
+                + Self::sensing_router(),
         }
     }
 

@@ -352,3 +352,132 @@ pub struct GenerateRevolute {
     /// Where to write, relative to the workspace (default generated/revolute_<n>.urdf).
     pub output_path: Option<String>,
 }
+
+/// create_constraint parameters (PyBullet's createConstraint, plus revolute).
+#[derive(JsonSchema)]
+pub struct CreateConstraint {
+    /// Simulation id.
+    pub sim_id: String,
+    /// The parent object.
+    pub parent_id: u32,
+    /// The child object, or -1 for the world.
+    pub child_id: i64,
+    /// fixed, prismatic, spherical (PyBullet's point2point) or revolute.
+    pub joint_type: String,
+    /// Free axis of a prismatic or revolute joint, in the parent's constraint frame
+    /// (default [0, 0, 1]).
+    pub joint_axis: Option<[f64; 3]>,
+    /// Joint position in the parent's body frame (default [0, 0, 0]).
+    pub parent_frame_position: Option<[f64; 3]>,
+    /// Joint position in the child's body frame, or in world coordinates when child_id is -1
+    /// (default [0, 0, 0]).
+    pub child_frame_position: Option<[f64; 3]>,
+    /// Joint orientation in the parent's frame, quaternion [x, y, z, w] (default identity).
+    pub parent_frame_orientation: Option<[f64; 4]>,
+    /// Joint orientation in the child's frame (world when child_id is -1; default identity).
+    pub child_frame_orientation: Option<[f64; 4]>,
+}
+
+/// remove_constraint parameters.
+#[derive(JsonSchema)]
+pub struct ConstraintRef {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Constraint id (from create_constraint).
+    pub constraint_id: u32,
+}
+
+/// ray_test parameters.
+#[derive(JsonSchema)]
+pub struct RayTest {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Start of the ray, world [x, y, z].
+    pub ray_from: [f64; 3],
+    /// End of the ray, world [x, y, z].
+    pub ray_to: [f64; 3],
+}
+
+/// ray_test_batch parameters.
+#[derive(JsonSchema)]
+pub struct RayTestBatch {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Starts of the rays (at least 1, at most --max-rays).
+    pub rays_from: Vec<[f64; 3]>,
+    /// Ends of the rays, as many as rays_from.
+    pub rays_to: Vec<[f64; 3]>,
+}
+
+/// get_collisions_for_pair parameters.
+#[derive(JsonSchema)]
+pub struct CollisionPair {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Object A (contact normals point from B to A).
+    pub obj_a: u32,
+    /// Object B.
+    pub obj_b: u32,
+}
+
+/// compute_view_matrix parameters.
+#[derive(JsonSchema)]
+pub struct ViewMatrix {
+    /// Camera position [x, y, z].
+    pub camera_eye_position: [f64; 3],
+    /// Point looked at [x, y, z].
+    pub camera_target_position: [f64; 3],
+    /// Up direction [x, y, z] (not parallel to the view direction).
+    pub camera_up_vector: [f64; 3],
+}
+
+/// compute_view_matrix_from_yaw_pitch parameters (roll 0).
+#[derive(JsonSchema)]
+pub struct ViewMatrixYawPitch {
+    /// Distance from the camera to the target (m).
+    pub distance: f64,
+    /// Yaw in degrees.
+    pub yaw: f64,
+    /// Pitch in degrees.
+    pub pitch: f64,
+    /// Point looked at [x, y, z].
+    pub target_position: [f64; 3],
+    /// 2 = z up (default), 1 = y up.
+    pub up_axis_index: Option<u8>,
+}
+
+/// compute_projection_matrix parameters.
+#[derive(JsonSchema)]
+pub struct ProjectionMatrix {
+    /// Vertical field of view in degrees, in (0, 180).
+    pub fov: f64,
+    /// Width / height, > 0.
+    pub aspect: f64,
+    /// Near clipping distance, > 0.
+    pub near_plane: f64,
+    /// Far clipping distance, > near_plane.
+    pub far_plane: f64,
+}
+
+/// get_camera_image parameters.
+#[derive(JsonSchema)]
+pub struct CameraImage {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Image width in pixels (width x height at most --max-image-px).
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// 16 floats, column-major (from compute_view_matrix*); default: the simulation's viewer
+    /// camera (set_camera).
+    pub view_matrix: Option<Vec<f64>>,
+    /// 16 floats, column-major (from compute_projection_matrix); default: fov 60, the image's
+    /// aspect, near 0.01, far 100.
+    pub projection_matrix: Option<Vec<f64>>,
+    /// Accepted for PyBullet compatibility and ignored (there is one CPU renderer).
+    pub renderer: Option<serde_json::Value>,
+    /// Also return the depth of every pixel (metres along the view axis, row-major).
+    pub include_depth: Option<bool>,
+    /// Also return the object id of every pixel (-1 background, row-major).
+    pub include_segmentation: Option<bool>,
+}

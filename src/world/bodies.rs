@@ -121,6 +121,7 @@ impl World {
                 })
             }
             Command::RemoveObject { object_id } => {
+                self.remove_constraints_of(*object_id);
                 if let Some(obj) = self.tables.objects.remove(object_id) {
                     match &obj.kind {
                         ObjectKind::Robot { robot } => self.remove_robot_bodies(obj.body, robot),
@@ -138,7 +139,9 @@ impl World {
             | Command::StepSimulation { .. }
             | Command::SetTimestep { .. }
             | Command::LoadUrdf { .. }
-            | Command::SetJointMotor { .. } => {
+            | Command::SetJointMotor { .. }
+            | Command::CreateConstraint { .. }
+            | Command::RemoveConstraint { .. } => {
                 BodyOutcome::Message(Message::new("not a body command"))
             }
         }

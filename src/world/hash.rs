@@ -126,6 +126,11 @@ pub(super) fn state_hash(w: &World) -> String {
     if !robots.is_empty() {
         bytes.extend(postcard::to_stdvec(&robots).unwrap_or_default());
     }
+    // Constraints likewise, behind a tag so they can never read as robots.
+    if !w.tables.constraints.is_empty() {
+        let views = super::constraints::hash_views(w);
+        bytes.extend(postcard::to_stdvec(&("constraints", views)).unwrap_or_default());
+    }
     blake3::hash(&bytes).to_hex().to_string()
 }
 

@@ -7,6 +7,7 @@
 //! continuing is bit-identical to never having stopped.
 
 mod bodies;
+pub mod constraints;
 mod hash;
 pub mod ik;
 mod robot;
@@ -150,6 +151,36 @@ pub struct Tables {
     pub pending_wrench: BTreeSet<u32>,
     /// Viewer settings.
     pub viewer: Viewer,
+    /// Constraints by id.
+    pub constraints: BTreeMap<u32, constraints::Constraint>,
+}
+
+/// The tables as snapshot version 1 encoded them (before constraints): old snapshots in logs
+/// and saved files still restore.
+#[derive(Deserialize)]
+struct TablesV1 {
+    objects: BTreeMap<u32, Object>,
+    next_object_id: u32,
+    next_constraint_id: u32,
+    time_s: f64,
+    steps: u64,
+    pending_wrench: BTreeSet<u32>,
+    viewer: Viewer,
+}
+
+impl From<TablesV1> for Tables {
+    fn from(t: TablesV1) -> Self {
+        Tables {
+            objects: t.objects,
+            next_object_id: t.next_object_id,
+            next_constraint_id: t.next_constraint_id,
+            time_s: t.time_s,
+            steps: t.steps,
+            pending_wrench: t.pending_wrench,
+            viewer: t.viewer,
+            constraints: BTreeMap::new(),
+        }
+    }
 }
 
 /// A simulation's state: rapier's world plus our tables. Identity (`simulation_id`) and the
@@ -268,6 +299,11 @@ impl World {
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 to_value(&Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
+            Command::CreateConstraint { spec } => to_value(&self.insert_constraint(spec)),
+            Command::RemoveConstraint { constraint_id } => {
+                self.remove_constraint(*constraint_id);
+                to_value(&Message::new(format!("Constraint {constraint_id} removed")))
+            }
             other => to_value(&self.apply_body_command(other)),
         }
     }
@@ -302,11 +338,21 @@ impl World {
     /// Rebuilds a world from `snapshot` bytes. Identity comes from the caller (a fork or load
     /// restores another simulation's snapshot under a new id).
     pub fn restore(simulation_id: &str, gui: bool, bytes: &[u8]) -> Result<World, String> {
-        let (version, physics, tables): (u32, PhysicsWorld, Tables) =
-            postcard::from_bytes(bytes).map_err(|e| format!("snapshot does not decode: {e}"))?;
-        if version != SNAPSHOT_VERSION {
-            return Err(format!("snapshot version {version} is not supported"));
-        }
+        let bad = |e: postcard::Error| format!("snapshot does not decode: {e}");
+        let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
+        let (physics, tables) = match version {
+            SNAPSHOT_VERSION => {
+                let (_, physics, tables): (u32, PhysicsWorld, Tables) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                (physics, tables)
+            }
+            1 => {
+                let (_, physics, tables): (u32, PhysicsWorld, TablesV1) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                (physics, tables.into())
+            }
+            v => return Err(format!("snapshot version {v} is not supported")),
+        };
         Ok(World {
             simulation_id: simulation_id.to_string(),
             gui,
@@ -321,8 +367,8 @@ impl World {
     }
 }
 
-/// Version of the snapshot encoding.
-pub const SNAPSHOT_VERSION: u32 = 1;
+/// Version of the snapshot encoding (2 added constraints to the tables; 1 still restores).
+pub const SNAPSHOT_VERSION: u32 = 2;
 
 /// Serialises a result struct; our result types always serialise.
 fn to_value<T: Serialize>(v: &T) -> Value {

@@ -1,0 +1,70 @@
+//! Constraint tools: create_constraint, remove_constraint (generate_revolute_joint, which
+//! writes a URDF, lives with the robot tools).
+
+use rmcp::handler::server::common::schema_for_type;
+use rmcp::model::JsonObject;
+use rmcp::{tool, tool_router};
+
+use super::{params, PhysicsServer, ToolResult};
+use crate::command::{Command, ConstraintSpec, ConstraintType};
+use crate::outputs::{ConstraintCreated, Message};
+use crate::value::{self, Args, Refusal};
+
+fn decide_create(a: &Args) -> Result<Command, Refusal> {
+    let parent_id = value::object_id(a, "parent_id")?;
+    let child = value::integer("child_id", value::required(a, "child_id", "an object id or -1 (the world)")?)?;
+    let child_id = match child {
+        -1 => None,
+        c => Some(u32::try_from(c).map_err(|_| format!("child_id must be an object id or -1 (the world); got {c}"))?),
+    };
+    let name = value::string(a, "joint_type")?;
+    let joint_type = ConstraintType::parse(&name).ok_or_else(|| {
+        format!("joint_type must be fixed, prismatic, spherical or revolute; got {name:?}")
+    })?;
+    let joint_axis = value::opt_vec3(a, "joint_axis")?.unwrap_or([0.0, 0.0, 1.0]);
+    let needs_axis = matches!(joint_type, ConstraintType::Prismatic | ConstraintType::Revolute);
+    if needs_axis && joint_axis.iter().all(|x| *x == 0.0) {
+        return Err(format!("joint_axis must be a non-zero vector for a {} constraint; got [0, 0, 0]", joint_type.name()));
+    }
+    Ok(Command::CreateConstraint {
+        spec: ConstraintSpec {
+            parent_id,
+            child_id,
+            joint_type,
+            joint_axis,
+            parent_frame_position: value::opt_vec3(a, "parent_frame_position")?.unwrap_or_default(),
+            child_frame_position: value::opt_vec3(a, "child_frame_position")?.unwrap_or_default(),
+            parent_frame_orientation: value::quat_or_identity(a, "parent_frame_orientation")?,
+            child_frame_orientation: value::quat_or_identity(a, "child_frame_orientation")?,
+        },
+    })
+}
+
+fn decide_remove(a: &Args) -> Result<Command, Refusal> {
+    let v = value::required(a, "constraint_id", "a constraint id (integer >= 0)")?;
+    let i = value::integer("constraint_id", v)?;
+    let constraint_id = u32::try_from(i)
+        .map_err(|_| format!("constraint_id must be a constraint id (integer >= 0); got {i}"))?;
+    Ok(Command::RemoveConstraint { constraint_id })
+}
+
+#[tool_router(router = constraint_router, vis = "pub(crate)")]
+impl PhysicsServer {
+    /// Join two objects, or an object and the world (child_id -1), with a fixed, prismatic,
+    /// spherical or revolute joint. Frames follow PyBullet: parent_frame_* in the parent's
+    /// body frame, child_frame_* in the child's (world coordinates for the world); joint_axis
+    /// in the parent's constraint frame. The joined bodies stop colliding with each other.
+    #[tool(input_schema = schema_for_type::<params::CreateConstraint>())]
+    async fn create_constraint(&self, args: JsonObject) -> ToolResult<ConstraintCreated> {
+        self.change("create_constraint", args, decide_create).await
+    }
+
+    /// Remove a constraint; the bodies it joined move freely again.
+    #[tool(
+        input_schema = schema_for_type::<params::ConstraintRef>(),
+        annotations(destructive_hint = true)
+    )]
+    async fn remove_constraint(&self, args: JsonObject) -> ToolResult<Message> {
+        self.change("remove_constraint", args, decide_remove).await
+    }
+}

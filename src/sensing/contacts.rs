@@ -1,0 +1,67 @@
+//! get_all_collisions and get_collisions_for_pair: the contact points of the last step, from
+//! rapier's narrow phase, in PyBullet's form (normal from B to A, normal force = the solver's
+//! normal impulse over the step's dt).
+
+use std::collections::HashMap;
+
+use rapier3d::prelude::*;
+
+use super::scene;
+use crate::outputs::Contact;
+use crate::value::{r32, r32s};
+use crate::world::World;
+
+/// Every contact point, ordered by (object_a, object_b, link_a, link_b) with object_a ≤
+/// object_b; when `pair` is given, only contacts between those two objects, with A = the
+/// first of the pair.
+pub fn contacts(w: &World, pair: Option<(u32, u32)>) -> Vec<Contact> {
+    let owner: HashMap<ColliderHandle, (u32, i64)> =
+        scene::parts(w).iter().map(|p| (p.collider, (p.object_id, p.link_index))).collect();
+    let dt = w.physics.integration_parameters.dt;
+    let mut out = Vec::new();
+    for cp in w.physics.contact_pairs() {
+        let (Some(&o1), Some(&o2)) = (owner.get(&cp.collider1), owner.get(&cp.collider2)) else {
+            continue;
+        };
+        let (Some(c1), Some(c2)) = (w.physics.colliders.get(cp.collider1), w.physics.colliders.get(cp.collider2)) else {
+            continue;
+        };
+        // A is collider 1 unless the order asked for (or id order) says otherwise.
+        let swap = match pair {
+            Some((a, b)) => {
+                if (o1.0, o2.0) == (a, b) {
+                    false
+                } else if (o1.0, o2.0) == (b, a) {
+                    true
+                } else {
+                    continue;
+                }
+            }
+            None => (o1.0, o1.1) > (o2.0, o2.1),
+        };
+        for m in cp.manifolds() {
+            // rapier's manifold normal points from collider 1 towards collider 2.
+            let n12 = c1.position().transform_vector(m.local_n1);
+            for p in &m.points {
+                let on1 = c1.position().transform_point(p.local_p1);
+                let on2 = c2.position().transform_point(p.local_p2);
+                let force = (p.data.impulse / dt).max(0.0);
+                let (a, b, on_a, on_b, normal_b_to_a) =
+                    if swap { (o2, o1, on2, on1, n12) } else { (o1, o2, on1, on2, -n12) };
+                out.push(Contact {
+                    object_a: a.0,
+                    object_b: b.0,
+                    link_index_a: a.1,
+                    link_index_b: b.1,
+                    position_on_a: r32s(on_a.to_array()),
+                    position_on_b: r32s(on_b.to_array()),
+                    contact_normal: r32s(normal_b_to_a.to_array()),
+                    contact_distance: r32(p.dist),
+                    normal_force: r32(force),
+                });
+            }
+        }
+    }
+    out.sort_by_key(|c| (c.object_a, c.object_b, c.link_index_a, c.link_index_b));
+    out
+}
