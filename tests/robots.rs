@@ -9,26 +9,9 @@ use std::path::Path;
 use common::{Client, Server};
 use serde_json::{json, Value};
 
-/// Copies the fixtures into the server's workspace.
-fn fixtures(server: &Server) {
-    fn copy(from: &Path, to: &Path) {
-        std::fs::create_dir_all(to).unwrap();
-        for e in std::fs::read_dir(from).unwrap() {
-            let e = e.unwrap();
-            let target = to.join(e.file_name());
-            if e.file_type().unwrap().is_dir() {
-                copy(&e.path(), &target);
-            } else {
-                std::fs::copy(e.path(), target).unwrap();
-            }
-        }
-    }
-    copy(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures"), &server.workspace);
-}
-
 async fn start(dir: &Path) -> (Server, Client) {
     let server = Server::start(dir, &[]);
-    fixtures(&server);
+    server.copy_fixtures();
     let client = server.client().await;
     (server, client)
 }

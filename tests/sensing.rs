@@ -75,12 +75,7 @@ async fn rays_hit_known_geometry_exactly() {
     expect_hit(&c, &sim, [0.0, 0.0, 5.0], [0.0, 0.0, -5.0], cube, 0.25, [0.0, 0.0, 1.0]).await;
 
     // Robots: the link hit is reported by its PyBullet index.
-    for e in std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")).unwrap() {
-        let e = e.unwrap();
-        if e.file_type().unwrap().is_file() {
-            std::fs::copy(e.path(), server.workspace.join(e.file_name())).unwrap();
-        }
-    }
+    server.copy_fixtures();
     let arm = add(&c, "load_urdf", json!({"sim_id": sim, "file_path": "two_link_arm.urdf", "position": [0, -3, 1], "use_fixed_base": true})).await;
     for (x, link, top) in [(0.0, -1, 1.05), (0.25, 0, 1.02), (0.7, 1, 1.015)] {
         let r = c.call("ray_test", json!({"sim_id": sim, "ray_from": [x, -3, 2], "ray_to": [x, -3, 0.5]})).await;
@@ -445,7 +440,7 @@ async fn camera_matrices_equal_pybullets() {
 #[tokio::test(flavor = "multi_thread")]
 async fn camera_image_shows_a_red_box_on_a_gray_ground() {
     let dir = tempfile::tempdir().unwrap();
-    let (_server, c) = start(dir.path(), &[]).await;
+    let (server, c) = start(dir.path(), &[]).await;
     let sim = c.new_sim(json!({})).await;
     let ground = c.call("add_box", json!({"sim_id": sim, "position": [0, 0, -0.5], "dimensions": [20, 20, 0.5], "mass": 0, "color": [0.5, 0.5, 0.5, 1]})).await["object_id"].as_i64().unwrap();
     let cube = c.call("add_box", json!({"sim_id": sim, "position": [0, 0, 0.25], "dimensions": [0.25, 0.25, 0.25], "mass": 0, "color": [1, 0, 0, 1]})).await["object_id"].as_i64().unwrap();
@@ -504,4 +499,11 @@ async fn camera_image_shows_a_red_box_on_a_gray_ground() {
     let small = c.call("get_camera_image", json!({"sim_id": sim, "width": 32, "height": 24})).await;
     assert!(small.get("depth").is_none() && small.get("segmentation").is_none(), "{small}");
     assert_eq!(small["width"].as_u64(), Some(32));
+
+    // URDF meshes are drawn too: the mesh robot (STL and OBJ hulls) beside the box.
+    server.copy_fixtures();
+    let bot = c.call("load_urdf", json!({"sim_id": sim, "file_path": "mesh_bot/urdf/mesh_bot.urdf", "position": [0.8, 0, 0.3], "use_fixed_base": true})).await["object_id"].as_i64().unwrap();
+    let seen = c.call("get_camera_image", json!({"sim_id": sim, "width": w, "height": h, "view_matrix": view, "projection_matrix": proj})).await;
+    let bot_px = seen["visible_objects"].as_array().unwrap().iter().find(|v| v["object_id"].as_i64() == Some(bot)).map(|v| v["pixels"].as_u64().unwrap());
+    assert!(bot_px.unwrap_or(0) > 50, "the mesh robot is drawn: {seen}");
 }

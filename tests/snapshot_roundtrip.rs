@@ -1,10 +1,11 @@
 //! Determinism through `World::snapshot/restore` (our tables included), issue 2 "Done means" 4a/4b:
 //! a 200-body pile of mixed shapes with forces and dynamics changes, snapshotted mid-run,
-//! continues bit-identically; re-serialising a restored snapshot gives the same bytes.
+//! continues bit-identically (with constraints of every kind, one removed mid-run);
+//! re-serialising a restored snapshot gives the same bytes.
 
 mod common;
 
-use physics_mcp::command::{Command, DynamicsChange, Shape};
+use physics_mcp::command::{Command, ConstraintSpec, ConstraintType, DynamicsChange, Shape};
 use physics_mcp::world::World;
 
 fn apply(w: &mut World, c: Command) {
@@ -53,6 +54,26 @@ fn pile() -> World {
             color: Some([r.next(), 0.5, 0.5, 1.0]),
         });
     }
+    // Constraints of every kind, between bodies and to the world (#5).
+    for (parent, child, joint_type) in [
+        (10, Some(11), ConstraintType::Fixed),
+        (20, Some(21), ConstraintType::Prismatic),
+        (30, None, ConstraintType::Spherical),
+        (40, Some(47), ConstraintType::Revolute),
+    ] {
+        apply(&mut w, Command::CreateConstraint {
+            spec: ConstraintSpec {
+                parent_id: parent,
+                child_id: child,
+                joint_type,
+                joint_axis: [0.3, 0.0, 1.0],
+                parent_frame_position: [0.15, 0.0, 0.0],
+                child_frame_position: if child.is_some() { [-0.15, 0.0, 0.0] } else { [0.3, 0.6, 1.5] },
+                parent_frame_orientation: [0.0, 0.0, 0.0, 1.0],
+                child_frame_orientation: [0.0, 0.0, 0.38268343, 0.9238795],
+            },
+        });
+    }
     w
 }
 
@@ -70,6 +91,9 @@ fn disturb(w: &mut World, k: u32) {
             link_index: -1,
             change: DynamicsChange { mass: Some(3.0), lateral_friction: Some(0.9), restitution: Some(0.3), ..Default::default() },
         });
+    }
+    if k == 300 {
+        apply(w, Command::RemoveConstraint { constraint_id: 1 });
     }
     apply(w, Command::StepSimulation { steps: 1 });
 }

@@ -51,6 +51,9 @@ impl Frame {
         let mut enc = png::Encoder::new(&mut out, self.width, self.height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
+        // fdeflate's PNG-tuned level: several times faster than the default, and flat-shaded
+        // renders still compress to a few tens of KB.
+        enc.set_compression(png::Compression::Fast);
         let mut writer = enc.write_header().map_err(|e| format!("PNG encoding failed: {e}"))?;
         writer.write_image_data(&self.rgb).map_err(|e| format!("PNG encoding failed: {e}"))?;
         writer.finish().map_err(|e| format!("PNG encoding failed: {e}"))?;

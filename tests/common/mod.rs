@@ -25,6 +25,24 @@ pub struct Server {
 }
 
 impl Server {
+    /// Copies `tests/fixtures` (URDFs and their meshes) into the server's workspace.
+    #[allow(dead_code)]
+    pub fn copy_fixtures(&self) {
+        fn copy(from: &Path, to: &Path) {
+            std::fs::create_dir_all(to).unwrap();
+            for e in std::fs::read_dir(from).unwrap() {
+                let e = e.unwrap();
+                let target = to.join(e.file_name());
+                if e.file_type().unwrap().is_dir() {
+                    copy(&e.path(), &target);
+                } else {
+                    std::fs::copy(e.path(), target).unwrap();
+                }
+            }
+        }
+        copy(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures"), &self.workspace);
+    }
+
     /// Starts `physics-mcp serve` on 127.0.0.1:0 over `dir/data` and `dir/workspace`.
     pub fn start(dir: &Path, extra: &[&str]) -> Server {
         Self::start_with_env(dir, extra, &[])

@@ -1,0 +1,76 @@
+//! The 1000-box pile of issue 2, shared by the benchmarks that need it (stepping, snapshots,
+//! MCP overhead, rays).
+#![allow(dead_code)]
+
+use physics_mcp::command::{Command, Shape};
+use physics_mcp::world::World;
+use rand::{Rng, SeedableRng};
+use serde_json::json;
+
+pub const SEED: u64 = 20261122;
+
+/// The 1000-box pile of the issue: half-extent 0.1 boxes on a 10×10×10 grid, spacing 0.25 m
+/// from z = 0.5, jittered ±0.02 m, turned by a seeded random angle, on a static ground.
+/// Orientations are as a client would send them (raw axis-angle quaternions); `pile_commands`
+/// normalises them exactly as the adapter does, so in-process and HTTP runs are identical.
+pub fn pile_commands() -> Vec<Command> {
+    raw_pile()
+        .into_iter()
+        .map(|mut c| {
+            if let Command::AddBody { orientation, .. } = &mut c {
+                *orientation = physics_mcp::value::quat("orientation", &json!(*orientation)).unwrap();
+            }
+            c
+        })
+        .collect()
+}
+
+pub fn raw_pile() -> Vec<Command> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SEED);
+    let mut cmds = vec![Command::AddBody {
+        shape: Shape::Box { half_extents: [20.0, 20.0, 0.5] },
+        position: [0.0, 0.0, -0.5],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        mass: 0.0,
+        color: None,
+    }];
+    for i in 0..10 {
+        for j in 0..10 {
+            for k in 0..10 {
+                let mut jit = || rng.gen_range(-0.02f32..=0.02);
+                let p = [i as f32 * 0.25 + jit(), j as f32 * 0.25 + jit(), 0.5 + k as f32 * 0.25 + jit()];
+                let axis = [rng.gen_range(-1.0f32..1.0), rng.gen_range(-1.0f32..1.0), rng.gen_range(-1.0f32..1.0)];
+                let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt().max(1e-6);
+                let angle: f32 = rng.gen_range(0.0..std::f32::consts::TAU);
+                let (s, c) = (angle / 2.0).sin_cos();
+                cmds.push(Command::AddBody {
+                    shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] },
+                    position: p,
+                    orientation: [axis[0] / n * s, axis[1] / n * s, axis[2] / n * s, c],
+                    mass: 1.0,
+                    color: None,
+                });
+            }
+        }
+    }
+    cmds
+}
+
+pub fn root(id: &str) -> Command {
+    Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false }
+}
+
+pub fn pile_world(sleeping: bool) -> World {
+    let (mut w, _) = World::create(&root("pile")).unwrap();
+    for c in pile_commands() {
+        w.apply(&c, &mut |_| true);
+    }
+    if !sleeping {
+        for (_, b) in w.physics.bodies.iter_mut() {
+            b.activation_mut().normalized_linear_threshold = -1.0;
+            b.activation_mut().angular_threshold = -1.0;
+        }
+    }
+    w
+}
+
