@@ -90,7 +90,7 @@ impl Blob {
     /// A blob holding `bytes`.
     pub fn new(bytes: Vec<u8>) -> Blob {
         Blob {
-            hash: blake3::hash(&bytes).to_hex().to_string(),
+            hash: crate::digest::content_hash(&bytes),
             bytes: Arc::new(bytes),
         }
     }

@@ -7,6 +7,7 @@
 //!   `snapshot`/`restore`. No I/O, no clock, no randomness.
 //! - `outputs` — the structured results of the tools (with JSON schemas).
 //! - `reads`   — the read-only tools, shared by the MCP adapters and replay.
+//! - `digest`  — content hashes of snapshots and blobs (blake3, parallel when large).
 //! - `store`   — the SQLite event log of one simulation: events, head, snapshots, blobs.
 //! - `sim`     — `Sim` = log + world (decide → apply → append → reply) and the `Registry`.
 //! - `timeline` — undo, redo, history, verify and fork: operations on the log.
@@ -21,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod command;
+pub mod digest;
 pub mod limits;
 pub mod outputs;
 pub mod persistence;

@@ -118,7 +118,7 @@ impl Replayer<'_> {
 
     fn check_snapshot(&mut self, e: &Event) -> Result<(), ReplayError> {
         if let Some((bytes, hash)) = self.log.snapshot_at(e.seq)? {
-            let actual = blake3::hash(&bytes).to_hex().to_string();
+            let actual = crate::digest::content_hash(&bytes);
             if actual != hash {
                 return Err(Self::diverged(e, "snapshot bytes", &hash, &actual));
             }

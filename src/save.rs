@@ -310,7 +310,7 @@ pub fn world_from_events(
         let at = events.iter().position(|e| e.seq == s.seq)?;
         let mac_ok = snapshot_mac(key, s.seq, &s.hash, &events[at].state_hash) == s.mac;
         let bytes = base64::engine::general_purpose::STANDARD.decode(&s.bytes).ok()?;
-        let hash_ok = blake3::hash(&bytes).to_hex().as_str() == s.hash;
+        let hash_ok = crate::digest::content_hash(&bytes) == s.hash;
         (mac_ok && hash_ok).then_some((at, bytes))
     });
     let (start, mut world) = match trusted {

@@ -112,7 +112,7 @@ impl Sim {
         let args_json = log.store_arguments(serde_json::to_string(args).unwrap_or_default());
         let result_json = result.to_string();
         let snapshot = world.snapshot();
-        let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
+        let snap_hash = crate::digest::content_hash(&snapshot);
         let event = Event {
             seq: log.next_seq(),
             kind: Kind::Root,
@@ -251,7 +251,7 @@ impl Sim {
             || self.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES;
         let snapshot = due.then(|| {
             let bytes = self.world.snapshot();
-            let hash = blake3::hash(&bytes).to_hex().to_string();
+            let hash = crate::digest::content_hash(&bytes);
             (bytes, hash)
         });
         let head = e.seq;
@@ -393,7 +393,7 @@ pub(crate) fn rebuild_at(
     let mut start = None;
     for (i, e) in chain.iter().enumerate().rev() {
         if let Some((bytes, hash)) = log.snapshot_at(e.seq)? {
-            if blake3::hash(&bytes).to_hex().as_str() != hash {
+            if crate::digest::content_hash(&bytes) != hash {
                 return Err(StoreError::Corrupt(format!(
                     "snapshot at seq {} does not match its hash",
                     e.seq

@@ -222,7 +222,7 @@ impl Sim {
             }
             if let Some((bytes, hash)) = self.log.snapshot_at(e.seq).map_err(store_err)? {
                 out.snapshots_checked += 1;
-                let bytes_hash = blake3::hash(&bytes).to_hex().to_string();
+                let bytes_hash = crate::digest::content_hash(&bytes);
                 if bytes_hash != hash {
                     diverge(&mut out, e.seq, &hash, bytes_hash);
                     break;
@@ -338,7 +338,7 @@ impl Registry {
                 log.put_blob(hash, &raw).map_err(store_err)?;
             }
             let snapshot = world.snapshot();
-            let snap_hash = blake3::hash(&snapshot).to_hex().to_string();
+            let snap_hash = crate::digest::content_hash(&snapshot);
             log.append_root_with_ancestry(chain, root, (&snapshot, &snap_hash))
                 .map_err(store_err)?;
             drop(log);

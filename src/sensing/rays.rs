@@ -66,10 +66,13 @@ pub fn cast_batch(scene: &Indexed, rays: &[([f32; 3], [f32; 3])]) -> Vec<RayHit>
     std::thread::scope(|s| {
         let jobs: Vec<_> = rays
             .chunks(per)
-            .map(|chunk| s.spawn(move || chunk.iter().map(|(f, t)| cast(scene, *f, *t)).collect::<Vec<_>>()))
+            .map(|chunk| (chunk, s.spawn(move || chunk.iter().map(|(f, t)| cast(scene, *f, *t)).collect::<Vec<_>>())))
             .collect();
         jobs.into_iter()
-            .flat_map(|j| j.join().unwrap_or_default())
+            .flat_map(|(chunk, job)| {
+                // A thread that failed is redone here, so results always line up with rays.
+                job.join().unwrap_or_else(|_| chunk.iter().map(|(f, t)| cast(scene, *f, *t)).collect())
+            })
             .collect()
     })
 }
