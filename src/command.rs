@@ -361,6 +361,24 @@ pub enum Command {
         /// Its id.
         constraint_id: u32,
     },
+    /// What the viewer draws besides the bodies (enable_debug_visualization).
+    SetDebugVisualization {
+        /// Draw contact points.
+        show_contacts: bool,
+        /// Draw body frames.
+        show_frames: bool,
+    },
+    /// The viewer's camera (set_camera); also the default camera of get_camera_image.
+    SetCamera {
+        /// Distance from the target (m, > 0).
+        distance: f32,
+        /// Yaw in degrees.
+        yaw: f32,
+        /// Pitch in degrees.
+        pitch: f32,
+        /// The point looked at.
+        target: [f32; 3],
+    },
 }
 
 /// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
@@ -503,7 +521,9 @@ impl Command {
                     Ok(())
                 }
             }
-            Command::SetTimestep { .. } => Ok(()),
+            Command::SetTimestep { .. }
+            | Command::SetDebugVisualization { .. }
+            | Command::SetCamera { .. } => Ok(()),
             Command::LoadUrdf { urdf, meshes, .. } => {
                 room_for_object(world, limits)?;
                 crate::world::urdf_model(urdf, meshes).map(|_| ())

@@ -153,6 +153,10 @@ async fn the_state_hash_covers_each_item_spec_lists() {
         ("timestep", "set_timestep", json!({"timestep": 0.01})),
         ("time and step count", "step_simulation", json!({"steps": 1})),
         ("objects", "remove_object", json!({"object_id": 1})),
+        ("constraints", "create_constraint", json!({"parent_id": 1, "child_id": -1, "joint_type": "fixed"})),
+        ("viewer camera", "set_camera", json!({"distance": 4, "yaw": 10, "pitch": -20, "target": [0, 0, 0]})),
+        ("viewer contacts", "enable_debug_visualization", json!({"show_contacts": false})),
+        ("viewer frames", "enable_debug_visualization", json!({"show_frames": true})),
     ];
     for (item, tool, mut args) in probes {
         let s = base(&c, g.clone(), red.clone()).await;
@@ -172,6 +176,11 @@ async fn the_state_hash_covers_each_item_spec_lists() {
     let extra = c.call("add_sphere", json!({"sim_id": s, "radius": 0.1, "position": [3, 3, 3]})).await;
     c.call("remove_object", json!({"sim_id": s, "object_id": extra["object_id"]})).await;
     assert_ne!(c.hash(&s).await, h0, "the object id counter is not hashed");
+    // The constraint id counter likewise.
+    let s = base(&c, g.clone(), red.clone()).await;
+    let k = c.call("create_constraint", json!({"sim_id": s, "parent_id": 1, "child_id": -1, "joint_type": "spherical"})).await;
+    c.call("remove_constraint", json!({"sim_id": s, "constraint_id": k["constraint_id"]})).await;
+    assert_ne!(c.hash(&s).await, h0, "the constraint id counter is not hashed");
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -507,3 +507,50 @@ async fn camera_image_shows_a_red_box_on_a_gray_ground() {
     let bot_px = seen["visible_objects"].as_array().unwrap().iter().find(|v| v["object_id"].as_i64() == Some(bot)).map(|v| v["pixels"].as_u64().unwrap());
     assert!(bot_px.unwrap_or(0) > 50, "the mesh robot is drawn: {seen}");
 }
+
+/// set_camera and enable_debug_visualization are recorded state (hashed, undone); set_camera
+/// is the camera get_camera_image uses when it is given no matrices.
+#[tokio::test(flavor = "multi_thread")]
+async fn set_camera_is_state_and_the_default_image_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path(), &[]).await;
+    let sim = c.new_sim(json!({})).await;
+    c.ground(&sim).await;
+    add(&c, "add_box", json!({"sim_id": sim, "position": [0.5, 0, 0.3], "dimensions": [0.3, 0.2, 0.3], "mass": 0, "color": [0, 0, 1, 1]})).await;
+    let h0 = c.hash(&sim).await;
+    let image = |extra: Value| {
+        let mut args = json!({"sim_id": sim, "width": 64, "height": 48, "include_segmentation": true, "include_depth": true});
+        args.as_object_mut().unwrap().extend(extra.as_object().unwrap().clone());
+        args
+    };
+    let before = c.call("get_camera_image", image(json!({}))).await;
+
+    c.call("set_camera", json!({"sim_id": sim, "distance": 3, "yaw": 30, "pitch": -40, "target": [0.2, 0, 0]})).await;
+    let h1 = c.hash(&sim).await;
+    assert_ne!(h0, h1, "the camera is part of the state hash");
+    let default_view = c.call("get_camera_image", image(json!({}))).await;
+    let view = c.call("compute_view_matrix_from_yaw_pitch", json!({"distance": 3, "yaw": 30, "pitch": -40, "target_position": [0.2, 0, 0]})).await["view_matrix"].clone();
+    let proj = c.call("compute_projection_matrix", json!({"fov": 60, "aspect": 64.0 / 48.0, "near_plane": 0.01, "far_plane": 100})).await["projection_matrix"].clone();
+    let explicit = c.call("get_camera_image", image(json!({"view_matrix": view, "projection_matrix": proj}))).await;
+    assert_eq!(default_view["segmentation"], explicit["segmentation"]);
+    assert_eq!(default_view["visible_objects"], explicit["visible_objects"]);
+    assert_ne!(before["segmentation"], default_view["segmentation"], "the camera moved");
+
+    c.call("enable_debug_visualization", json!({"sim_id": sim, "show_frames": true})).await;
+    let h2 = c.hash(&sim).await;
+    assert_ne!(h1, h2);
+    for (tool, args, needle) in [
+        ("set_camera", json!({"sim_id": sim, "distance": 0, "yaw": 0, "pitch": 0, "target": [0, 0, 0]}), "distance"),
+        ("set_camera", json!({"sim_id": sim, "distance": 2, "yaw": "north", "pitch": 0, "target": [0, 0, 0]}), "yaw"),
+        ("set_camera", json!({"sim_id": sim, "distance": 2, "yaw": 0, "pitch": 0, "target": [0, 0]}), "target"),
+        ("enable_debug_visualization", json!({"sim_id": sim, "show_frames": "yes"}), "show_frames"),
+    ] {
+        let err = c.try_call(tool, args).await.unwrap_err();
+        assert!(err.contains(needle), "{err}");
+    }
+    assert_eq!(c.hash(&sim).await, h2, "refusals change nothing");
+    c.call("undo", json!({"sim_id": sim, "count": 2})).await;
+    assert_eq!(c.hash(&sim).await, h0);
+    let again = c.call("get_camera_image", image(json!({}))).await;
+    assert_eq!(again["segmentation"], before["segmentation"], "undo restored the camera");
+}

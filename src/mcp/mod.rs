@@ -14,6 +14,7 @@ mod robots;
 mod sensing;
 mod simulations;
 mod timeline;
+mod viewer;
 pub mod transport;
 
 use std::sync::Arc;
@@ -52,7 +53,8 @@ impl PhysicsServer {
                 + Self::persistence_router()
                 + Self::robot_router()
                 + Self::constraint_router()
-                + Self::sensing_router(),
+                + Self::sensing_router()
+                + Self::viewer_router(),
         }
     }
 

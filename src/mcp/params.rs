@@ -481,3 +481,29 @@ pub struct CameraImage {
     /// Also return the object id of every pixel (-1 background, row-major).
     pub include_segmentation: Option<bool>,
 }
+
+/// enable_debug_visualization parameters.
+#[derive(JsonSchema)]
+pub struct DebugVisualization {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Draw contact points (default true).
+    pub show_contacts: Option<bool>,
+    /// Draw body frames (default false).
+    pub show_frames: Option<bool>,
+}
+
+/// set_camera parameters.
+#[derive(JsonSchema)]
+pub struct SetCamera {
+    /// Simulation id.
+    pub sim_id: String,
+    /// Distance from the camera to the target (m, > 0).
+    pub distance: f64,
+    /// Yaw in degrees.
+    pub yaw: f64,
+    /// Pitch in degrees (negative looks down).
+    pub pitch: f64,
+    /// The point looked at [x, y, z].
+    pub target: [f64; 3],
+}

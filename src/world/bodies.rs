@@ -141,7 +141,9 @@ impl World {
             | Command::LoadUrdf { .. }
             | Command::SetJointMotor { .. }
             | Command::CreateConstraint { .. }
-            | Command::RemoveConstraint { .. } => {
+            | Command::RemoveConstraint { .. }
+            | Command::SetDebugVisualization { .. }
+            | Command::SetCamera { .. } => {
                 BodyOutcome::Message(Message::new("not a body command"))
             }
         }

@@ -300,6 +300,23 @@ impl World {
                 to_value(&Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
             Command::CreateConstraint { spec } => to_value(&self.insert_constraint(spec)),
+            Command::SetDebugVisualization { show_contacts, show_frames } => {
+                self.tables.viewer.show_contacts = *show_contacts;
+                self.tables.viewer.show_frames = *show_frames;
+                to_value(&Message::new(format!(
+                    "Debug visualization: contacts {}, frames {}",
+                    if *show_contacts { "shown" } else { "hidden" },
+                    if *show_frames { "shown" } else { "hidden" }
+                )))
+            }
+            Command::SetCamera { distance, yaw, pitch, target } => {
+                let v = &mut self.tables.viewer;
+                (v.distance, v.yaw, v.pitch, v.target) = (*distance, *yaw, *pitch, *target);
+                to_value(&Message::new(format!(
+                    "Camera set: distance {distance} m, yaw {yaw}°, pitch {pitch}°, target {:?}",
+                    crate::value::r32s(*target)
+                )))
+            }
             Command::RemoveConstraint { constraint_id } => {
                 self.remove_constraint(*constraint_id);
                 to_value(&Message::new(format!("Constraint {constraint_id} removed")))

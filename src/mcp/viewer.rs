@@ -1,0 +1,47 @@
+//! Visualization tools: enable_debug_visualization and set_camera. There is no web viewer yet;
+//! both are recorded state (hashed, undone, saved) and set_camera is the default camera of
+//! get_camera_image.
+
+use rmcp::handler::server::common::schema_for_type;
+use rmcp::model::JsonObject;
+use rmcp::{tool, tool_router};
+
+use super::{params, PhysicsServer, ToolResult};
+use crate::command::Command;
+use crate::outputs::Message;
+use crate::value::{self, Args, Refusal};
+
+fn decide_debug(a: &Args) -> Result<Command, Refusal> {
+    Ok(Command::SetDebugVisualization {
+        show_contacts: value::bool_or(a, "show_contacts", true)?,
+        show_frames: value::bool_or(a, "show_frames", false)?,
+    })
+}
+
+fn decide_camera(a: &Args) -> Result<Command, Refusal> {
+    let number = |name: &str| value::number(name, value::required(a, name, "a finite number")?);
+    Ok(Command::SetCamera {
+        distance: value::positive("distance", value::required(a, "distance", "a finite number > 0")?)?,
+        yaw: number("yaw")?,
+        pitch: number("pitch")?,
+        target: value::req_vec3(a, "target")?,
+    })
+}
+
+#[tool_router(router = viewer_router, vis = "pub(crate)")]
+impl PhysicsServer {
+    /// Choose what the viewer draws besides the bodies: contact points (default true) and body
+    /// frames (default false). Recorded with the simulation.
+    #[tool(input_schema = schema_for_type::<params::DebugVisualization>())]
+    async fn enable_debug_visualization(&self, args: JsonObject) -> ToolResult<Message> {
+        self.change("enable_debug_visualization", args, decide_debug).await
+    }
+
+    /// Place the viewer's camera: distance (m), yaw and pitch (degrees) around a target point
+    /// (PyBullet's resetDebugVisualizerCamera). get_camera_image uses it when no matrices are
+    /// given.
+    #[tool(input_schema = schema_for_type::<params::SetCamera>())]
+    async fn set_camera(&self, args: JsonObject) -> ToolResult<Message> {
+        self.change("set_camera", args, decide_camera).await
+    }
+}
