@@ -9,7 +9,7 @@
 //! (convex) shapes are culled. Segmentation holds the object id per pixel, −1 for background.
 
 use rapier3d::parry::shape::{Shape, TypedShape};
-use rapier3d::prelude::{Pose, Vector};
+use rapier3d::prelude::Vector;
 
 use super::camera::Mat4;
 use super::scene::{self, Part};
@@ -139,14 +139,10 @@ fn eye_position(view: &[f32; 16]) -> Vector {
     )
 }
 
-struct Target {
-    frame: Frame,
-}
-
-impl Target {
+impl Frame {
     /// Fills one clipped triangle (clip-space vertices) with `color` and `id`.
     fn fill(&mut self, v: [ClipVertex; 3], color: [u8; 3], id: i64) {
-        let (w, h) = (self.frame.width as f32, self.frame.height as f32);
+        let (w, h) = (self.width as f32, self.height as f32);
         let mut sx = [0.0f32; 3];
         let mut sy = [0.0f32; 3];
         let mut inv_w = [0.0f32; 3];
@@ -163,12 +159,12 @@ impl Target {
             return;
         }
         let x0 = sx.iter().copied().fold(f32::INFINITY, f32::min).floor().max(0.0) as usize;
-        let x1 = (sx.iter().copied().fold(f32::NEG_INFINITY, f32::max).ceil().min(w) as usize).min(self.frame.width as usize);
+        let x1 = (sx.iter().copied().fold(f32::NEG_INFINITY, f32::max).ceil().min(w) as usize).min(self.width as usize);
         let y0 = sy.iter().copied().fold(f32::INFINITY, f32::min).floor().max(0.0) as usize;
-        let y1 = (sy.iter().copied().fold(f32::NEG_INFINITY, f32::max).ceil().min(h) as usize).min(self.frame.height as usize);
+        let y1 = (sy.iter().copied().fold(f32::NEG_INFINITY, f32::max).ceil().min(h) as usize).min(self.height as usize);
         let inv_area = 1.0 / area;
         let edge = |a: usize, b: usize, px: f32, py: f32| (sx[b] - sx[a]) * (py - sy[a]) - (sy[b] - sy[a]) * (px - sx[a]);
-        let stride = self.frame.width as usize;
+        let stride = self.width as usize;
         for py in y0..y1 {
             let cy = py as f32 + 0.5;
             for px in x0..x1 {
@@ -186,10 +182,10 @@ impl Target {
                 let q = b0 * inv_w[0] + b1 * inv_w[1] + b2 * inv_w[2];
                 let d = (b0 * v[0].depth * inv_w[0] + b1 * v[1].depth * inv_w[1] + b2 * v[2].depth * inv_w[2]) / q;
                 let i = py * stride + px;
-                if d < self.frame.depth[i] {
-                    self.frame.depth[i] = d;
-                    self.frame.segmentation[i] = id;
-                    self.frame.rgb[3 * i..3 * i + 3].copy_from_slice(&color);
+                if d < self.depth[i] {
+                    self.depth[i] = d;
+                    self.segmentation[i] = id;
+                    self.rgb[3 * i..3 * i + 3].copy_from_slice(&color);
                 }
             }
         }
@@ -201,7 +197,7 @@ impl Target {
         if local.is_empty() {
             return;
         }
-        let world: Vec<Vector> = local.iter().map(|p| transform_point(&part.pose, *p)).collect();
+        let world: Vec<Vector> = local.iter().map(|p| part.pose.transform_point(*p)).collect();
         let center = world.iter().copied().fold(Vector::ZERO, |a, b| a + b) / world.len() as f32;
         let verts: Vec<ClipVertex> = world
             .iter()
@@ -242,27 +238,21 @@ impl Target {
     }
 }
 
-fn transform_point(pose: &Pose, p: Vector) -> Vector {
-    pose.transform_point(p)
-}
-
 /// Renders the world as it is now.
 pub fn render(w: &World, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
     let n = width as usize * height as usize;
-    let mut target = Target {
-        frame: Frame {
-            width,
-            height,
-            rgb: BACKGROUND.iter().copied().cycle().take(3 * n).collect(),
-            depth: vec![f32::INFINITY; n],
-            segmentation: vec![-1; n],
-        },
+    let mut frame = Frame {
+        width,
+        height,
+        rgb: BACKGROUND.iter().copied().cycle().take(3 * n).collect(),
+        depth: vec![f32::INFINITY; n],
+        segmentation: vec![-1; n],
     };
     let (view, proj) = (to_f32(view), to_f32(proj));
     // Back faces are culled from the eye's position for perspective projections.
     let eye = (proj[11] == -1.0 && proj[15] == 0.0).then(|| eye_position(&view));
     for part in scene::parts(w) {
-        target.draw(&part, &view, &proj, eye);
+        frame.draw(&part, &view, &proj, eye);
     }
-    target.frame
+    frame
 }
