@@ -554,3 +554,55 @@ async fn set_camera_is_state_and_the_default_image_camera() {
     let again = c.call("get_camera_image", image(json!({}))).await;
     assert_eq!(again["segmentation"], before["segmentation"], "undo restored the camera");
 }
+
+/// A file in the old server's format (no history) re-creates its constraints, with the file's
+/// object ids mapped to the re-created objects', and they hold; a constraint naming an object
+/// the file does not have is refused and nothing is created.
+#[tokio::test(flavor = "multi_thread")]
+async fn old_server_files_recreate_their_constraints() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, c) = start(dir.path(), &[]).await;
+    let file = json!({
+        "gravity": [0, 0, -9.81],
+        "objects": [
+            {"object_id": 7, "type": "primitive", "shape": "box", "dimensions": [0.1, 0.1, 0.1], "mass": 1, "position": [0, 0, 1]},
+            {"object_id": 9, "type": "primitive", "shape": "sphere", "dimensions": [0.1], "mass": 1, "position": [0.6, 0, 1]}
+        ],
+        "constraints": [
+            {"parent_id": 7, "child_id": -1, "joint_type": "fixed", "child_frame_position": [0, 0, 1]},
+            {"parent_id": 9, "child_id": 7, "joint_type": "point2point", "parent_frame_position": [-0.3, 0, 0], "child_frame_position": [0.3, 0, 0]}
+        ]
+    });
+    std::fs::write(server.workspace.join("old.json"), file.to_string()).unwrap();
+    let loaded = c.call("load_simulation", json!({"file_path": "old.json"})).await;
+    let sim = loaded["simulation_id"].as_str().unwrap().to_string();
+    let info = c.call("get_simulation_info", json!({"sim_id": sim})).await;
+    let kinds: Vec<(u64, i64, String)> = info["constraints"].as_array().unwrap().iter()
+        .map(|k| (k["parent_id"].as_u64().unwrap(), k["child_id"].as_i64().unwrap(), k["joint_type"].as_str().unwrap().to_string()))
+        .collect();
+    assert_eq!(kinds, vec![(0, -1, "fixed".to_string()), (1, 0, "spherical".to_string())]);
+    c.step(&sim, 480).await;
+    let cube = v3(&c.state(&sim, 0).await["position"]);
+    assert!(close(cube, [0.0, 0.0, 1.0], 1e-3), "the box stays fixed to the world: {cube:?}");
+    // The spherical joint keeps the ball's anchor on the box's while the ball swings down.
+    let quat = |st: &Value| {
+        let q = st["orientation"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect::<Vec<_>>();
+        [q[0], q[1], q[2], q[3]]
+    };
+    let (box_state, ball_state) = (c.state(&sim, 0).await, c.state(&sim, 1).await);
+    let ball = v3(&ball_state["position"]);
+    let on_ball = rotate(quat(&ball_state), [-0.3, 0.0, 0.0]);
+    let on_box = rotate(quat(&box_state), [0.3, 0.0, 0.0]);
+    let gap = (0..3).map(|k| (ball[k] + on_ball[k] - cube[k] - on_box[k]).powi(2)).sum::<f64>().sqrt();
+    assert!(gap < 1e-3, "spherical anchors {gap} m apart");
+    let moved = ((ball[0] - 0.6).powi(2) + (ball[2] - 1.0).powi(2)).sqrt();
+    assert!(moved > 0.1, "the ball swings about its anchor under gravity: {ball:?}");
+
+    let mut bad = file.clone();
+    bad["constraints"][0]["parent_id"] = json!(42);
+    std::fs::write(server.workspace.join("bad.json"), bad.to_string()).unwrap();
+    let before = c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len();
+    let err = c.try_call("load_simulation", json!({"file_path": "bad.json"})).await.unwrap_err();
+    assert!(err.contains("constraints[0].parent_id"), "{err}");
+    assert_eq!(c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len(), before);
+}
