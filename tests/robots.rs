@@ -106,9 +106,72 @@ async fn fixtures_load_with_pybullet_numbering() {
     assert!((z - 0.1).abs() < 0.01, "mesh cube rests at z = {z}, expected 0.1");
 }
 
+/// Every robot fixture as pybullet 3.2.7 itself reports it (`scripts/urdf_fixtures.py` wrote
+/// `tests/fixtures/pybullet_urdf.json`): joint count, every joint's index, name, type, limits,
+/// effort, velocity, axis, link name and parent, and every link's mass, inertia diagonal and
+/// centre of mass. PyBullet calls a continuous joint "revolute" with the (0, −1) limit pair.
+/// Links with an `<inertial>` are compared with pybullet's URDF_USE_INERTIA_FROM_FILE load,
+/// links without one with its default load (the script says why).
+#[tokio::test(flavor = "multi_thread")]
+async fn every_fixture_matches_what_pybullet_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+    let reference: Value =
+        serde_json::from_str(include_str!("fixtures/pybullet_urdf.json")).expect("pybullet_urdf.json");
+    // f32 storage: agreement to 1e−6 relative (inertias span 1e−7 … 1 kg·m²).
+    let close = |a: &Value, b: &Value| {
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        (a - b).abs() <= 1e-6 * b.abs() + 1e-12
+    };
+    let close3 = |a: &Value, b: &Value| (0..3).all(|k| close(&a[k], &b[k]));
+    let sim = c.new_sim(json!({})).await;
+    let robots = reference["robots"].as_object().unwrap();
+    assert_eq!(robots.len(), 4);
+    for (k, (file, want)) in robots.iter().enumerate() {
+        let id = load(&c, &sim, file, json!({"position": [3.0 * k as f64, 0, 1], "use_fixed_base": true})).await;
+        let n = c.call("get_num_joints", json!({"sim_id": sim, "object_id": id})).await;
+        assert_eq!(n["num_joints"], want["num_joints"], "{file}");
+        for wj in want["joints"].as_array().unwrap() {
+            let j = wj["joint_index"].as_u64().unwrap();
+            let got = c.call("get_joint_info", json!({"sim_id": sim, "object_id": id, "joint_index": j})).await;
+            let at = format!("{file} joint {j}: ours {got}, pybullet {wj}");
+            for field in ["joint_index", "joint_name", "link_name", "parent_index"] {
+                assert_eq!(got[field], wj[field], "{field} of {at}");
+            }
+            for field in ["lower_limit", "upper_limit", "max_force", "max_velocity"] {
+                assert!(close(&got[field], &wj[field]), "{field} of {at}");
+            }
+            assert!(close3(&got["joint_axis"], &wj["joint_axis"]), "joint_axis of {at}");
+            let types_agree = match wj["joint_type"].as_str().unwrap() {
+                "revolute_or_continuous" => got["joint_type"] == "continuous",
+                t => got["joint_type"] == t,
+            };
+            assert!(types_agree, "joint_type of {at}");
+        }
+        for wl in want["links"].as_array().unwrap() {
+            let link = wl["link_index"].as_i64().unwrap();
+            if link == -1 {
+                continue; // the base is fixed here (use_fixed_base): compared below, unfixed
+            }
+            let got = dynamics(&c, &sim, id, link).await;
+            let at = format!("{file} link {link}: ours {got}, pybullet {wl}");
+            assert!(close(&got["mass"], &wl["mass"]), "mass of {at}");
+            assert!(close3(&got["local_inertia_diagonal"], &wl["local_inertia_diagonal"]), "inertia of {at}");
+            assert!(close3(&got["local_inertia_pos"], &wl["local_inertia_pos"]), "centre of mass of {at}");
+        }
+        let free = load(&c, &sim, file, json!({"position": [3.0 * k as f64, 5, 1]})).await;
+        let (got, wl) = (dynamics(&c, &sim, free, -1).await, &want["links"][0]);
+        let at = format!("{file} base: ours {got}, pybullet {wl}");
+        assert!(close(&got["mass"], &wl["mass"]), "mass of {at}");
+        assert!(close3(&got["local_inertia_diagonal"], &wl["local_inertia_diagonal"]), "inertia of {at}");
+        assert!(close3(&got["local_inertia_pos"], &wl["local_inertia_pos"]), "centre of mass of {at}");
+    }
+}
+
 /// A pendulum URDF: static pivot, one link of mass `m` whose centre hangs `d` below the pivot,
-/// box inertia about its centre; the joint turns about y.
-fn pendulum_urdf(m: f64, d: f64, iyy: f64) -> String {
+/// box inertia about its centre; the joint (`kind`: revolute with limits far beyond the swing,
+/// or continuous) turns about y.
+fn pendulum_urdf(kind: &str, m: f64, d: f64, iyy: f64) -> String {
     format!(
         r#"<?xml version="1.0"?>
 <robot name="pendulum">
@@ -117,9 +180,10 @@ fn pendulum_urdf(m: f64, d: f64, iyy: f64) -> String {
     <inertial><origin xyz="0 0 {z}"/><mass value="{m}"/><inertia ixx="{iyy}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{iyy}"/></inertial>
     <collision><origin xyz="0 0 {z}"/><geometry><sphere radius="0.05"/></geometry></collision>
   </link>
-  <joint name="hinge" type="continuous">
+  <joint name="hinge" type="{kind}">
     <parent link="pivot"/><child link="bob"/>
     <origin xyz="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="100"/>
   </joint>
 </robot>
 "#,
@@ -132,33 +196,38 @@ async fn free_pendulum_has_the_small_angle_period() {
     let dir = tempfile::tempdir().unwrap();
     let (server, c) = start(dir.path()).await;
     let (m, d, iyy) = (1.0, 0.5, 0.002);
-    std::fs::write(server.workspace.join("pendulum.urdf"), pendulum_urdf(m, d, iyy)).unwrap();
-    let sim = c.new_sim(json!({})).await;
-    let p = load(&c, &sim, "pendulum.urdf", json!({"position": [0, 0, 2], "use_fixed_base": true})).await;
-    // A one-step horizontal push on the bob: a small swing (a few degrees).
-    c.call("apply_force", json!({"sim_id": sim, "object_id": p, "link_index": 0, "force": [30, 0, 0]})).await;
-    let dt = 1.0 / 240.0;
-    let mut crossings = Vec::new();
-    let mut prev = 0.0;
-    let mut amplitude: f64 = 0.0;
-    for k in 1..=1200 {
-        c.step(&sim, 2).await;
-        let x = q(&c, &sim, p, 0).await;
-        amplitude = amplitude.max(x.abs());
-        let t = k as f64 * 2.0 * dt;
-        if k > 1 && prev < 0.0 && x >= 0.0 {
-            crossings.push(t - 2.0 * dt * x / (x - prev));
+    for kind in ["revolute", "continuous"] {
+        let file = format!("pendulum_{kind}.urdf");
+        std::fs::write(server.workspace.join(&file), pendulum_urdf(kind, m, d, iyy)).unwrap();
+        let sim = c.new_sim(json!({})).await;
+        let p = load(&c, &sim, &file, json!({"position": [0, 0, 2], "use_fixed_base": true})).await;
+        let info = c.call("get_joint_info", json!({"sim_id": sim, "object_id": p, "joint_index": 0})).await;
+        assert_eq!(info["joint_type"], kind);
+        // A one-step horizontal push on the bob: a small swing (a few degrees).
+        c.call("apply_force", json!({"sim_id": sim, "object_id": p, "link_index": 0, "force": [30, 0, 0]})).await;
+        let dt = 1.0 / 240.0;
+        let mut crossings = Vec::new();
+        let mut prev = 0.0;
+        let mut amplitude: f64 = 0.0;
+        for k in 1..=1200 {
+            c.step(&sim, 2).await;
+            let x = q(&c, &sim, p, 0).await;
+            amplitude = amplitude.max(x.abs());
+            let t = k as f64 * 2.0 * dt;
+            if k > 1 && prev < 0.0 && x >= 0.0 {
+                crossings.push(t - 2.0 * dt * x / (x - prev));
+            }
+            prev = x;
         }
-        prev = x;
+        assert!(amplitude > 0.02 && amplitude < 0.2, "{kind}: swing amplitude {amplitude} rad");
+        assert!(crossings.len() >= 3, "{kind}: crossings {crossings:?}");
+        let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+        let i_pivot = iyy + m * d * d;
+        let theory = 2.0 * std::f64::consts::PI * (i_pivot / (m * 9.81 * d)).sqrt();
+        let err = (measured - theory).abs() / theory;
+        eprintln!("REPORT {kind} pendulum period {measured:.5} s, theory {theory:.5} s, error {:.3} %, amplitude {amplitude:.3} rad", err * 100.0);
+        assert!(err < 0.02, "{kind}: period {measured:.4} s vs theory {theory:.4} s ({:.2} %)", err * 100.0);
     }
-    assert!(amplitude > 0.02 && amplitude < 0.2, "swing amplitude {amplitude} rad");
-    assert!(crossings.len() >= 3, "crossings {crossings:?}");
-    let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
-    let i_pivot = iyy + m * d * d;
-    let theory = 2.0 * std::f64::consts::PI * (i_pivot / (m * 9.81 * d)).sqrt();
-    let err = (measured - theory).abs() / theory;
-    eprintln!("REPORT pendulum period {measured:.5} s, theory {theory:.5} s, error {:.3} %, amplitude {amplitude:.3} rad", err * 100.0);
-    assert!(err < 0.02, "period {measured:.4} s vs theory {theory:.4} s ({:.2} %)", err * 100.0);
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -430,4 +499,68 @@ async fn links_without_inertial_get_pybullets_one_kilogram() {
     c.step(&sim, 240).await;
     let z = c.state(&sim, r).await["position"][2].as_f64().unwrap();
     assert!(z < 0.0, "the unfixed base fell: z = {z}");
+}
+
+/// IK end to end: the answer for a reachable target, sent over HTTP, is reached (< 1 mm), stays
+/// in the URDF limits, and — driven by POSITION_CONTROL motors with default gains under
+/// gravity — is where the arm's joints settle. Without rest_poses the solver starts from the
+/// current configuration: asked again once the arm is there, it has almost nothing left to do.
+#[tokio::test(flavor = "multi_thread")]
+async fn ik_answer_over_http_is_where_position_motors_take_the_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+    let sim = c.new_sim(json!({})).await;
+    let arm = load(&c, &sim, "iiwa14.urdf", json!({"use_fixed_base": true, "position": [0, 0, 0.5]})).await;
+    let ask = |rest: Option<Value>| {
+        let mut a = json!({"sim_id": sim, "object_id": arm, "end_effector_link_index": 7,
+                           "target_position": [0.45, 0.25, 1.1], "target_orientation": [1, 0, 0, 0]});
+        if let Some(r) = rest {
+            a["rest_poses"] = r;
+        }
+        c.call("calculate_inverse_kinematics", a)
+    };
+    let sol = ask(Some(json!([0, 0, 0, 0, 0, 0, 0]))).await;
+    let answer: Vec<f64> = sol["joint_positions"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert_eq!(answer.len(), 7);
+    assert!(sol["position_error"].as_f64().unwrap() < 1e-3, "{sol}");
+    assert!(sol["orientation_error"].as_f64().unwrap() < 0.01, "{sol}");
+    for (j, v) in answer.iter().enumerate() {
+        let info = c.call("get_joint_info", json!({"sim_id": sim, "object_id": arm, "joint_index": j})).await;
+        assert!(*v >= info["lower_limit"].as_f64().unwrap() && *v <= info["upper_limit"].as_f64().unwrap(), "{sol}");
+    }
+    // Asking leaves the world alone; the same question gets the same answer.
+    let h = c.hash(&sim).await;
+    assert_eq!(ask(Some(json!([0, 0, 0, 0, 0, 0, 0]))).await, sol);
+    assert_eq!(c.hash(&sim).await, h);
+
+    for (j, v) in answer.iter().enumerate() {
+        motor(&c, &sim, arm, j as u64, json!({"control_mode": "POSITION_CONTROL", "target_position": v})).await;
+    }
+    c.step(&sim, 720).await;
+    for (j, v) in answer.iter().enumerate() {
+        let got = q(&c, &sim, arm, j as u64).await;
+        assert!((got - v).abs() < 0.01, "joint {j} at {got}, IK said {v}");
+    }
+    let again = ask(None).await;
+    assert!(again["position_error"].as_f64().unwrap() < 1e-3, "{again}");
+    let (first, second) = (sol["iterations"].as_u64().unwrap(), again["iterations"].as_u64().unwrap());
+    assert!(second < first, "from the current configuration {second} iterations, from zeros {first}");
+}
+
+/// The built-in assets load by name when the workspace has no such file: PyBullet's cube.urdf
+/// (1 m, 1 kg) and sphere2.urdf (r = 0.5 m) dropped on plane.urdf come to rest on it.
+#[tokio::test(flavor = "multi_thread")]
+async fn builtin_cube_and_sphere_rest_on_the_builtin_plane() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+    let sim = c.new_sim(json!({})).await;
+    load(&c, &sim, "plane.urdf", json!({})).await;
+    let cube = load(&c, &sim, "cube.urdf", json!({"position": [0, 0, 2]})).await;
+    let ball = load(&c, &sim, "sphere.urdf", json!({"position": [3, 0, 1.5]})).await;
+    assert_eq!(dynamics(&c, &sim, cube, -1).await["mass"], 1.0);
+    c.step(&sim, 720).await;
+    for (id, rest) in [(cube, 0.5), (ball, 0.5)] {
+        let z = c.state(&sim, id).await["position"][2].as_f64().unwrap();
+        assert!((z - rest).abs() < 0.01, "object {id} rests at z = {z}, expected {rest}");
+    }
 }

@@ -383,17 +383,13 @@ impl World {
             RigidBodyType::Fixed => "static",
             _ => "kinematic",
         };
-        let zero3 = [0.0f32; 3];
+        let (diagonal, inertia_orn) = reported_inertia(mp);
         Some(DynamicsInfo {
             mass: if fixed { 0.0 } else { r32(b.mass()) },
             lateral_friction: r32(friction),
-            local_inertia_diagonal: r32s(if fixed {
-                zero3
-            } else {
-                mp.principal_inertia().to_array()
-            }),
+            local_inertia_diagonal: r32s(if fixed { [0.0; 3] } else { diagonal }),
             local_inertia_pos: r32s(mp.local_com.to_array()),
-            local_inertia_orn: r32s(mp.principal_inertia_local_frame.to_array()),
+            local_inertia_orn: r32s(inertia_orn),
             restitution: r32(restitution),
             rolling_friction: r32(extras.rolling_friction),
             spinning_friction: r32(extras.spinning_friction),
@@ -441,5 +437,25 @@ impl World {
                 }
             })
             .collect()
+    }
+}
+
+/// The inertia diagonal and its frame as PyBullet reports them. rapier keeps principal axes
+/// sorted by its eigen-decomposition, so a tensor that is already diagonal in the body (or URDF
+/// inertial) frame comes back permuted under a turned frame — `[Izz, Ixx, Iyy]` at
+/// `[0.5, 0.5, 0.5, −0.5]` — where PyBullet says `[Ixx, Iyy, Izz]` at identity. When the tensor
+/// in the body frame is diagonal we report it so; otherwise the principal axes and their frame.
+/// Computed in f64 so the diagonal comes back exactly as given.
+fn reported_inertia(mp: &MassProperties) -> ([f32; 3], [f32; 4]) {
+    use rapier3d::glamx::{DMat3, DVec3};
+    let principal = mp.principal_inertia();
+    let frame = mp.principal_inertia_local_frame.as_dquat();
+    let p = DVec3::new(principal.x as f64, principal.y as f64, principal.z as f64);
+    let m = DMat3::from_quat(frame) * DMat3::from_diagonal(p) * DMat3::from_quat(frame.inverse());
+    let off = m.x_axis.y.abs().max(m.x_axis.z.abs()).max(m.y_axis.z.abs());
+    if off <= 1e-6 * p.max_element().max(f64::MIN_POSITIVE) {
+        ([m.x_axis.x as f32, m.y_axis.y as f32, m.z_axis.z as f32], [0.0, 0.0, 0.0, 1.0])
+    } else {
+        (principal.to_array(), mp.principal_inertia_local_frame.to_array())
     }
 }
