@@ -10,6 +10,8 @@ mod constraints;
 mod objects;
 mod params;
 mod persistence;
+mod prompts;
+mod resources;
 mod robots;
 mod sensing;
 mod simulations;
@@ -21,8 +23,13 @@ use std::sync::Arc;
 
 use rmcp::handler::server::router::tool::ToolRouter;
 use rmcp::handler::server::wrapper::Json;
-use rmcp::model::{Implementation, ServerCapabilities, ServerConfig};
-use rmcp::{tool_handler, ServerHandler};
+use rmcp::model::{
+    ErrorData, GetPromptRequestParams, GetPromptResponse, Implementation, ListPromptsResult,
+    ListResourceTemplatesResult, ListResourcesResult, PaginatedRequestParams, ReadResourceRequestParams,
+    ReadResourceResponse, ServerCapabilities, ServerConfig,
+};
+use rmcp::service::{NotificationContext, RequestContext};
+use rmcp::{tool_handler, RoleServer, ServerHandler};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
@@ -35,18 +42,24 @@ use crate::world::StepControl;
 /// Result type of every tool: structured output, or one sentence with `isError: true`.
 pub type ToolResult<T> = Result<Json<T>, String>;
 
+pub use resources::Sessions;
+
 /// The MCP server: one instance per session, all sharing the registry.
 #[derive(Clone)]
 pub struct PhysicsServer {
     reg: Arc<Registry>,
+    /// Every session of this server, for resource-list notifications.
+    sessions: Sessions,
     tool_router: ToolRouter<PhysicsServer>,
 }
 
 impl PhysicsServer {
-    /// A server over `reg` with every tool routed.
-    pub fn new(reg: Arc<Registry>) -> Self {
+    /// A session's server over `reg` with every tool routed; `sessions` is shared by all
+    /// sessions of one process so each hears when simulations come and go.
+    pub fn new(reg: Arc<Registry>, sessions: Sessions) -> Self {
         Self {
             reg,
+            sessions,
             tool_router: Self::simulation_router()
                 + Self::object_router()
                 + Self::timeline_router()
@@ -56,6 +69,15 @@ impl PhysicsServer {
                 + Self::sensing_router()
                 + Self::viewer_router(),
         }
+    }
+
+    /// Passes a tool's result through, telling every session the resource list changed when
+    /// it succeeded (the tools that create or destroy simulations).
+    fn simulations_changed<T>(&self, r: ToolResult<T>) -> ToolResult<T> {
+        if r.is_ok() {
+            self.sessions.resource_list_changed();
+        }
+        r
     }
 
     /// The registry behind this server.
@@ -148,13 +170,66 @@ impl PhysicsServer {
 #[tool_handler(router = self.tool_router)]
 impl ServerHandler for PhysicsServer {
     fn get_info(&self) -> ServerConfig {
-        ServerConfig::new(ServerCapabilities::builder().enable_tools().build())
+        let capabilities = ServerCapabilities::builder()
+            .enable_tools()
+            .enable_resources()
+            .enable_resources_list_changed()
+            .enable_prompts()
+            .build();
+        ServerConfig::new(capabilities)
             .with_server_info(Implementation::new("physics-mcp", env!("CARGO_PKG_VERSION")))
             .with_instructions(
                 "Deterministic rigid-body physics (rapier3d), z-up, SI units, quaternions \
                  [x, y, z, w]. Create a simulation, add bodies (mass 0 = static; there is no \
                  implicit ground), step it, read states. Every call is recorded in the \
-                 simulation's event log.",
+                 simulation's event log. Resources: sim://{sim_id}/info, /history, /image.",
             )
+    }
+
+    async fn on_initialized(&self, cx: NotificationContext<RoleServer>) {
+        self.sessions.join(cx.peer);
+    }
+
+    async fn list_resources(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _cx: RequestContext<RoleServer>,
+    ) -> Result<ListResourcesResult, ErrorData> {
+        let me = self.clone();
+        tokio::task::spawn_blocking(move || me.resource_list())
+            .await
+            .map_err(|_| ErrorData::internal_error("Internal error: could not list resources", None))
+    }
+
+    async fn list_resource_templates(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _cx: RequestContext<RoleServer>,
+    ) -> Result<ListResourceTemplatesResult, ErrorData> {
+        Ok(Self::resource_templates())
+    }
+
+    async fn read_resource(
+        &self,
+        request: ReadResourceRequestParams,
+        _cx: RequestContext<RoleServer>,
+    ) -> Result<ReadResourceResponse, ErrorData> {
+        self.read_sim_resource(request.uri).await.map(Into::into)
+    }
+
+    async fn list_prompts(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _cx: RequestContext<RoleServer>,
+    ) -> Result<ListPromptsResult, ErrorData> {
+        Ok(prompts::list())
+    }
+
+    async fn get_prompt(
+        &self,
+        request: GetPromptRequestParams,
+        _cx: RequestContext<RoleServer>,
+    ) -> Result<GetPromptResponse, ErrorData> {
+        prompts::get(&request.name, request.arguments.as_ref()).map(Into::into)
     }
 }

@@ -54,6 +54,6 @@ impl PhysicsServer {
         if let Some(f) = forward {
             let _ = f.await;
         }
-        out.map(Json)
+        self.simulations_changed(out.map(Json))
     }
 }

@@ -50,9 +50,7 @@ impl PhysicsServer {
         let out = tokio::task::spawn_blocking(move || reg.create(root, &args))
             .await
             .map_err(|_| "Internal error: the simulation was not created".to_string())??;
-        serde_json::from_value(out)
-            .map(Json)
-            .map_err(|e| format!("Internal error: {e}"))
+        self.simulations_changed(serde_json::from_value(out).map(Json).map_err(|e| format!("Internal error: {e}")))
     }
 
     /// List the live simulations with their object counts and simulated time.
@@ -76,10 +74,11 @@ impl PhysicsServer {
     async fn destroy_simulation(&self, args: JsonObject) -> ToolResult<Message> {
         let id = value::string(&args, "sim_id")?;
         let reg = self.reg.clone();
-        tokio::task::spawn_blocking(move || reg.destroy(&id))
+        let out = tokio::task::spawn_blocking(move || reg.destroy(&id))
             .await
             .map_err(|_| "Internal error: the simulation was not destroyed".to_string())?
-            .map(Json)
+            .map(Json);
+        self.simulations_changed(out)
     }
 
     /// Advance the simulation by `steps` fixed timesteps (default 1). Long runs send MCP

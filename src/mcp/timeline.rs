@@ -81,10 +81,11 @@ impl PhysicsServer {
         #[allow(clippy::disallowed_methods)] // the adapter chooses fresh ids, never apply()
         let new_id = uuid::Uuid::new_v4().to_string();
         let reg = self.reg.clone();
-        tokio::task::spawn_blocking(move || reg.fork(&parent, at, new_id, &args))
+        let out = tokio::task::spawn_blocking(move || reg.fork(&parent, at, new_id, &args))
             .await
             .map_err(|_| "Internal error: the fork was not created".to_string())?
-            .map(Json)
+            .map(Json);
+        self.simulations_changed(out)
     }
 
     /// Refold the simulation's history in a fresh world and check every recorded state hash

@@ -16,7 +16,7 @@ use rmcp::transport::streamable_http_server::{StreamableHttpServerConfig, Stream
 use rmcp::ServiceExt;
 use tokio_util::sync::CancellationToken;
 
-use super::PhysicsServer;
+use super::{PhysicsServer, Sessions};
 use crate::sim::Registry;
 
 /// HTTP serving options (from the CLI).
@@ -115,8 +115,9 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         .with_allowed_origins(origins)
         .with_cancellation_token(ct.child_token());
     let server_reg = reg.clone();
+    let sessions = Sessions::default();
     let service = StreamableHttpService::new(
-        move || Ok(PhysicsServer::new(server_reg.clone())),
+        move || Ok(PhysicsServer::new(server_reg.clone(), sessions.clone())),
         session_manager(),
         config,
     );
@@ -134,7 +135,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
 
 /// Serves MCP over stdin/stdout (logs go to stderr) until stdin closes.
 pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
-    let service = PhysicsServer::new(reg.clone())
+    let service = PhysicsServer::new(reg.clone(), Sessions::default())
         .serve(rmcp::transport::stdio())
         .await?;
     service.waiting().await?;

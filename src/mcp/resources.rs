@@ -1,0 +1,212 @@
+//! MCP resources (SPEC "Resources and prompts"): every simulation as three readable URIs —
+//! `sim://{id}/info` (get_simulation_info's answer), `sim://{id}/history` (its events as JSON
+//! lines) and `sim://{id}/image` (a PNG from the viewer camera) — and the session list that
+//! lets a simulation created or destroyed in one session tell every session its resource list
+//! changed.
+//!
+//! Reading a resource is a look, not a tool call: it is not recorded in the simulation's log
+//! (the README says so), and it never changes the world.
+
+use std::sync::{Arc, Mutex};
+
+use base64::Engine;
+use rmcp::model::{ErrorData, ListResourceTemplatesResult, ListResourcesResult, ReadResourceResult, Resource,
+                  ResourceContents, ResourceTemplate};
+use rmcp::{Peer, RoleServer};
+use serde_json::{json, Map, Value};
+
+use super::PhysicsServer;
+use crate::reads;
+use crate::sim::{lock_sim, Sim};
+use crate::timeline::HISTORY_MAX_LIMIT;
+use crate::value::Refusal;
+
+/// Newest events `sim://{id}/history` lists (older ones: get_history with `since_seq`, or the
+/// `history` CLI on the log file).
+pub const HISTORY_RESOURCE_EVENTS: u64 = 10_000;
+
+/// The viewer-camera image size of `sim://{id}/image` (get_camera_image's default view).
+const IMAGE_SIZE: (u32, u32) = (320, 240);
+
+/// What a `sim://` URI names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Part {
+    Info,
+    History,
+    Image,
+}
+
+impl Part {
+    const ALL: [Part; 3] = [Part::Info, Part::History, Part::Image];
+
+    fn name(self) -> &'static str {
+        match self {
+            Part::Info => "info",
+            Part::History => "history",
+            Part::Image => "image",
+        }
+    }
+
+    fn mime(self) -> &'static str {
+        match self {
+            Part::Info => "application/json",
+            Part::History => "application/x-ndjson",
+            Part::Image => "image/png",
+        }
+    }
+
+    fn description(self) -> &'static str {
+        match self {
+            Part::Info => "The simulation's gravity, timestep, time, objects, constraints and state hash (as get_simulation_info).",
+            Part::History => "The simulation's event log, one JSON event per line (as get_history's events; the newest 10,000).",
+            Part::Image => "A 320x240 PNG of the simulation from its viewer camera (set_camera).",
+        }
+    }
+}
+
+/// Splits `sim://{id}/{part}`.
+fn parse(uri: &str) -> Result<(&str, Part), String> {
+    let rest = uri
+        .strip_prefix("sim://")
+        .ok_or_else(|| format!("Unknown resource {uri}: resources are sim://{{sim_id}}/info, /history or /image"))?;
+    let (id, part) = rest
+        .rsplit_once('/')
+        .ok_or_else(|| format!("Unknown resource {uri}: resources are sim://{{sim_id}}/info, /history or /image"))?;
+    let part = Part::ALL
+        .into_iter()
+        .find(|p| p.name() == part)
+        .ok_or_else(|| format!("Unknown resource {uri}: the part must be info, history or image"))?;
+    Ok((id, part))
+}
+
+/// The contents of one part of one simulation.
+fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize) -> Result<ResourceContents, Refusal> {
+    let cx = sim.read_context();
+    let text = |v: Value| ResourceContents::text(v.to_string(), uri).with_mime_type(part.mime());
+    match part {
+        Part::Info => {
+            let info = reads::simulation_info(&cx, &Map::new())?;
+            Ok(text(serde_json::to_value(info).map_err(|e| format!("Internal error: {e}"))?))
+        }
+        Part::History => {
+            let mut since = sim.log().last_seq().saturating_sub(HISTORY_RESOURCE_EVENTS);
+            let mut lines = String::new();
+            loop {
+                let page = sim.history(since, HISTORY_MAX_LIMIT)?;
+                let Some(last) = page.events.last().map(|e| e.seq) else { break };
+                for e in &page.events {
+                    let line = serde_json::to_string(e).map_err(|e| format!("Internal error: {e}"))?;
+                    lines.push_str(&line);
+                    lines.push('\n');
+                }
+                since = last;
+            }
+            Ok(ResourceContents::text(lines, uri).with_mime_type(part.mime()))
+        }
+        Part::Image => {
+            let (w, h) = IMAGE_SIZE;
+            let args = json!({"width": w, "height": h});
+            let args = args.as_object().cloned().unwrap_or_default();
+            let rendered = reads::camera_image(&cx, &args, max_px)?;
+            let png = base64::engine::general_purpose::STANDARD.encode(&rendered.png);
+            Ok(ResourceContents::blob(png, uri).with_mime_type(part.mime()))
+        }
+    }
+}
+
+impl PhysicsServer {
+    /// resources/list: three per simulation, by simulation id.
+    pub(super) fn resource_list(&self) -> ListResourcesResult {
+        let resources = self
+            .reg
+            .list()
+            .simulations
+            .iter()
+            .flat_map(|s| {
+                Part::ALL.into_iter().map(move |p| {
+                    Resource::new(format!("sim://{}/{}", s.simulation_id, p.name()), format!("{} {}", s.simulation_id, p.name()))
+                        .with_description(p.description())
+                        .with_mime_type(p.mime())
+                })
+            })
+            .collect();
+        // Simulations come and go: a client must not serve this list from a cache.
+        ListResourcesResult::with_all_items(resources).with_ttl_ms(0)
+    }
+
+    /// resources/templates/list: the three URI shapes.
+    pub(super) fn resource_templates() -> ListResourceTemplatesResult {
+        let templates = Part::ALL
+            .into_iter()
+            .map(|p| {
+                ResourceTemplate::new(format!("sim://{{sim_id}}/{}", p.name()), format!("simulation {}", p.name()))
+                    .with_description(p.description())
+                    .with_mime_type(p.mime())
+            })
+            .collect();
+        ListResourceTemplatesResult::with_all_items(templates)
+    }
+
+    /// resources/read, on the blocking pool (it waits for a call in flight on the simulation).
+    pub(super) async fn read_sim_resource(&self, uri: String) -> Result<ReadResourceResult, ErrorData> {
+        let not_found = |why: String| ErrorData::resource_not_found(why, Some(json!({"uri": uri})));
+        let (id, part) = parse(&uri).map_err(not_found)?;
+        let sim = self.reg.get(id).map_err(not_found)?;
+        let max_px = self.reg.limits().max_image_px;
+        let at = uri.clone();
+        let read = tokio::task::spawn_blocking(move || contents(&lock_sim(&sim), part, &at, max_px))
+            .await
+            .map_err(|_| ErrorData::internal_error("Internal error: the resource could not be read", None))?;
+        // Live state: never fresh for longer than this reply.
+        read.map(|c| ReadResourceResult::new(vec![c]).with_ttl_ms(0))
+            .map_err(|why| ErrorData::internal_error(why, Some(json!({"uri": uri}))))
+    }
+}
+
+/// Every live session's peer, shared by all sessions of one server.
+#[derive(Clone, Default)]
+pub struct Sessions(Arc<Mutex<Vec<Peer<RoleServer>>>>);
+
+impl Sessions {
+    /// Remembers a session once its client has initialized.
+    pub fn join(&self, peer: Peer<RoleServer>) {
+        if let Ok(mut peers) = self.0.lock() {
+            peers.retain(|p| !p.is_transport_closed());
+            peers.push(peer);
+        }
+    }
+
+    /// Tells every live session that the resource list changed (a simulation came or went).
+    /// Sent in the background: a slow or gone client never holds up the tool's reply.
+    pub fn resource_list_changed(&self) {
+        let peers: Vec<Peer<RoleServer>> = match self.0.lock() {
+            Ok(mut peers) => {
+                peers.retain(|p| !p.is_transport_closed());
+                peers.clone()
+            }
+            Err(_) => return,
+        };
+        for peer in peers {
+            tokio::spawn(async move {
+                if let Err(e) = peer.notify_resource_list_changed().await {
+                    tracing::debug!("resource list notification not delivered: {e}");
+                }
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uris_parse_or_say_what_is_expected() {
+        assert_eq!(parse("sim://abc-1/info"), Ok(("abc-1", Part::Info)));
+        assert_eq!(parse("sim://abc-1/history"), Ok(("abc-1", Part::History)));
+        assert_eq!(parse("sim://abc-1/image"), Ok(("abc-1", Part::Image)));
+        assert!(parse("sim://abc-1/video").unwrap_err().contains("info, history or image"));
+        assert!(parse("file:///etc/passwd").unwrap_err().contains("sim://"));
+        assert!(parse("sim://abc").is_err());
+    }
+}
