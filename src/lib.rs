@@ -38,3 +38,4 @@ pub mod store;
 pub mod timeline;
 pub mod urdf_files;
 pub mod mcp;
+pub mod viewer;

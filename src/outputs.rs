@@ -267,6 +267,9 @@ pub struct Forked {
     pub at_seq: u64,
     /// Its state hash (equal to the parent's at at_seq).
     pub state_hash: String,
+    /// Where the viewer page is, when gui is on (HTTP only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub viewer_url: Option<String>,
 }
 
 /// Where a refold first disagreed with the log.
@@ -315,6 +318,9 @@ pub struct Loaded {
     pub file_path: String,
     /// Its state hash (equal to the saved one for files with history).
     pub state_hash: String,
+    /// Where the viewer page is, when gui is on (HTTP only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub viewer_url: Option<String>,
 }
 
 /// Result of load_urdf.

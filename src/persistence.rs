@@ -96,13 +96,13 @@ impl Registry {
                     ));
                 }
                 let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui };
-                let out = Loaded { simulation_id: new_id.clone(), file_path: user.clone(), state_hash: world.state_hash() };
+                let out = Loaded { simulation_id: new_id.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None };
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
                 self.adopt((&chain, &crate::save::SavedBlobs(&h.blobs)), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
             }
             None => self.load_readable(&file, &new_id, gui, args)?,
         };
-        let out = Loaded { simulation_id: new_id, file_path: user, state_hash: sim.state_hash().to_string() };
+        let out = Loaded { simulation_id: new_id, file_path: user, state_hash: sim.state_hash().to_string(), viewer_url: None };
         self.insert(sim)?;
         Ok(out)
     }

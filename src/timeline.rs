@@ -288,6 +288,7 @@ impl Registry {
             parent_id: p.id().to_string(),
             at_seq: at,
             state_hash: rebuilt.world.state_hash(),
+            viewer_url: None,
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
         let sim = self.adopt((&chain, p.log()), &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;

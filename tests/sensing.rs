@@ -606,3 +606,31 @@ async fn old_server_files_recreate_their_constraints() {
     assert!(err.contains("constraints[0].parent_id"), "{err}");
     assert_eq!(c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len(), before);
 }
+
+/// A box dropped flat slides ~16 mm while it settles; rapier keeps the ground-side contact
+/// anchors of the landing while bodies creep. Reported contacts are where the shapes touch now:
+/// the two points of each contact agree (on A = on B + normal·distance) and sit under the
+/// box's corners where it rests.
+#[tokio::test(flavor = "multi_thread")]
+async fn contact_points_follow_a_box_that_slid_after_landing() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.call("add_box", json!({"sim_id": sim, "dimensions": [5, 5, 0.1], "position": [0, 0, -0.1], "mass": 0})).await;
+    c.call("add_box", json!({"sim_id": sim, "dimensions": [0.2, 0.2, 0.2], "position": [0, 0, 0.5]})).await;
+    c.step(&sim, 240).await;
+    let at = common::v3(&c.state(&sim, 1).await["position"]);
+    let contacts = c.call("get_all_collisions", json!({"sim_id": sim})).await["contacts"].as_array().unwrap().clone();
+    assert_eq!(contacts.len(), 4);
+    for k in contacts {
+        let (a, b, n) = (common::v3(&k["position_on_a"]), common::v3(&k["position_on_b"]), common::v3(&k["contact_normal"]));
+        let d = k["contact_distance"].as_f64().unwrap();
+        for i in 0..3 {
+            assert!((a[i] - (b[i] + n[i] * d)).abs() < 1e-4, "on A {a:?} is not on B {b:?} + n·d: {k}");
+        }
+        for i in 0..2 {
+            assert!(((b[i] - at[i]).abs() - 0.2).abs() < 1e-3, "contact {b:?} is not under a corner of the box at {at:?}");
+        }
+    }
+}

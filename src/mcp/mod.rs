@@ -50,6 +50,8 @@ pub struct PhysicsServer {
     reg: Arc<Registry>,
     /// Every session of this server, for resource-list notifications.
     sessions: Sessions,
+    /// `http://host:port` of the web viewer (HTTP only; stdio has none).
+    viewer_base: Option<Arc<str>>,
     tool_router: ToolRouter<PhysicsServer>,
 }
 
@@ -60,6 +62,7 @@ impl PhysicsServer {
         Self {
             reg,
             sessions,
+            viewer_base: None,
             tool_router: Self::simulation_router()
                 + Self::object_router()
                 + Self::timeline_router()
@@ -69,6 +72,20 @@ impl PhysicsServer {
                 + Self::sensing_router()
                 + Self::viewer_router(),
         }
+    }
+
+    /// The same server with the web viewer at `base` (`viewer_url` in results when gui is on).
+    pub fn with_viewer(mut self, base: Arc<str>) -> Self {
+        self.viewer_base = Some(base);
+        self
+    }
+
+    /// Where simulation `id`'s viewer page is, when this server has a viewer and the
+    /// simulation was made with `gui = true`.
+    fn viewer_url(&self, id: &str) -> Option<String> {
+        let base = self.viewer_base.as_ref()?;
+        let gui = self.reg.get(id).ok().is_some_and(|sim| lock_sim(&sim).world().gui());
+        gui.then(|| format!("{base}/viewer/{id}"))
     }
 
     /// Passes a tool's result through, telling every session the resource list changed when

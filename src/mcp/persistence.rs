@@ -54,6 +54,10 @@ impl PhysicsServer {
         if let Some(f) = forward {
             let _ = f.await;
         }
-        self.simulations_changed(out.map(Json))
+        let out = out.map(|mut loaded| {
+            loaded.viewer_url = self.viewer_url(&loaded.simulation_id);
+            Json(loaded)
+        });
+        self.simulations_changed(out)
     }
 }

@@ -50,7 +50,9 @@ impl PhysicsServer {
         let out = tokio::task::spawn_blocking(move || reg.create(root, &args))
             .await
             .map_err(|_| "Internal error: the simulation was not created".to_string())??;
-        self.simulations_changed(serde_json::from_value(out).map(Json).map_err(|e| format!("Internal error: {e}")))
+        let mut created: Created = serde_json::from_value(out).map_err(|e| format!("Internal error: {e}"))?;
+        created.viewer_url = self.viewer_url(&created.simulation_id);
+        self.simulations_changed(Ok(Json(created)))
     }
 
     /// List the live simulations with their object counts and simulated time.

@@ -84,7 +84,10 @@ impl PhysicsServer {
         let out = tokio::task::spawn_blocking(move || reg.fork(&parent, at, new_id, &args))
             .await
             .map_err(|_| "Internal error: the fork was not created".to_string())?
-            .map(Json);
+            .map(|mut forked| {
+                forked.viewer_url = self.viewer_url(&forked.simulation_id);
+                Json(forked)
+            });
         self.simulations_changed(out)
     }
 

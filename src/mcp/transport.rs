@@ -32,16 +32,45 @@ pub struct HttpOptions {
 
 async fn require_token(State(token): State<Option<Arc<str>>>, req: Request, next: Next) -> Response {
     if let Some(token) = token {
-        let ok = req
+        let bearer = req
             .headers()
             .get(header::AUTHORIZATION)
             .and_then(|v| v.to_str().ok())
-            .and_then(|v| v.strip_prefix("Bearer "))
-            .is_some_and(|given| constant_time_eq(given.as_bytes(), token.as_bytes()));
+            .and_then(|v| v.strip_prefix("Bearer "));
+        // A browser opening the viewer cannot send a header: the viewer also takes `?token=`.
+        let query = req
+            .uri()
+            .path()
+            .starts_with("/viewer/")
+            .then(|| query_token(req.uri().query().unwrap_or("")))
+            .flatten();
+        let ok = bearer
+            .into_iter()
+            .chain(query.as_deref())
+            .any(|given| constant_time_eq(given.as_bytes(), token.as_bytes()));
         if !ok {
             return (StatusCode::UNAUTHORIZED, "missing or wrong bearer token (--token)\n")
                 .into_response();
         }
+    }
+    next.run(req).await
+}
+
+/// The `token` query parameter, percent-decoded.
+fn query_token(query: &str) -> Option<String> {
+    form_urlencoded::parse(query.as_bytes()).find(|(k, _)| k == "token").map(|(_, v)| v.into_owned())
+}
+
+/// The viewer's DNS-rebinding guard (rmcp checks `/mcp` itself): a page from another site that
+/// resolves its name to this machine arrives with its own `Host`, which is refused here.
+async fn require_known_host(State(hosts): State<Arc<Vec<String>>>, req: Request, next: Next) -> Response {
+    let host = req.headers().get(header::HOST).and_then(|v| v.to_str().ok()).unwrap_or("");
+    let name = match host.strip_prefix('[') {
+        Some(v6) => v6.split(']').next().unwrap_or(""),
+        None => host.rsplit_once(':').map_or(host, |(name, _)| name),
+    };
+    if !hosts.iter().any(|h| h == name) {
+        return (StatusCode::FORBIDDEN, "the viewer answers only to this server's own host names\n").into_response();
     }
     next.run(req).await
 }
@@ -106,6 +135,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         "http://[::1]:*".into(),
     ];
     origins.extend(opts.allow_origin.iter().cloned());
+    let hosts_for_viewer = hosts.clone();
     let ct = CancellationToken::new();
     // No SSE priming events: they exist so a client can resume a stream from an event store,
     // and without one (sessions live in memory) they only add an event to parse per reply.
@@ -116,14 +146,18 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         .with_cancellation_token(ct.child_token());
     let server_reg = reg.clone();
     let sessions = Sessions::default();
+    let viewer_base: Arc<str> = Arc::from(format!("http://{local}"));
     let service = StreamableHttpService::new(
-        move || Ok(PhysicsServer::new(server_reg.clone(), sessions.clone())),
+        move || Ok(PhysicsServer::new(server_reg.clone(), sessions.clone()).with_viewer(viewer_base.clone())),
         session_manager(),
         config,
     );
     let token: Option<Arc<str>> = opts.token.as_deref().map(Arc::from);
+    let viewer = crate::viewer::router(reg.clone())
+        .route_layer(middleware::from_fn_with_state(Arc::new(hosts_for_viewer), require_known_host));
     let app = axum::Router::new()
         .nest_service("/mcp", service)
+        .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
     eprintln!("physics-mcp listening on http://{local}/mcp");
     axum::serve(listener, app)

@@ -39,12 +39,19 @@ pub fn contacts(w: &World, pair: Option<(u32, u32)>) -> Vec<Contact> {
             }
             None => (o1.0, o1.1) > (o2.0, o2.1),
         };
+        // rapier keeps a resting contact's anchors where they were found while the bodies
+        // creep (spatial coherence), so a box that slid 16 mm after landing still reported the
+        // ground's anchors of the landing. The points are reported where the shapes touch now:
+        // a fresh manifold for the current poses, matched to rapier's points by feature.
+        let fresh = fresh_manifolds(c1, c2, w.physics.integration_parameters.prediction_distance());
         for m in cp.manifolds() {
             // rapier's manifold normal points from collider 1 towards collider 2.
             let n12 = c1.position().transform_vector(m.local_n1);
             for p in &m.points {
-                let on1 = c1.position().transform_point(p.local_p1);
-                let on2 = c2.position().transform_point(p.local_p2);
+                let now = fresh.iter().flat_map(|f| &f.points).find(|f| f.fid1 == p.fid1 && f.fid2 == p.fid2);
+                let (local_p1, local_p2, dist) = now.map_or((p.local_p1, p.local_p2, p.dist), |f| (f.local_p1, f.local_p2, f.dist));
+                let on1 = c1.position().transform_point(local_p1);
+                let on2 = c2.position().transform_point(local_p2);
                 let force = (p.data.impulse / dt).max(0.0);
                 let (a, b, on_a, on_b, normal_b_to_a) =
                     if swap { (o2, o1, on2, on1, n12) } else { (o1, o2, on1, on2, -n12) };
@@ -56,12 +63,21 @@ pub fn contacts(w: &World, pair: Option<(u32, u32)>) -> Vec<Contact> {
                     position_on_a: r32s(on_a.to_array()),
                     position_on_b: r32s(on_b.to_array()),
                     contact_normal: r32s(normal_b_to_a.to_array()),
-                    contact_distance: r32(p.dist),
+                    contact_distance: r32(dist),
                     normal_force: r32(force),
                 });
             }
         }
     }
     out.sort_by_key(|c| (c.object_a, c.object_b, c.link_index_a, c.link_index_b));
+    out
+}
+
+/// The two colliders' contact manifolds computed afresh for their current poses.
+fn fresh_manifolds(c1: &Collider, c2: &Collider, prediction: f32) -> Vec<rapier3d::parry::query::ContactManifold<(), ()>> {
+    use rapier3d::parry::query::{DefaultQueryDispatcher, PersistentQueryDispatcher};
+    let pos12 = c1.position().inv_mul(c2.position());
+    let mut out = Vec::new();
+    let _ = DefaultQueryDispatcher.contact_manifolds(&pos12, c1.shape(), c2.shape(), prediction, &mut out, &mut None);
     out
 }

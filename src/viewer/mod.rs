@@ -1,0 +1,235 @@
+//! The built-in web viewer (SPEC "Visualization"): `GET /viewer/{sim_id}` is a page that
+//! follows a simulation live; it polls `GET /viewer/{sim_id}/frame`, a render of the world by
+//! the same CPU rasteriser as get_camera_image plus what the page draws over it (contact points,
+//! body frames) and the matrices to place them.
+//!
+//! The page never changes the simulation: its mouse camera is its own (query parameters), and
+//! the recorded viewer settings (set_camera, enable_debug_visualization) are only read. Frames
+//! are rendered without waiting for a call in flight: while a long step runs the page says so
+//! and keeps its last frame.
+
+use std::sync::Arc;
+
+use axum::extract::{Path, Query, State};
+use axum::http::{header, StatusCode};
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use base64::Engine;
+use serde::{Deserialize, Serialize};
+
+use crate::sensing::camera::{self, Mat4};
+use crate::sensing::{contacts, render, scene};
+use crate::sim::Registry;
+use crate::value::{r32, r32s};
+use crate::world::World;
+
+/// The page (one self-contained HTML file: no scripts from elsewhere).
+const PAGE: &str = include_str!("page.html");
+
+/// The frame size when the page does not ask for one.
+const DEFAULT_SIZE: (u32, u32) = (640, 480);
+
+/// What the page may ask of a frame: its size, and its own camera (else the simulation's).
+#[derive(Deserialize, Debug, Default)]
+pub struct FrameQuery {
+    /// Width in pixels.
+    pub w: Option<u32>,
+    /// Height in pixels.
+    pub h: Option<u32>,
+    /// The page's camera distance (m); with yaw and pitch it replaces the recorded camera.
+    pub distance: Option<f64>,
+    /// The page's camera yaw (degrees).
+    pub yaw: Option<f64>,
+    /// The page's camera pitch (degrees).
+    pub pitch: Option<f64>,
+    /// The page's camera target x, y, z.
+    pub tx: Option<f64>,
+    /// Target y.
+    pub ty: Option<f64>,
+    /// Target z.
+    pub tz: Option<f64>,
+}
+
+/// One body frame to draw: where a body is and how it is turned.
+#[derive(Serialize, Debug)]
+pub struct BodyFrame {
+    /// The object.
+    pub object_id: u32,
+    /// Its link (−1: base or primitive).
+    pub link_index: i64,
+    /// Body origin.
+    pub position: [f64; 3],
+    /// Body orientation [x, y, z, w].
+    pub orientation: [f64; 4],
+    /// Axis length to draw (m), from the body's size.
+    pub axis_length: f64,
+}
+
+/// The recorded viewer camera.
+#[derive(Serialize, Debug)]
+pub struct CameraJson {
+    /// Distance (m).
+    pub distance: f64,
+    /// Yaw (degrees).
+    pub yaw: f64,
+    /// Pitch (degrees).
+    pub pitch: f64,
+    /// Target point.
+    pub target: [f64; 3],
+}
+
+/// What `/frame` answers: the image, the matrices it was rendered with, and overlays.
+#[derive(Serialize, Debug)]
+pub struct FrameJson {
+    /// Simulation id.
+    pub simulation_id: String,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// PNG, base64.
+    pub png: String,
+    /// View matrix used (column-major, PyBullet's convention).
+    pub view_matrix: Vec<f64>,
+    /// Projection matrix used.
+    pub projection_matrix: Vec<f64>,
+    /// The simulation's recorded camera (set_camera).
+    pub camera: CameraJson,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// Number of objects.
+    pub objects: usize,
+    /// The state hash now.
+    pub state_hash: String,
+    /// Whether contact points are shown (enable_debug_visualization).
+    pub show_contacts: bool,
+    /// Whether body frames are shown.
+    pub show_frames: bool,
+    /// Contact points (on A) when shown.
+    pub contacts: Vec<[f64; 3]>,
+    /// Body frames when shown.
+    pub frames: Vec<BodyFrame>,
+}
+
+/// Renders one frame of `w` as the page asked; `state_hash` is the simulation's.
+pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
+    let (width, height) = (q.w.unwrap_or(DEFAULT_SIZE.0), q.h.unwrap_or(DEFAULT_SIZE.1));
+    if width == 0 || height == 0 || width as u64 * height as u64 > max_px as u64 {
+        return Err(format!("frame size {width}x{height} must be at least 1x1 and at most {max_px} pixels"));
+    }
+    let cam = &w.tables.viewer;
+    let recorded = CameraJson {
+        distance: r32(cam.distance),
+        yaw: r32(cam.yaw),
+        pitch: r32(cam.pitch),
+        target: r32s(cam.target),
+    };
+    let own = [q.distance, q.yaw, q.pitch];
+    let (distance, yaw, pitch) = match own {
+        [Some(d), Some(y), Some(p)] if d.is_finite() && d > 0.0 && y.is_finite() && p.is_finite() => (d, y, p.clamp(-89.9, 89.9)),
+        _ => (recorded.distance, recorded.yaw, recorded.pitch),
+    };
+    let target = match (q.tx, q.ty, q.tz) {
+        (Some(x), Some(y), Some(z)) if x.is_finite() && y.is_finite() && z.is_finite() => [x, y, z],
+        _ => recorded.target,
+    };
+    let view: Mat4 = camera::view_matrix_from_yaw_pitch(target, distance, yaw, pitch, 2);
+    let proj: Mat4 = camera::projection_matrix(60.0, f64::from(width) / f64::from(height), 0.01, 100.0);
+    let image = render::render(w, width, height, &view, &proj);
+    let contacts = if cam.show_contacts {
+        contacts::contacts(w, None).into_iter().map(|c| c.position_on_a).collect()
+    } else {
+        Vec::new()
+    };
+    let frames = if cam.show_frames { body_frames(w) } else { Vec::new() };
+    Ok(FrameJson {
+        simulation_id: w.simulation_id().to_string(),
+        width,
+        height,
+        png: base64::engine::general_purpose::STANDARD.encode(image.png()?),
+        view_matrix: view.to_vec(),
+        projection_matrix: proj.to_vec(),
+        camera: recorded,
+        time: w.tables.time_s,
+        steps: w.tables.steps,
+        objects: w.tables.objects.len(),
+        state_hash: state_hash.to_string(),
+        show_contacts: cam.show_contacts,
+        show_frames: cam.show_frames,
+        contacts,
+        frames,
+    })
+}
+
+/// One frame per body (each primitive, each robot base and link), at the body's origin.
+fn body_frames(w: &World) -> Vec<BodyFrame> {
+    let mut out: Vec<BodyFrame> = Vec::new();
+    for part in scene::parts(w) {
+        let Some(body) = w.physics.colliders.get(part.collider).and_then(|c| c.parent()) else { continue };
+        let Some(b) = w.physics.bodies.get(body) else { continue };
+        let size = f64::from(part.shape.compute_local_aabb().half_extents().max_element());
+        let axis_length = (size * 1.5).clamp(0.05, 2.0);
+        if let Some(last) = out.last_mut() {
+            if last.object_id == part.object_id && last.link_index == part.link_index {
+                last.axis_length = last.axis_length.max(axis_length);
+                continue;
+            }
+        }
+        let p = b.position();
+        out.push(BodyFrame {
+            object_id: part.object_id,
+            link_index: part.link_index,
+            position: r32s(p.translation.to_array()),
+            orientation: r32s(p.rotation.to_array()),
+            axis_length,
+        });
+    }
+    out
+}
+
+/// Shared state of the viewer routes.
+#[derive(Clone)]
+struct Viewer {
+    reg: Arc<Registry>,
+}
+
+/// The viewer's routes, to be merged into the HTTP app (behind the same token and host checks).
+pub fn router(reg: Arc<Registry>) -> Router {
+    Router::new()
+        .route("/viewer/{sim_id}", get(page))
+        .route("/viewer/{sim_id}/frame", get(frame_route))
+        .with_state(Viewer { reg })
+}
+
+async fn page(State(v): State<Viewer>, Path(sim_id): Path<String>) -> Response {
+    match v.reg.get(&sim_id) {
+        Ok(_) => {
+            // The id is a UUID we issued, but escape it anyway: it lands in HTML and JS.
+            let safe: String = sim_id.chars().filter(|c| c.is_ascii_alphanumeric() || *c == '-').collect();
+            Html(PAGE.replace("{{SIM_ID}}", &safe)).into_response()
+        }
+        Err(why) => (StatusCode::NOT_FOUND, why).into_response(),
+    }
+}
+
+async fn frame_route(State(v): State<Viewer>, Path(sim_id): Path<String>, Query(q): Query<FrameQuery>) -> Response {
+    let sim = match v.reg.get(&sim_id) {
+        Ok(s) => s,
+        Err(why) => return (StatusCode::NOT_FOUND, why).into_response(),
+    };
+    let max_px = v.reg.limits().max_image_px;
+    let out = tokio::task::spawn_blocking(move || {
+        // Never wait behind a long call: the page keeps its last frame and asks again.
+        let Ok(guard) = sim.try_lock() else { return Err((StatusCode::SERVICE_UNAVAILABLE, "busy: a call is running".to_string())) };
+        frame(guard.world(), guard.state_hash(), &q, max_px).map_err(|e| (StatusCode::BAD_REQUEST, e))
+    })
+    .await;
+    match out {
+        Ok(Ok(json)) => ([(header::CACHE_CONTROL, "no-store")], axum::Json(json)).into_response(),
+        Ok(Err((code, why))) => (code, why).into_response(),
+        Err(_) => (StatusCode::INTERNAL_SERVER_ERROR, "the frame could not be rendered").into_response(),
+    }
+}
