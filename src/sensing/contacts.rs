@@ -45,11 +45,16 @@ pub fn contacts(w: &World, pair: Option<(u32, u32)>) -> Vec<Contact> {
         // a fresh manifold for the current poses, matched to rapier's points by feature.
         let fresh = fresh_manifolds(c1, c2, w.physics.integration_parameters.prediction_distance());
         for m in cp.manifolds() {
-            // rapier's manifold normal points from collider 1 towards collider 2.
-            let n12 = c1.position().transform_vector(m.local_n1);
+            // The same sub-shapes' fresh manifold (feature ids are per sub-shape).
+            let now_m = fresh.iter().find(|f| (f.subshape1, f.subshape2) == (m.subshape1, m.subshape2));
             for p in &m.points {
-                let now = fresh.iter().flat_map(|f| &f.points).find(|f| f.fid1 == p.fid1 && f.fid2 == p.fid2);
-                let (local_p1, local_p2, dist) = now.map_or((p.local_p1, p.local_p2, p.dist), |f| (f.local_p1, f.local_p2, f.dist));
+                let now = now_m.and_then(|f| f.points.iter().find(|q| (q.fid1, q.fid2) == (p.fid1, p.fid2)).map(|q| (f, q)));
+                let (local_n1, local_p1, local_p2, dist) = match now {
+                    Some((f, q)) => (f.local_n1, q.local_p1, q.local_p2, q.dist),
+                    None => (m.local_n1, p.local_p1, p.local_p2, p.dist),
+                };
+                // The manifold normal points from collider 1 towards collider 2.
+                let n12 = c1.position().transform_vector(local_n1);
                 let on1 = c1.position().transform_point(local_p1);
                 let on2 = c2.position().transform_point(local_p2);
                 let force = (p.data.impulse / dt).max(0.0);
