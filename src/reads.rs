@@ -240,9 +240,7 @@ pub fn camera_image(cx: &ReadContext, a: &Args, max_px: usize) -> Result<Rendere
         let t = cam.target.map(f64::from);
         camera::view_matrix_from_yaw_pitch(t, cam.distance.into(), cam.yaw.into(), cam.pitch.into(), 2)
     })?;
-    let proj = matrix(a, "projection_matrix", || {
-        camera::projection_matrix(60.0, f64::from(width) / f64::from(height), 0.01, 100.0)
-    })?;
+    let proj = matrix(a, "projection_matrix", || camera::default_projection(width, height))?;
     let include_depth = value::bool_or(a, "include_depth", false)?;
     let include_segmentation = value::bool_or(a, "include_segmentation", false)?;
     let frame = render::render(w, width, height, &view, &proj);

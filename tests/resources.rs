@@ -70,7 +70,7 @@ async fn every_simulation_is_readable_as_info_history_and_image() {
     let sim = c.new_sim(json!({})).await;
     until(&changes, 1).await;
     let ground = c.ground(&sim).await;
-    let ball = c.call("add_sphere", json!({"sim_id": sim, "radius": 0.2, "position": [0, 0, 1], "color": [1, 0, 0, 1]})).await;
+    c.call("add_sphere", json!({"sim_id": sim, "radius": 0.2, "position": [0, 0, 1], "color": [1, 0, 0, 1]})).await;
     c.step(&sim, 240).await;
     let hash = c.hash(&sim).await;
 
@@ -117,7 +117,6 @@ async fn every_simulation_is_readable_as_info_history_and_image() {
     let red = px.chunks(3).filter(|p| p[0] > 150 && p[1] < 80 && p[2] < 80).count();
     assert!(red > 50, "the red ball covers {red} pixels of the viewer image");
     assert_eq!(c.hash(&sim).await, hash, "reading resources changed the world");
-    let _ = ball;
 
     // Unknown simulations and URIs are clear errors.
     let err = read(&c, "sim://no-such-sim/info").await.unwrap_err();

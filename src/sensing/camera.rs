@@ -97,3 +97,9 @@ pub fn projection_matrix(fov: f64, aspect: f64, near: f64, far: f64) -> Mat4 {
         0.0, 0.0, 2.0 * far * near / (near - far), 0.0,
     ]
 }
+
+/// The lens of every image nobody gave a projection for (get_camera_image without one, the
+/// `sim://…/image` resource, the web viewer): fov 60°, the image's aspect, near 0.01, far 100.
+pub fn default_projection(width: u32, height: u32) -> Mat4 {
+    projection_matrix(60.0, f64::from(width) / f64::from(height), 0.01, 100.0)
+}

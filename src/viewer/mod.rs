@@ -137,7 +137,7 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
         _ => recorded.target,
     };
     let view: Mat4 = camera::view_matrix_from_yaw_pitch(target, distance, yaw, pitch, 2);
-    let proj: Mat4 = camera::projection_matrix(60.0, f64::from(width) / f64::from(height), 0.01, 100.0);
+    let proj: Mat4 = camera::default_projection(width, height);
     let image = render::render(w, width, height, &view, &proj);
     let contacts = if cam.show_contacts {
         contacts::contacts(w, None).into_iter().map(|c| c.position_on_a).collect()
