@@ -123,7 +123,7 @@ fn measure(n: u64) -> Figures {
         let mut root = chain.last().unwrap().clone();
         root.seq += 1;
         root.parent = Some(root.seq - 1);
-        log.append_root_with_ancestry(&chain, root, (b"", "")).unwrap();
+        log.append_root_with_ancestry(&chain, None, root, (b"", "")).unwrap();
         a_ms.push(t.elapsed().as_secs_f64() * 1e3);
         // (b) rebuild the world: MAC check, restore, refold the rest.
         let t = Instant::now();

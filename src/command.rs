@@ -16,8 +16,11 @@ use crate::limits::Limits;
 use crate::value::Refusal;
 use crate::world::World;
 
-/// Version of the event encoding; stored with every event so old versions can be upcast.
-pub const EVENT_VERSION: u32 = 1;
+/// Version of the event encoding and of tool results; stored with every event so old versions
+/// can be upcast. `replay` re-checks result hashes only for events of this version.
+/// 2: values reported as set (mass, timestep, time as PyBullet computes it); a cancelled
+/// step records the steps it took.
+pub const EVENT_VERSION: u32 = 2;
 
 /// A primitive collision shape with its dimensions (PyBullet conventions: box half-extents,
 /// cylinder full height, capsule cylindrical-part height; cylinders/capsules along local z).
@@ -256,8 +259,13 @@ pub enum Command {
     },
     /// Change the fixed timestep.
     SetTimestep {
-        /// Seconds per step.
+        /// Seconds per step, as the engine runs it.
         timestep: f32,
+        /// The timestep as the client gave it, which reported time is computed with
+        /// (PyBullet's f64 arithmetic). Absent in events recorded before event version 2:
+        /// then the f32's shortest decimal.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        timestep_given: Option<f64>,
     },
     /// Add a primitive body (add_box / add_sphere / add_cylinder / add_capsule).
     AddBody {
@@ -469,6 +477,19 @@ pub fn constraint_not_found(constraint_id: u32, sim_id: &str) -> Refusal {
 }
 
 impl Command {
+    /// The command as it was carried out, given its result: a step_simulation cancelled part
+    /// way took fewer steps than asked, and that is what folding the log must repeat. Logs
+    /// written before event version 2 recorded the steps asked; their result says the truth.
+    pub fn as_done(self, result: &serde_json::Value) -> Command {
+        match self {
+            Command::StepSimulation { steps } => {
+                let taken = result.get("steps_taken").and_then(serde_json::Value::as_u64);
+                Command::StepSimulation { steps: taken.filter(|t| *t < steps).unwrap_or(steps) }
+            }
+            other => other,
+        }
+    }
+
     /// The blobs this command carries (stored beside its event).
     pub fn blobs(&self) -> Vec<&Blob> {
         match self {

@@ -28,13 +28,21 @@ impl Sim {
         let target = reg.sandbox().writable(&user)?;
         let head = self.log.head_seq();
         let chain = self.log.chain_to(head).map_err(store_err)?;
-        let snap_seq = *self
-            .log
-            .chain_snapshot_seqs(head)
-            .map_err(store_err)?
-            .first()
-            .ok_or("the simulation has no snapshot on its chain")?;
-        let (bytes, hash) = self.log.snapshot_at(snap_seq).map_err(store_err)?.ok_or("a snapshot vanished")?;
+        let latest = self.log.chain_snapshot_seqs(head).map_err(store_err)?.first().copied();
+        let stored = match latest {
+            Some(seq) => self.log.snapshot_at(seq).map_err(store_err)?.map(|(b, h)| (seq, b, h)),
+            None => None,
+        };
+        // The file carries a snapshot a load can fold on: the latest stored one, or (when that
+        // is of an older version, or there is none) the live world's at the head.
+        let (snap_seq, bytes, hash) = match stored {
+            Some((seq, b, h)) if crate::world::World::foldable_snapshot(&b) => (seq, b, h),
+            _ => {
+                let b = self.world.snapshot();
+                let h = crate::digest::content_hash(&b);
+                (head, b, h)
+            }
+        };
         let at = chain.iter().find(|e| e.seq == snap_seq).ok_or("a snapshot is off the chain")?;
         let file = SaveFile {
             format: Some(SAVE_FORMAT.into()),
@@ -90,7 +98,7 @@ impl Registry {
         let sim = match &file.history {
             Some(h) => {
                 let (world, chain) = world_from_history(h, &new_id, self.mac_key(), self.limits(), progress)?;
-                if let Some(fields) = disagreeing_fields(&file.readable, &readable(&world)) {
+                if let Some(fields) = disagreeing_fields(&file.readable, &world) {
                     return Err(format!(
                         "The file's readable fields disagree with its history: {fields} (remove \"history\" to load the readable fields alone)"
                     ));
@@ -98,7 +106,7 @@ impl Registry {
                 let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui };
                 let out = Loaded { simulation_id: new_id.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None };
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-                self.adopt((&chain, &crate::save::SavedBlobs(&h.blobs)), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
+                self.adopt((&chain, &crate::save::SavedBlobs(&h.blobs), None), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
             }
             None => self.load_readable(&file, &new_id, gui, args)?,
         };

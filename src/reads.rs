@@ -117,8 +117,8 @@ pub fn simulation_info(cx: &ReadContext, _a: &Args) -> Result<SimulationInfo, Re
     Ok(SimulationInfo {
         simulation_id: w.simulation_id().to_string(),
         gravity: r32s(w.physics.gravity.to_array()),
-        timestep: r32(w.timestep()),
-        current_time: w.tables.time_s,
+        timestep: w.timestep_given(),
+        current_time: w.current_time(),
         steps: w.tables.steps,
         gui_enabled: w.gui(),
         objects: w.object_summaries(),

@@ -160,23 +160,28 @@ pub fn readable(world: &World) -> Readable {
         .collect();
     Readable {
         gravity: Some(json!(r32s(world.physics.gravity.to_array()))),
-        timestep: Some(json!(r32(world.timestep()))),
-        simulation_time: Some(json!(world.tables.time_s)),
+        timestep: Some(json!(world.timestep_given())),
+        simulation_time: Some(json!(world.current_time())),
         objects,
         constraints: world.constraint_summaries(),
     }
 }
 
-/// Names the readable fields of `file` that disagree with `actual` (None when they agree).
-pub fn disagreeing_fields(file: &Readable, actual: &Readable) -> Option<String> {
+/// Names the readable fields of `file` that disagree with `world` (None when they agree).
+/// Time fields may also be as builds before event version 2 wrote them (the f32 timestep and
+/// the engine's summed clock), so the files they saved keep loading.
+pub fn disagreeing_fields(file: &Readable, world: &World) -> Option<String> {
+    let actual = readable(world);
+    let legacy_timestep = Some(json!(r32(world.timestep())));
+    let legacy_time = Some(json!(world.tables.time_s));
     let mut bad = Vec::new();
     if file.gravity != actual.gravity {
         bad.push("gravity".to_string());
     }
-    if file.timestep != actual.timestep {
+    if file.timestep != actual.timestep && file.timestep != legacy_timestep {
         bad.push("timestep".to_string());
     }
-    if file.simulation_time != actual.simulation_time {
+    if file.simulation_time != actual.simulation_time && file.simulation_time != legacy_time {
         bad.push("simulation_time".to_string());
     }
     if file.objects.len() != actual.objects.len() {
@@ -234,10 +239,25 @@ pub fn saved_event(e: &Event) -> SavedEvent {
         parent: e.parent,
         tool: e.tool.clone(),
         arguments: e.arguments.clone(),
-        command: e.command.clone().unwrap_or_default(),
+        command: command_as_done(e),
         version: e.version,
         result_hash: e.result_hash.clone(),
         state_hash: e.state_hash.clone(),
+    }
+}
+
+/// The command text a saved event carries: as carried out (`Command::as_done`), since the
+/// file keeps no result to correct a step that older builds logged as the steps asked. Any
+/// other command keeps its recorded text byte for byte.
+fn command_as_done(e: &Event) -> String {
+    let text = e.command.clone().unwrap_or_default();
+    let result = e.result.as_deref().and_then(|r| serde_json::from_str::<Value>(r).ok());
+    match (serde_json::from_str::<Command>(&text), result) {
+        (Ok(cmd @ Command::StepSimulation { .. }), Some(result)) => {
+            let done = cmd.clone().as_done(&result);
+            if done == cmd { text } else { serde_json::to_string(&done).unwrap_or(text) }
+        }
+        _ => text,
     }
 }
 
@@ -311,7 +331,8 @@ pub fn world_from_events(
         let mac_ok = snapshot_mac(key, s.seq, &s.hash, &events[at].state_hash) == s.mac;
         let bytes = base64::engine::general_purpose::STANDARD.decode(&s.bytes).ok()?;
         let hash_ok = crate::digest::content_hash(&bytes) == s.hash;
-        (mac_ok && hash_ok).then_some((at, bytes))
+        // An older-version snapshot lacks the values as given: refold instead.
+        (mac_ok && hash_ok && World::foldable_snapshot(&bytes)).then_some((at, bytes))
     });
     let (start, mut world) = match trusted {
         Some((at, bytes)) => {
@@ -365,7 +386,8 @@ pub fn commands_from_readable(r: &Readable, id: &str) -> Result<Vec<(String, Com
         Command::CreateSimulation { simulation_id: id.into(), gravity, gui: false },
     )];
     if let Some(t) = &r.timestep {
-        out.push(("set_timestep".into(), Command::SetTimestep { timestep: value::positive("timestep", t).map_err(bad)? }));
+        let (timestep, given) = value::positive_given("timestep", t).map_err(bad)?;
+        out.push(("set_timestep".into(), Command::SetTimestep { timestep, timestep_given: Some(given) }));
     }
     let empty = serde_json::Map::new();
     // The file's object ids → the ids the re-created objects get (0, 1, … in file order).

@@ -235,8 +235,11 @@ impl Sim {
                 return Err(self.refuse(tool, args, format!("The call's files could not be recorded: {err}")));
             }
         }
-        let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
         let result = self.world.apply(&cmd, control);
+        // Logged as carried out: a cancelled step records the steps it took, so every fold
+        // of the log repeats exactly what the world did.
+        let cmd = cmd.as_done(&result);
+        let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
         self.work_since_snapshot += work(&cmd, &self.world);
         self.changes_since_snapshot += 1;
         let result_json = result.to_string();
@@ -379,7 +382,29 @@ pub(crate) fn rebuild_at(
     verify_each: bool,
 ) -> Result<Rebuilt, StoreError> {
     let snapshots: std::collections::BTreeSet<u64> = log.snapshot_seqs()?.into_iter().collect();
-    let mut chain = log.chain_back(target, |e| snapshots.contains(&e.seq))?;
+    // Walk back to the nearest snapshot a fold may start from; past older-version ones (their
+    // hashes still prove the chain), and to create_simulation when there is none (a loaded
+    // file's inherited chain, or a log written before snapshot version 3).
+    let mut chain = Vec::new();
+    let mut start = None;
+    let mut from = Some(target);
+    while let Some(seq) = from {
+        let part = log.chain_back(seq, |e| snapshots.contains(&e.seq))?;
+        let oldest = part.last().ok_or_else(|| StoreError::Corrupt(format!("event {seq} is missing")))?;
+        let (at, parent) = (oldest.seq, oldest.parent);
+        from = parent;
+        let snapshot = if snapshots.contains(&at) { log.snapshot_at(at)? } else { None };
+        chain.extend(part);
+        if let Some((bytes, hash)) = snapshot {
+            if crate::digest::content_hash(&bytes) != hash {
+                return Err(StoreError::Corrupt(format!("snapshot at seq {at} does not match its hash")));
+            }
+            if World::foldable_snapshot(&bytes) {
+                start = Some(bytes);
+                break;
+            }
+        }
+    }
     chain.reverse();
     let gui = match log.own_root_command()? {
         Some(c) => matches!(
@@ -390,26 +415,20 @@ pub(crate) fn rebuild_at(
         ),
         None => gui_of(&chain)?,
     };
-    let mut start = None;
-    for (i, e) in chain.iter().enumerate().rev() {
-        if let Some((bytes, hash)) = log.snapshot_at(e.seq)? {
-            if crate::digest::content_hash(&bytes) != hash {
-                return Err(StoreError::Corrupt(format!(
-                    "snapshot at seq {} does not match its hash",
-                    e.seq
-                )));
-            }
-            let world = World::restore(id, gui, &bytes).map_err(StoreError::Corrupt)?;
-            start = Some((i, world));
-            break;
-        }
-    }
-    let (i0, mut world) =
-        start.ok_or_else(|| StoreError::Corrupt("no snapshot on the head's chain".into()))?;
-    check_hash(&world, &chain[i0])?;
+    let first = chain.first().ok_or_else(|| StoreError::Corrupt("the chain is empty".into()))?;
+    let mut world = match start {
+        Some(bytes) => World::restore(id, gui, &bytes).map_err(StoreError::Corrupt)?,
+        None => match decode(first, log)? {
+            Some(root @ Command::CreateSimulation { .. }) => World::create(&root)
+                .map(|(w, _)| w.with_identity(id, gui))
+                .ok_or_else(|| StoreError::Corrupt("create_simulation does not build".into()))?,
+            _ => return Err(StoreError::Corrupt("no snapshot on the head's chain".into())),
+        },
+    };
+    check_hash(&world, first)?;
     let mut rebuilt_work = 0;
     let mut rebuilt_changes = 0;
-    for e in &chain[i0 + 1..] {
+    for e in &chain[1..] {
         let cmd = decode(e, log)?
             .ok_or_else(|| StoreError::Corrupt(format!("event {} has no command", e.seq)))?;
         world.apply(&cmd, &mut |_| true);
@@ -479,6 +498,11 @@ pub(crate) fn decode(e: &Event, blobs: &dyn BlobSource) -> Result<Option<Command
         .map_err(|err| StoreError::Corrupt(format!("event {} does not decode: {err}", e.seq)))?;
     cmd.hydrate(blobs)
         .map_err(|err| StoreError::Corrupt(format!("event {}: {err}", e.seq)))?;
+    // Before event version 2 a cancelled step was logged as the steps asked; its recorded
+    // result says how many it took.
+    if let Some(result) = e.result.as_deref().and_then(|r| serde_json::from_str::<Value>(r).ok()) {
+        cmd = cmd.as_done(&result);
+    }
     Ok(Some(cmd))
 }
 
@@ -718,7 +742,7 @@ impl Registry {
                 SimulationSummary {
                     simulation_id: s.id().to_string(),
                     objects: s.world().object_count(),
-                    simulation_time: s.world().tables.time_s,
+                    simulation_time: s.world().current_time(),
                 }
             })
             .collect();

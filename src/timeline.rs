@@ -106,7 +106,7 @@ impl Sim {
         let out = Undone {
             undone,
             head_seq: target.seq,
-            current_time: rebuilt.world.tables.time_s,
+            current_time: rebuilt.world.current_time(),
             state_hash: rebuilt.world.state_hash(),
         };
         let record = MoveRecord {
@@ -152,7 +152,7 @@ impl Sim {
         let out = Redone {
             redone,
             head_seq: to,
-            current_time: world.tables.time_s,
+            current_time: world.current_time(),
             state_hash: world.state_hash(),
         };
         let record = MoveRecord { op: "redo".into(), from: self.log.head_seq(), to, seqs };
@@ -291,16 +291,16 @@ impl Registry {
             viewer_url: None,
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-        let sim = self.adopt((&chain, p.log()), &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
+        let sim = self.adopt((&chain, p.log(), Some(p.log())), &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
         Ok((out, sim))
     }
 
     /// Starts a simulation whose log inherits `chain` (a fork's or a loaded file's) and whose
-    /// own root, at the next seq, is `root_cmd` with `world` as its state and snapshot. A
-    /// failure leaves no file behind.
+    /// own root, at the next seq, is `root_cmd` with `world` as its state and snapshot; a
+    /// fork also copies the parent's snapshots on the chain. A failure leaves no file behind.
     pub(crate) fn adopt(
         &self,
-        (chain, blobs): (&[Event], &dyn BlobSource),
+        (chain, blobs, parent): (&[Event], &dyn BlobSource, Option<&Log>),
         world: &World,
         root_cmd: Command,
         tool: &str,
@@ -340,7 +340,7 @@ impl Registry {
             }
             let snapshot = world.snapshot();
             let snap_hash = crate::digest::content_hash(&snapshot);
-            log.append_root_with_ancestry(chain, root, (&snapshot, &snap_hash))
+            log.append_root_with_ancestry(chain, parent, root, (&snapshot, &snap_hash))
                 .map_err(store_err)?;
             drop(log);
             Sim::recover(&path, self.config().sync).map_err(store_err)

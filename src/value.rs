@@ -162,6 +162,13 @@ pub fn positive(name: &str, v: &Value) -> Result<f32, Refusal> {
     }
 }
 
+/// `positive`, plus the value exactly as the client gave it (f64): a timestep runs in f32 but
+/// reported time is computed from the given value, as PyBullet does.
+pub fn positive_given(name: &str, v: &Value) -> Result<(f32, f64), Refusal> {
+    let x = positive(name, v)?;
+    Ok((x, finite(v).unwrap_or(x as f64)))
+}
+
 /// Reads a number that must be finite and ≥ 0 (mass, friction, damping).
 pub fn non_negative(name: &str, v: &Value) -> Result<f32, Refusal> {
     let x = number(name, v)?;

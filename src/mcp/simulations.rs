@@ -23,9 +23,8 @@ fn decide_step(a: &Args) -> Result<Command, Refusal> {
 
 fn decide_timestep(a: &Args) -> Result<Command, Refusal> {
     let v = value::required(a, "timestep", "a number of seconds > 0")?;
-    Ok(Command::SetTimestep {
-        timestep: value::positive("timestep", v)?,
-    })
+    let (timestep, given) = value::positive_given("timestep", v)?;
+    Ok(Command::SetTimestep { timestep, timestep_given: Some(given) })
 }
 
 #[tool_router(router = simulation_router, vis = "pub(crate)")]

@@ -371,25 +371,27 @@ impl Log {
         head: u64,
         snapshot: Option<(&[u8], &str)>,
     ) -> Result<(), StoreError> {
-        self.commit(&[], event, head, snapshot)
+        self.commit((&[], None), event, head, snapshot)
     }
 
-    /// Starts a forked log: the inherited chain (flagged `inherited`, original seqs) and the
-    /// fork's own root with its snapshot, all in one transaction (a failed fork leaves no
-    /// half-written chain behind).
+    /// Starts a forked log: the inherited chain (flagged `inherited`, original seqs), every
+    /// snapshot `parent` holds on that chain (so any inherited point costs what it costs in the
+    /// parent), and the fork's own root with its snapshot, all in one transaction (a failed
+    /// fork leaves no half-written chain behind). Snapshots are copied one at a time.
     pub fn append_root_with_ancestry(
         &mut self,
         inherited: &[Event],
+        parent: Option<&Log>,
         root: Event,
         snapshot: (&[u8], &str),
     ) -> Result<(), StoreError> {
         let seq = root.seq;
-        self.commit(inherited, root, seq, Some(snapshot))
+        self.commit((inherited, parent), root, seq, Some(snapshot))
     }
 
     fn commit(
         &mut self,
-        inherited: &[Event],
+        (inherited, parent): (&[Event], Option<&Log>),
         event: Event,
         head: u64,
         snapshot: Option<(&[u8], &str)>,
@@ -399,6 +401,16 @@ impl Log {
             let mut e = e.clone();
             e.inherited = true;
             insert_event(&tx, &e)?;
+        }
+        if let (Some(parent), Some(last)) = (parent, inherited.last()) {
+            for seq in parent.chain_snapshot_seqs(last.seq)? {
+                if let Some((bytes, hash)) = parent.snapshot_at(seq)? {
+                    tx.execute(
+                        "INSERT INTO snapshots (seq, hash, bytes) VALUES (?1, ?2, ?3)",
+                        params![seq as i64, hash, bytes],
+                    )?;
+                }
+            }
         }
         for e in &self.pending {
             insert_event(&tx, e)?;

@@ -153,7 +153,7 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
         view_matrix: view.to_vec(),
         projection_matrix: proj.to_vec(),
         camera: recorded,
-        time: w.tables.time_s,
+        time: w.current_time(),
         steps: w.tables.steps,
         objects: w.tables.objects.len(),
         state_hash: state_hash.to_string(),

@@ -131,6 +131,7 @@ impl World {
                     }
                 }
                 self.tables.pending_wrench.remove(object_id);
+                self.tables.as_given.link_masses.retain(|(id, _), _| id != object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
@@ -220,8 +221,12 @@ impl World {
         set(&mut e.contact_stiffness, c.contact_stiffness);
         set(&mut e.contact_damping, c.contact_damping);
         let robot = matches!(obj.kind, ObjectKind::Robot { .. });
-        if let (Some(m), false) = (c.mass, is_link) {
-            obj.mass = m;
+        match (c.mass, is_link) {
+            (Some(m), false) => obj.mass = m,
+            (Some(m), true) => {
+                self.tables.as_given.link_masses.insert((id, link_index as u32), m);
+            }
+            (None, _) => {}
         }
         for ch in &colliders {
             if let Some(col) = self.physics.colliders.get_mut(*ch) {
@@ -384,8 +389,13 @@ impl World {
             _ => "kinematic",
         };
         let (diagonal, inertia_orn) = reported_inertia(mp);
+        // The mass as set (add_*, the URDF, change_dynamics), not rapier's 1/(1/m).
+        let mass_set = match (&obj.kind, link_index) {
+            (ObjectKind::Robot { .. }, i) if i >= 0 => self.tables.as_given.link_masses.get(&(id, i as u32)).copied(),
+            _ => Some(obj.mass),
+        };
         Some(DynamicsInfo {
-            mass: if fixed { 0.0 } else { r32(b.mass()) },
+            mass: if fixed { 0.0 } else { r32(mass_set.unwrap_or_else(|| b.mass())) },
             lateral_friction: r32(friction),
             local_inertia_diagonal: r32s(if fixed { [0.0; 3] } else { diagonal }),
             local_inertia_pos: r32s(mp.local_com.to_array()),

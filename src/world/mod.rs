@@ -134,6 +134,34 @@ impl Default for Viewer {
     }
 }
 
+/// Values kept as the client gave them, so results report them as set (SPEC Conventions: a
+/// mass of 3.5 reads 3.5; time is PyBullet's f64 `n × dt`). The engine runs on f32 copies, whose
+/// effects the state hash covers; these only shape what results say, so they are snapshotted
+/// (restore → identical results) but not hashed (old logs keep their hashes).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct AsGiven {
+    /// The timestep as last given (f64; PyBullet's default 1/240 before any set_timestep).
+    pub timestep_s: f64,
+    /// Reported time when that timestep was set.
+    pub time_at_timestep_s: f64,
+    /// Steps taken when that timestep was set.
+    pub steps_at_timestep: u64,
+    /// Robot link masses as set (the URDF's inertial, or change_dynamics), by (object, link):
+    /// rapier keeps 1/m, which does not always invert back to m in f32.
+    pub link_masses: BTreeMap<(u32, u32), f32>,
+}
+
+impl Default for AsGiven {
+    fn default() -> Self {
+        Self {
+            timestep_s: 1.0 / 240.0,
+            time_at_timestep_s: 0.0,
+            steps_at_timestep: 0,
+            link_masses: BTreeMap::new(),
+        }
+    }
+}
+
 /// Everything `apply` can change besides rapier's own sets.
 #[derive(Serialize, Deserialize, Clone, Debug, Default)]
 pub struct Tables {
@@ -153,6 +181,44 @@ pub struct Tables {
     pub viewer: Viewer,
     /// Constraints by id.
     pub constraints: BTreeMap<u32, constraints::Constraint>,
+    /// Values as the client gave them (reported, not hashed).
+    pub as_given: AsGiven,
+}
+
+/// The tables as snapshot version 2 encoded them (before `as_given`).
+#[derive(Deserialize)]
+struct TablesV2 {
+    objects: BTreeMap<u32, Object>,
+    next_object_id: u32,
+    next_constraint_id: u32,
+    time_s: f64,
+    steps: u64,
+    pending_wrench: BTreeSet<u32>,
+    viewer: Viewer,
+    constraints: BTreeMap<u32, constraints::Constraint>,
+}
+
+impl TablesV2 {
+    /// Version-2 tables with the given values approximated from the engine's: good for
+    /// checking hashes, not for folding on (`World::foldable_snapshot` says which is which).
+    fn upgrade(self, dt: f32) -> Tables {
+        Tables {
+            as_given: AsGiven {
+                timestep_s: crate::value::r32(dt),
+                time_at_timestep_s: self.time_s,
+                steps_at_timestep: self.steps,
+                link_masses: BTreeMap::new(),
+            },
+            objects: self.objects,
+            next_object_id: self.next_object_id,
+            next_constraint_id: self.next_constraint_id,
+            time_s: self.time_s,
+            steps: self.steps,
+            pending_wrench: self.pending_wrench,
+            viewer: self.viewer,
+            constraints: self.constraints,
+        }
+    }
 }
 
 /// The tables as snapshot version 1 encoded them (before constraints): old snapshots in logs
@@ -168,9 +234,9 @@ struct TablesV1 {
     viewer: Viewer,
 }
 
-impl From<TablesV1> for Tables {
+impl From<TablesV1> for TablesV2 {
     fn from(t: TablesV1) -> Self {
-        Tables {
+        TablesV2 {
             objects: t.objects,
             next_object_id: t.next_object_id,
             next_constraint_id: t.next_constraint_id,
@@ -260,6 +326,20 @@ impl World {
         self.physics.integration_parameters.dt
     }
 
+    /// The timestep as the client gave it (what results report).
+    pub fn timestep_given(&self) -> f64 {
+        self.tables.as_given.timestep_s
+    }
+
+    /// Simulated time as results report it: PyBullet's f64 arithmetic — the time at the last
+    /// set_timestep plus the steps since, times the timestep as given (0.004166666666666667
+    /// after one default step). The engine's own clock (`tables.time_s`, summed f32 steps) is
+    /// what the state hash covers.
+    pub fn current_time(&self) -> f64 {
+        let g = &self.tables.as_given;
+        g.time_at_timestep_s + self.tables.steps.saturating_sub(g.steps_at_timestep) as f64 * g.timestep_s
+    }
+
     /// Applies an accepted command and returns its result. Cannot fail for a command that
     /// passed `Command::check`; `control` may stop a long step early (the steps done stay).
     pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Value {
@@ -274,14 +354,18 @@ impl World {
                 to_value(&Stepped {
                     simulation_id: self.simulation_id.clone(),
                     steps_taken: taken,
-                    current_time: self.tables.time_s,
+                    current_time: self.current_time(),
                 })
             }
-            Command::SetTimestep { timestep } => {
+            Command::SetTimestep { timestep, timestep_given } => {
+                let given = timestep_given.unwrap_or_else(|| crate::value::r32(*timestep));
+                let (now, steps) = (self.current_time(), self.tables.steps);
+                let g = &mut self.tables.as_given;
+                (g.timestep_s, g.time_at_timestep_s, g.steps_at_timestep) = (given, now, steps);
                 self.physics.integration_parameters.dt = *timestep;
                 to_value(&TimestepSet {
-                    message: format!("Timestep set to {} s", timestep),
-                    timestep: crate::value::r32(*timestep),
+                    message: format!("Timestep set to {given} s"),
+                    timestep: given,
                 })
             }
             Command::LoadUrdf { file_path, urdf, meshes, position, orientation, fixed_base } => {
@@ -366,10 +450,17 @@ impl World {
                     postcard::from_bytes(bytes).map_err(bad)?;
                 (physics, tables)
             }
+            2 => {
+                let (_, physics, tables): (u32, PhysicsWorld, TablesV2) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                let dt = physics.integration_parameters.dt;
+                (physics, tables.upgrade(dt))
+            }
             1 => {
                 let (_, physics, tables): (u32, PhysicsWorld, TablesV1) =
                     postcard::from_bytes(bytes).map_err(bad)?;
-                (physics, tables.into())
+                let dt = physics.integration_parameters.dt;
+                (physics, TablesV2::from(tables).upgrade(dt))
             }
             v => return Err(format!("snapshot version {v} is not supported")),
         };
@@ -381,14 +472,22 @@ impl World {
         })
     }
 
+    /// Whether a fold may start from these snapshot bytes: older versions restore (their
+    /// hashes can be checked) but lack the values as given, so results computed on them could
+    /// differ from a fold from the root's; folds start at a current snapshot or the root.
+    pub fn foldable_snapshot(bytes: &[u8]) -> bool {
+        postcard::take_from_bytes::<u32>(bytes).is_ok_and(|(v, _)| v == SNAPSHOT_VERSION)
+    }
+
     /// blake3 (hex) over the canonical encoding of everything `apply` can change.
     pub fn state_hash(&self) -> String {
         hash::state_hash(self)
     }
 }
 
-/// Version of the snapshot encoding (2 added constraints to the tables; 1 still restores).
-pub const SNAPSHOT_VERSION: u32 = 2;
+/// Version of the snapshot encoding (2 added constraints to the tables, 3 the values as given;
+/// 1 and 2 still restore).
+pub const SNAPSHOT_VERSION: u32 = 3;
 
 /// Serialises a result struct; our result types always serialise.
 fn to_value<T: Serialize>(v: &T) -> Value {

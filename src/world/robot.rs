@@ -194,8 +194,10 @@ impl World {
             colliders.push(cs);
         }
         let mut links = Vec::new();
+        let mut link_masses = Vec::new();
         for (i, link) in model.links.iter().enumerate().skip(1) {
             let Some(spec) = &link.joint else { continue };
+            link_masses.push(link.mass as f32);
             let parent = bodies[(spec.parent + 1) as usize];
             self.physics.multibody_joints.insert(parent, bodies[i], generic_joint(spec), true);
             links.push(RobotLink {
@@ -224,6 +226,9 @@ impl World {
         let num_joints = robot.links.len();
         let id = self.tables.next_object_id;
         self.tables.next_object_id += 1;
+        for (link, mass) in (0u32..).zip(link_masses).filter(|(_, m)| *m > 0.0) {
+            self.tables.as_given.link_masses.insert((id, link), mass);
+        }
         self.tables.objects.insert(
             id,
             Object {
