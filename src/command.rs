@@ -349,6 +349,12 @@ pub enum Command {
         orientation: [f32; 4],
         /// Fix the base to the world.
         fixed_base: bool,
+        /// Continuous joints report the lower/upper their `<limit>` gives (as PyBullet does).
+        /// Set by every load_urdf since; events recorded before the field existed decode as
+        /// false and fold to the robot they always did ([0, −1]), so their hashes still match.
+        /// Omitted when false, so such events re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        continuous_limits_from_file: bool,
     },
     /// Set (or replace) a joint motor; it acts on every later step.
     SetJointMotor {
@@ -545,9 +551,9 @@ impl Command {
             Command::SetTimestep { .. }
             | Command::SetDebugVisualization { .. }
             | Command::SetCamera { .. } => Ok(()),
-            Command::LoadUrdf { urdf, meshes, .. } => {
+            Command::LoadUrdf { urdf, meshes, continuous_limits_from_file, .. } => {
                 room_for_object(world, limits)?;
-                crate::world::urdf_model(urdf, meshes).map(|_| ())
+                crate::world::urdf_model(urdf, meshes, *continuous_limits_from_file).map(|_| ())
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 exists(*object_id)?;

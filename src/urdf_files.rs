@@ -73,6 +73,7 @@ pub fn decide_load_urdf(sandbox: &Sandbox, a: &value::Args) -> Result<Command, R
         position,
         orientation,
         fixed_base,
+        continuous_limits_from_file: true,
     })
 }
 

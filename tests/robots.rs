@@ -106,18 +106,23 @@ async fn fixtures_load_with_pybullet_numbering() {
     assert!((z - 0.1).abs() < 0.01, "mesh cube rests at z = {z}, expected 0.1");
 }
 
+/// What pybullet 3.2.7 reports for the robot fixtures (`scripts/urdf_fixtures.py` wrote it).
+fn pybullet_reference() -> Value {
+    serde_json::from_str(include_str!("fixtures/pybullet_urdf.json")).expect("pybullet_urdf.json")
+}
+
 /// Every robot fixture as pybullet 3.2.7 itself reports it (`scripts/urdf_fixtures.py` wrote
 /// `tests/fixtures/pybullet_urdf.json`): joint count, every joint's index, name, type, limits,
 /// effort, velocity, axis, link name and parent, and every link's mass, inertia diagonal and
-/// centre of mass. PyBullet calls a continuous joint "revolute" with the (0, −1) limit pair.
+/// centre of mass. PyBullet calls a continuous joint "revolute" (with the limits its `<limit>`
+/// gives, else the (0, −1) pair); the script labels those the file calls continuous.
 /// Links with an `<inertial>` are compared with pybullet's URDF_USE_INERTIA_FROM_FILE load,
 /// links without one with its default load (the script says why).
 #[tokio::test(flavor = "multi_thread")]
 async fn every_fixture_matches_what_pybullet_reports() {
     let dir = tempfile::tempdir().unwrap();
     let (_server, c) = start(dir.path()).await;
-    let reference: Value =
-        serde_json::from_str(include_str!("fixtures/pybullet_urdf.json")).expect("pybullet_urdf.json");
+    let reference = pybullet_reference();
     // f32 storage: agreement to 1e−6 relative (inertias span 1e−7 … 1 kg·m²).
     let close = |a: &Value, b: &Value| {
         let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
@@ -126,7 +131,7 @@ async fn every_fixture_matches_what_pybullet_reports() {
     let close3 = |a: &Value, b: &Value| (0..3).all(|k| close(&a[k], &b[k]));
     let sim = c.new_sim(json!({})).await;
     let robots = reference["robots"].as_object().unwrap();
-    assert_eq!(robots.len(), 4);
+    assert_eq!(robots.len(), 5);
     for (k, (file, want)) in robots.iter().enumerate() {
         let id = load(&c, &sim, file, json!({"position": [3.0 * k as f64, 0, 1], "use_fixed_base": true})).await;
         let n = c.call("get_num_joints", json!({"sim_id": sim, "object_id": id})).await;
@@ -166,6 +171,87 @@ async fn every_fixture_matches_what_pybullet_reports() {
         assert!(close3(&got["local_inertia_diagonal"], &wl["local_inertia_diagonal"]), "inertia of {at}");
         assert!(close3(&got["local_inertia_pos"], &wl["local_inertia_pos"]), "centre of mass of {at}");
     }
+}
+
+/// Issue #10 item 5: a continuous joint reports the lower/upper its `<limit>` gives (r2d2's
+/// head_swivel: [−0.38, 0]) but, as in PyBullet, they do not bound its motion — a velocity
+/// motor drives it past its upper limit, while a revolute joint with the same limits stops.
+/// The positions are pybullet's own (`"motion"` in `tests/fixtures/pybullet_urdf.json`).
+#[tokio::test(flavor = "multi_thread")]
+async fn issue_10_continuous_joint_limits_are_reported_but_not_enforced() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, c) = start(dir.path()).await;
+    let reference = pybullet_reference();
+    let motion = &reference["motion"];
+    let sim = c.new_sim(json!({})).await;
+    let file = motion["file"].as_str().unwrap();
+    let id = load(&c, &sim, file, json!({"use_fixed_base": motion["use_fixed_base"]})).await;
+    let joints = motion["joints"].as_array().unwrap();
+    for wj in joints {
+        let j = wj["joint_index"].as_u64().unwrap();
+        let info = c.call("get_joint_info", json!({"sim_id": sim, "object_id": id, "joint_index": j})).await;
+        assert_eq!([&info["lower_limit"], &info["upper_limit"]], [&wj["lower_limit"], &wj["upper_limit"]], "{info} vs {wj}");
+        let mode = json!({"control_mode": motion["control_mode"], "target_velocity": motion["target_velocity"],
+                          "force": motion["force"]});
+        motor(&c, &sim, id, j, mode).await;
+    }
+    c.step(&sim, motion["steps"].as_u64().unwrap()).await;
+    for wj in joints {
+        let (j, name) = (wj["joint_index"].as_u64().unwrap(), &wj["joint_name"]);
+        let (got, want) = (q(&c, &sim, id, j).await, wj["joint_position"].as_f64().unwrap());
+        let upper = wj["upper_limit"].as_f64().unwrap();
+        eprintln!("REPORT {name}: position {got} after the velocity motor, pybullet {want}, upper limit {upper}");
+        assert!((got - want).abs() < 0.01, "{name}: position {got}, pybullet {want}");
+        if name == "limited_swivel" {
+            assert!(!wj["limits_enforced"].as_bool().unwrap() && got > upper + 0.9, "{name} passes its upper limit");
+        }
+    }
+}
+
+/// Compatibility (SPEC): a load_urdf event recorded before continuous joints reported their
+/// file limits decodes without `continuous_limits_from_file`, re-encodes byte for byte, and
+/// folds to the robot it always did — every continuous joint at [0, −1] — so an old log's
+/// state hashes still match. The same load as a new event reports the file's limits and
+/// hashes differently.
+#[test]
+fn issue_10_old_load_urdf_events_keep_continuous_limits_at_none() {
+    use physics_mcp::command::{Blob, BlobSource, Command};
+    struct Bytes(Vec<u8>);
+    impl BlobSource for Bytes {
+        fn blob(&self, _hash: &str) -> Option<Vec<u8>> {
+            Some(self.0.clone())
+        }
+    }
+    let text = include_bytes!("fixtures/continuous_limits.urdf").to_vec();
+    let old_json = format!(
+        r#"{{"op":"load_urdf","file_path":"continuous_limits.urdf","urdf":"{}","meshes":{{}},"position":[0.0,0.0,0.0],"orientation":[0.0,0.0,0.0,1.0],"fixed_base":true}}"#,
+        Blob::new(text.clone()).hash
+    );
+    let mut old: Command = serde_json::from_str(&old_json).unwrap();
+    assert_eq!(serde_json::to_string(&old).unwrap(), old_json, "an old event re-encodes unchanged");
+    old.hydrate(&Bytes(text)).unwrap();
+    let Command::LoadUrdf { continuous_limits_from_file, .. } = &old else { panic!("{old:?}") };
+    assert!(!continuous_limits_from_file);
+    let mut new = old.clone();
+    if let Command::LoadUrdf { continuous_limits_from_file, .. } = &mut new {
+        *continuous_limits_from_file = true;
+    }
+
+    let (mut old_world, mut new_world) = (common::empty_world("old"), common::empty_world("new"));
+    old_world.apply(&old, &mut |_| true);
+    new_world.apply(&new, &mut |_| true);
+    let limits = |w: &physics_mcp::world::World, j: usize| {
+        let info = w.joint_info(0, j).unwrap();
+        [info.lower_limit, info.upper_limit]
+    };
+    for j in 0..5 {
+        assert_eq!(limits(&old_world, j), [0.0, -1.0], "old event, continuous joint {j}");
+    }
+    assert_eq!(limits(&old_world, 5), [-0.38, 0.0], "old event, revolute joint");
+    assert_eq!(limits(&new_world, 0), [-0.38, 0.0]);
+    assert_eq!(limits(&new_world, 3), [-0.5, -1.0]);
+    assert_eq!(limits(&new_world, 4), [0.0, 0.25]);
+    assert_ne!(old_world.state_hash(), new_world.state_hash());
 }
 
 /// A pendulum URDF: static pivot, one link of mass `m` whose centre hangs `d` below the pivot,

@@ -26,10 +26,12 @@ use crate::value::r32s;
 pub use hash::STATE_HASH_VERSION;
 pub use robot::{Robot, RobotLink, DEFAULT_MOTOR_FORCE};
 
-/// The robot model a LoadUrdf command's blobs describe (the check and the fold share it).
+/// The robot model a LoadUrdf command's blobs describe (the check and the fold share it);
+/// `continuous_limits_from_file` is the event's own flag (see `urdf::build`).
 pub fn urdf_model(
     urdf: &crate::command::Blob,
     meshes: &std::collections::BTreeMap<String, crate::command::Blob>,
+    continuous_limits_from_file: bool,
 ) -> Result<urdf::RobotModel, crate::value::Refusal> {
     if !urdf.is_loaded() || meshes.values().any(|m| !m.is_loaded()) {
         return Err("the URDF or one of its meshes is missing from the event".into());
@@ -37,7 +39,7 @@ pub fn urdf_model(
     let text = std::str::from_utf8(&urdf.bytes).map_err(|_| "file_path is not a valid URDF: it is not UTF-8 text".to_string())?;
     let bytes: std::collections::BTreeMap<String, Vec<u8>> =
         meshes.iter().map(|(k, b)| (k.clone(), b.bytes.to_vec())).collect();
-    urdf::build(text, &bytes)
+    urdf::build(text, &bytes, continuous_limits_from_file)
 }
 
 /// PyBullet's default timestep.
@@ -368,8 +370,16 @@ impl World {
                     timestep: given,
                 })
             }
-            Command::LoadUrdf { file_path, urdf, meshes, position, orientation, fixed_base } => {
-                match urdf_model(urdf, meshes) {
+            Command::LoadUrdf {
+                file_path,
+                urdf,
+                meshes,
+                position,
+                orientation,
+                fixed_base,
+                continuous_limits_from_file,
+            } => {
+                match urdf_model(urdf, meshes, *continuous_limits_from_file) {
                     Ok(model) => {
                         let pose = Pose::from_parts(
                             Vector::from_array(*position),

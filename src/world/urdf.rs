@@ -6,7 +6,7 @@
 //! their joints appear in the file, fixed joints included; link i is the child of joint i and
 //! −1 is the base. `RobotModel::links[0]` is the base, `links[i + 1]` is link i.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use rapier3d::glamx::{DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
@@ -26,7 +26,7 @@ pub const MASSLESS_LINK_INERTIA: f64 = 1.0e-6;
 pub enum JointKind {
     /// Rotation about the axis, within limits.
     Revolute,
-    /// Rotation about the axis, no limits.
+    /// Rotation about the axis, unbounded (limits in its `<limit>` are reported, not enforced).
     Continuous,
     /// Translation along the axis, within limits.
     Prismatic,
@@ -66,7 +66,9 @@ pub struct JointSpec {
     pub origin_rot: [f64; 4],
     /// Unit axis in the joint frame.
     pub axis: [f64; 3],
-    /// Lower limit (rad or m); continuous joints report 0 and upper −1 (PyBullet's "none").
+    /// Lower limit (rad or m). PyBullet's "none" is lower 0 with upper −1: fixed joints, and
+    /// continuous joints whose `<limit>` lacks the attribute (or, for robots loaded by an old
+    /// event, always — see `build`'s `continuous_limits_from_file`).
     pub lower: f64,
     /// Upper limit.
     pub upper: f64,
@@ -79,7 +81,9 @@ pub struct JointSpec {
 }
 
 impl JointSpec {
-    /// Whether lower/upper bound the motion (revolute and prismatic with lower ≤ upper).
+    /// Whether lower/upper bound the motion (revolute and prismatic with lower ≤ upper). A
+    /// continuous joint's limits are reported but never enforced, as in PyBullet (a velocity
+    /// motor drives r2d2's head_swivel past its upper limit 0 there).
     pub fn limited(&self) -> bool {
         matches!(self.kind, JointKind::Revolute | JointKind::Prismatic) && self.lower <= self.upper
     }
@@ -175,7 +179,16 @@ fn parse(urdf: &str) -> Result<urdf_rs::Robot, Refusal> {
 
 /// Builds the model: checks the tree (one root, known links, no loops, supported joint types),
 /// numbers it as PyBullet does, and turns every mesh into a hull from its bytes.
-pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>) -> Result<RobotModel, Refusal> {
+///
+/// `continuous_limits_from_file`: a continuous joint reports the `lower`/`upper` its `<limit>`
+/// gives, each attribute on its own, else PyBullet's 0 / −1 (as PyBullet's parser does). False
+/// keeps the first releases' 0 / −1 always: load_urdf events recorded by them must fold to the
+/// same robot, whose limits are hashed state.
+pub fn build(
+    urdf: &str,
+    meshes: &BTreeMap<String, Vec<u8>>,
+    continuous_limits_from_file: bool,
+) -> Result<RobotModel, Refusal> {
     let robot = parse(urdf)?;
     if robot.links.is_empty() {
         return Err("file_path is not a valid URDF: it has no links".into());
@@ -220,19 +233,28 @@ pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>) -> Result<RobotMode
         .iter()
         .filter_map(|m| Some((m.name.as_str(), f32s(m.color.as_ref()?.rgba.0))))
         .collect();
-    let inertials = links_with_inertial(urdf);
+    let inertials = child_attributes(urdf, "link", "inertial");
+    let limit_attributes = child_attributes(urdf, "joint", "limit");
+    let no_attributes = BTreeSet::new();
     let root_link = &robot.links[root];
-    let mut links = vec![link_model(root_link, None, &materials, meshes, true, inertials.contains(&root_link.name))?];
+    let mut links = vec![link_model(root_link, None, &materials, meshes, true, inertials.contains_key(&root_link.name))?];
     for (j, parent) in order {
         let joint = &robot.joints[j];
-        let spec = joint_spec(joint, parent)?;
+        let given = if continuous_limits_from_file {
+            limit_attributes.get(&joint.name).unwrap_or(&no_attributes)
+        } else {
+            &no_attributes
+        };
+        let spec = joint_spec(joint, parent, given)?;
         let child = &robot.links[index[joint.child.link.as_str()]];
-        links.push(link_model(child, Some(spec), &materials, meshes, false, inertials.contains(&child.name))?);
+        links.push(link_model(child, Some(spec), &materials, meshes, false, inertials.contains_key(&child.name))?);
     }
     Ok(RobotModel { name: robot.name, links })
 }
 
-fn joint_spec(joint: &urdf_rs::Joint, parent: i32) -> Result<JointSpec, Refusal> {
+/// `limit_given`: the attributes the joint's `<limit>` element writes (urdf-rs reads a missing
+/// `lower`/`upper` as 0, which a continuous joint must not report).
+fn joint_spec(joint: &urdf_rs::Joint, parent: i32, limit_given: &BTreeSet<String>) -> Result<JointSpec, Refusal> {
     use urdf_rs::JointType as T;
     let kind = match joint.joint_type {
         T::Revolute => JointKind::Revolute,
@@ -251,8 +273,9 @@ fn joint_spec(joint: &urdf_rs::Joint, parent: i32) -> Result<JointSpec, Refusal>
         return Err(format!("joint {} has a zero or invalid axis", joint.name));
     }
     let axis = if kind.movable() { axis.normalize() } else { DVec3::ZERO };
+    let given = |attribute: &str, value: f64, none: f64| if limit_given.contains(attribute) { value } else { none };
     let (lower, upper) = match kind {
-        JointKind::Continuous => (0.0, -1.0),
+        JointKind::Continuous => (given("lower", joint.limit.lower, 0.0), given("upper", joint.limit.upper, -1.0)),
         JointKind::Fixed => (0.0, -1.0),
         _ => (joint.limit.lower, joint.limit.upper),
     };
@@ -278,30 +301,33 @@ fn joint_spec(joint: &urdf_rs::Joint, parent: i32) -> Result<JointSpec, Refusal>
     })
 }
 
-/// Names of the links that have an `<inertial>` element. urdf-rs reads a missing one as all
-/// zeros, but PyBullet treats the two differently (a missing inertial means 1 kg).
-fn links_with_inertial(urdf: &str) -> std::collections::BTreeSet<String> {
+/// For each `<parent_tag name=…>` element that has a `<child_tag>` directly inside, the names
+/// of that child's attributes (the first such child's), by the parent's name. urdf-rs reads a
+/// missing element or attribute as zeros, but PyBullet tells them apart: a link without
+/// `<inertial>` gets 1 kg, a continuous joint without `lower`/`upper` reports 0 / −1.
+fn child_attributes(urdf: &str, parent_tag: &str, child_tag: &str) -> BTreeMap<String, BTreeSet<String>> {
     use xml::reader::{EventReader, XmlEvent};
-    let mut out = std::collections::BTreeSet::new();
-    let mut link: Option<String> = None;
+    let mut out = BTreeMap::new();
+    let mut parent: Option<String> = None;
     let mut depth = 0usize;
-    let mut link_depth = 0usize;
+    let mut parent_depth = 0usize;
     for event in EventReader::new(urdf.as_bytes()) {
         match event {
             Ok(XmlEvent::StartElement { name, attributes, .. }) => {
                 depth += 1;
-                if name.local_name == "link" && link.is_none() {
-                    link = attributes.iter().find(|a| a.name.local_name == "name").map(|a| a.value.clone());
-                    link_depth = depth;
-                } else if name.local_name == "inertial" && depth == link_depth + 1 {
-                    if let Some(l) = &link {
-                        out.insert(l.clone());
+                if name.local_name == parent_tag && parent.is_none() {
+                    parent = attributes.iter().find(|a| a.name.local_name == "name").map(|a| a.value.clone());
+                    parent_depth = depth;
+                } else if name.local_name == child_tag && depth == parent_depth + 1 {
+                    if let Some(p) = &parent {
+                        out.entry(p.clone())
+                            .or_insert_with(|| attributes.iter().map(|a| a.name.local_name.clone()).collect());
                     }
                 }
             }
             Ok(XmlEvent::EndElement { .. }) => {
-                if depth == link_depth {
-                    link = None;
+                if depth == parent_depth {
+                    parent = None;
                 }
                 depth = depth.saturating_sub(1);
             }

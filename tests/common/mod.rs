@@ -232,6 +232,7 @@ pub fn load_fixture(
     position: [f32; 3],
     fixed_base: bool,
 ) -> u32 {
+    #[allow(clippy::disallowed_methods)] // a test reads its fixture, as the adapter would
     let text = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)).unwrap();
     let cmd = physics_mcp::command::Command::LoadUrdf {
         file_path: name.into(),
@@ -240,6 +241,7 @@ pub fn load_fixture(
         position,
         orientation: [0.0, 0.0, 0.0, 1.0],
         fixed_base,
+        continuous_limits_from_file: true,
     };
     w.apply(&cmd, &mut |_| true)["object_id"].as_u64().unwrap() as u32
 }
