@@ -13,3 +13,9 @@ pub fn content_hash(bytes: &[u8]) -> String {
         blake3::hash(bytes).to_hex().to_string()
     }
 }
+
+/// blake3 of a result's JSON text, as lowercase hex: what an event records and `replay`
+/// recomputes (one definition, so the two cannot drift).
+pub fn result_hash(json: &str) -> String {
+    blake3::hash(json.as_bytes()).to_hex().to_string()
+}

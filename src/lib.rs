@@ -8,6 +8,7 @@
 //! - `outputs` — the structured results of the tools (with JSON schemas).
 //! - `reads`   — the read-only tools, shared by the MCP adapters and replay.
 //! - `digest`  — content hashes of snapshots and blobs (blake3, parallel when large).
+//! - `fold`    — the one fold routine (decode → check → apply → compare the recorded hash).
 //! - `store`   — the SQLite event log of one simulation: events, head, snapshots, blobs.
 //! - `sim`     — `Sim` = log + world (decide → apply → append → reply) and the `Registry`.
 //! - `timeline` — undo, redo, history, verify and fork: operations on the log.
@@ -23,6 +24,7 @@
 
 pub mod command;
 pub mod digest;
+pub mod fold;
 pub mod limits;
 pub mod outputs;
 pub mod persistence;

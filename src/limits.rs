@@ -7,34 +7,52 @@ use clap::Args;
 #[derive(Args, Clone, Debug)]
 pub struct Limits {
     /// Simulations per data directory.
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = DEFAULT.max_sims)]
     pub max_sims: usize,
     /// Objects per simulation (a URDF robot counts as one).
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = DEFAULT.max_objects)]
     pub max_objects: usize,
     /// Constraints per simulation.
-    #[arg(long, default_value_t = 1_000)]
+    #[arg(long, default_value_t = DEFAULT.max_constraints)]
     pub max_constraints: usize,
     /// Steps per step_simulation call.
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, default_value_t = DEFAULT.max_steps)]
     pub max_steps: u64,
     /// Rays per ray_test_batch call.
-    #[arg(long, default_value_t = 16_384)]
+    #[arg(long, default_value_t = DEFAULT.max_rays)]
     pub max_rays: usize,
     /// Pixels per camera image.
-    #[arg(long, default_value_t = 1_048_576)]
+    #[arg(long, default_value_t = DEFAULT.max_image_px)]
     pub max_image_px: usize,
 }
 
+/// SPEC's defaults: one table for the CLI flags and `Default`.
+const DEFAULT: Limits = Limits {
+    max_sims: 32,
+    max_objects: 10_000,
+    max_constraints: 1_000,
+    max_steps: 1_000_000,
+    max_rays: 16_384,
+    max_image_px: 1_048_576,
+};
+
 impl Default for Limits {
     fn default() -> Self {
-        Self {
-            max_sims: 32,
-            max_objects: 10_000,
-            max_constraints: 1_000,
-            max_steps: 1_000_000,
-            max_rays: 16_384,
-            max_image_px: 1_048_576,
+        DEFAULT
+    }
+}
+
+impl Limits {
+    /// No size limits, only validity: for folding a log whose events were accepted under the
+    /// limits of their day (a server restarted with a lower `--max-objects` still recovers).
+    pub fn unbounded() -> Limits {
+        Limits {
+            max_sims: usize::MAX,
+            max_objects: usize::MAX,
+            max_constraints: usize::MAX,
+            max_steps: u64::MAX,
+            max_rays: usize::MAX,
+            max_image_px: usize::MAX,
         }
     }
 }

@@ -12,7 +12,6 @@ use serde_json::{json, Value};
 
 use crate::command::{BlobSource, Command, Shape, EVENT_VERSION};
 use crate::limits::Limits;
-use crate::sim::decode;
 use crate::store::{Event, Kind};
 use crate::value::{self, r32, r32s, Refusal};
 use crate::world::{ObjectKind, World};
@@ -112,9 +111,17 @@ pub struct SavedSnapshot {
 
 /// The MAC of a snapshot: only a server holding `key` can produce it.
 pub fn snapshot_mac(key: &[u8; 32], seq: u64, hash: &str, state_hash: &str) -> String {
+    mac(key, seq, hash, state_hash).to_hex().to_string()
+}
+
+fn mac(key: &[u8; 32], seq: u64, hash: &str, state_hash: &str) -> blake3::Hash {
     blake3::keyed_hash(key, format!("{seq}:{hash}:{state_hash}").as_bytes())
-        .to_hex()
-        .to_string()
+}
+
+/// Whether a saved snapshot's MAC is ours, compared as `blake3::Hash` values (constant time;
+/// a string `==` would tell a forger how many leading characters were right).
+fn snapshot_mac_matches(key: &[u8; 32], s: &SavedSnapshot, state_hash: &str) -> bool {
+    blake3::Hash::from_hex(&s.mac).is_ok_and(|given| given == mac(key, s.seq, &s.hash, state_hash))
 }
 
 /// The readable fields of a world, as saved (and as compared on load).
@@ -253,7 +260,7 @@ fn command_as_done(e: &Event) -> String {
     let text = e.command.clone().unwrap_or_default();
     let result = e.result.as_deref().and_then(|r| serde_json::from_str::<Value>(r).ok());
     match (serde_json::from_str::<Command>(&text), result) {
-        (Ok(cmd @ Command::StepSimulation { .. }), Some(result)) => {
+        (Ok(cmd @ Command::StepSimulation { .. }), Some(result)) if e.version < crate::fold::STEPS_AS_TAKEN_SINCE => {
             let done = cmd.clone().as_done(&result);
             if done == cmd { text } else { serde_json::to_string(&done).unwrap_or(text) }
         }
@@ -320,15 +327,10 @@ pub fn world_from_events(
             return Err(bad(format!("history.events is not a chain at seq {}", e.seq)));
         }
     }
-    let decode_at = |e: &Event| -> Result<Command, Refusal> {
-        decode(e, blobs)
-            .map_err(bad)?
-            .ok_or_else(|| bad(format!("event {} has no command", e.seq)))
-    };
     // Start from our own snapshot when its MAC proves this server wrote it.
     let trusted = snapshot.and_then(|s| {
         let at = events.iter().position(|e| e.seq == s.seq)?;
-        let mac_ok = snapshot_mac(key, s.seq, &s.hash, &events[at].state_hash) == s.mac;
+        let mac_ok = snapshot_mac_matches(key, s, &events[at].state_hash);
         let bytes = base64::engine::general_purpose::STANDARD.decode(&s.bytes).ok()?;
         let hash_ok = crate::digest::content_hash(&bytes) == s.hash;
         // An older-version snapshot lacks the values as given: refold instead.
@@ -341,36 +343,23 @@ pub fn world_from_events(
             (at, w)
         }
         None => {
-            let root = decode_at(first)?;
+            let root = crate::fold::decode(first, blobs)
+                .map_err(bad)?
+                .ok_or_else(|| bad(format!("event {} has no command", first.seq)))?;
             let (w, _) = World::create(&root).ok_or_else(|| bad("the first event is not create_simulation"))?;
             (0, w)
         }
     };
-    let check = |w: &World, e: &Event| -> Result<(), Refusal> {
-        let actual = w.state_hash();
-        if actual != e.state_hash {
-            return Err(bad(format!(
-                "state hash diverges at seq {} ({}): recorded {}, refold gives {actual}",
-                e.seq, e.tool, e.state_hash
-            )));
-        }
-        Ok(())
-    };
-    check(&world, &events[start])?;
     let total = (events.len() - start) as u64;
-    for (done, e) in events[start + 1..].iter().enumerate() {
-        let cmd = decode_at(e)?;
-        match &cmd {
-            Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => {}
-            Command::CreateSimulation { .. } => return Err(bad(format!("a second create_simulation at seq {}", e.seq))),
-            _ => {
-                cmd.check(&world, limits).map_err(|why| bad(format!("event {} is refused: {why}", e.seq)))?;
-                world.apply(&cmd, &mut |_| true);
-            }
-        }
-        check(&world, e)?;
-        progress(done as u64 + 1, total);
-    }
+    crate::fold::check_hash(&world, &events[start])
+        .and_then(|()| {
+            let mut report = |_: &World, _: &Event, i: usize| {
+                progress(i as u64 + 1, total);
+                Ok(())
+            };
+            crate::fold::fold(&mut world, &events[start + 1..], blobs, limits, crate::fold::Verify::Each, &mut report)
+        })
+        .map_err(bad)?;
     Ok(world)
 }
 

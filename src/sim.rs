@@ -14,7 +14,8 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use serde::Serialize;
 use serde_json::Value;
 
-use crate::command::{BlobSource, Command, EVENT_VERSION};
+use crate::command::{Command, NoBlobs, EVENT_VERSION};
+use crate::fold::{self, Verify};
 use crate::limits::Limits;
 use crate::outputs::{Message, SimulationList, SimulationSummary};
 use crate::reads::ReadContext;
@@ -79,10 +80,6 @@ mod tests {
     }
 }
 
-fn result_hash(json: &str) -> String {
-    blake3::hash(json.as_bytes()).to_hex().to_string()
-}
-
 /// One simulation: its log and the world the log folds to.
 pub struct Sim {
     pub(crate) world: World,
@@ -124,7 +121,7 @@ impl Sim {
             ok: true,
             mutates: true,
             inherited: false,
-            result_hash: Some(result_hash(&result_json)),
+            result_hash: Some(crate::digest::result_hash(&result_json)),
             result: Some(result_json),
             state_hash: world.state_hash(),
         };
@@ -240,13 +237,13 @@ impl Sim {
         // of the log repeats exactly what the world did.
         let cmd = cmd.as_done(&result);
         let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
-        self.work_since_snapshot += work(&cmd, &self.world);
+        self.work_since_snapshot += crate::fold::work(&cmd, &self.world);
         self.changes_since_snapshot += 1;
         let result_json = result.to_string();
         let mut e = self.event(Kind::Change, tool, args);
         e.parent = Some(self.log.head_seq());
         e.command = Some(command_json);
-        e.result_hash = Some(result_hash(&result_json));
+        e.result_hash = Some(crate::digest::result_hash(&result_json));
         e.result = Some(result_json);
         self.state_hash = self.world.state_hash();
         e.state_hash = self.state_hash.clone();
@@ -290,7 +287,7 @@ impl Sim {
                 // can recompute it from `reads.rs`.
                 let json = serde_json::to_value(&out).map(|v| v.to_string()).unwrap_or_default();
                 let mut e = self.event(Kind::Read, tool, args);
-                e.result_hash = Some(result_hash(&json));
+                e.result_hash = Some(crate::digest::result_hash(&json));
                 e.state_hash = self.state_hash.clone();
                 if let Err(err) = self.log.append_lazy(e) {
                     tracing::warn!("could not record a read: {err}");
@@ -353,23 +350,6 @@ pub(crate) struct Rebuilt {
     pub(crate) changes_since_snapshot: u32,
 }
 
-/// The gui flag of the simulation whose chain this is (its latest root decides).
-fn gui_of(chain: &[Event]) -> Result<bool, StoreError> {
-    let root = chain
-        .iter()
-        .rev()
-        .find(|e| e.kind == Kind::Root)
-        .ok_or_else(|| StoreError::Corrupt("the chain has no root event".into()))?;
-    Ok(matches!(
-        decode(root, &crate::command::NoBlobs)?,
-        Some(
-            Command::CreateSimulation { gui: true, .. }
-                | Command::ForkSimulation { gui: true, .. }
-                | Command::LoadSimulation { gui: true, .. }
-        )
-    ))
-}
-
 /// The world at state-changing event `target`: the nearest snapshot on its chain (hash
 /// verified), then the chain's later events folded, each checked against its recorded hash.
 /// This bounds undo, fork and recovery to one snapshot interval of re-simulation.
@@ -406,51 +386,30 @@ pub(crate) fn rebuild_at(
         }
     }
     chain.reverse();
-    let gui = match log.own_root_command()? {
-        Some(c) => matches!(
-            serde_json::from_str::<Command>(&c),
-            Ok(Command::CreateSimulation { gui: true, .. }
-                | Command::ForkSimulation { gui: true, .. }
-                | Command::LoadSimulation { gui: true, .. })
-        ),
-        None => gui_of(&chain)?,
-    };
     let first = chain.first().ok_or_else(|| StoreError::Corrupt("the chain is empty".into()))?;
+    // The gui flag is this simulation's own root's (the latest root of the chain otherwise).
+    let own_root = match log.own_root_command()? {
+        Some(text) => serde_json::from_str::<Command>(&text).ok(),
+        None => chain.iter().rev().find(|e| e.kind == Kind::Root).and_then(|e| fold::decode(e, &NoBlobs).ok().flatten()),
+    };
+    let gui = own_root.as_ref().and_then(fold::root_gui).unwrap_or(false);
     let mut world = match start {
         Some(bytes) => World::restore(id, gui, &bytes).map_err(StoreError::Corrupt)?,
-        None => match decode(first, log)? {
+        None => match fold::decode(first, log)? {
             Some(root @ Command::CreateSimulation { .. }) => World::create(&root)
                 .map(|(w, _)| w.with_identity(id, gui))
                 .ok_or_else(|| StoreError::Corrupt("create_simulation does not build".into()))?,
             _ => return Err(StoreError::Corrupt("no snapshot on the head's chain".into())),
         },
     };
-    check_hash(&world, first)?;
-    let mut rebuilt_work = 0;
-    let mut rebuilt_changes = 0;
-    for e in &chain[1..] {
-        let cmd = decode(e, log)?
-            .ok_or_else(|| StoreError::Corrupt(format!("event {} has no command", e.seq)))?;
-        world.apply(&cmd, &mut |_| true);
-        if verify_each || e.seq == target {
-            check_hash(&world, e)?;
-        }
-        rebuilt_work += work(&cmd, &world);
-        rebuilt_changes += 1;
-    }
+    fold::check_hash(&world, first)?;
+    let verify = if verify_each { Verify::Each } else { Verify::Only(target) };
+    let folded = fold::fold(&mut world, &chain[1..], log, &Limits::unbounded(), verify, &mut |_, _, _| Ok(()))?;
     Ok(Rebuilt {
         world,
-        work_since_snapshot: rebuilt_work,
-        changes_since_snapshot: rebuilt_changes,
+        work_since_snapshot: folded.work,
+        changes_since_snapshot: folded.changes,
     })
-}
-
-/// Simulation work a command did, in body-steps (the snapshot policy's measure).
-fn work(cmd: &Command, world: &World) -> u64 {
-    match cmd {
-        Command::StepSimulation { steps } => steps * (world.object_count() as u64).max(1),
-        _ => 0,
-    }
 }
 
 /// What a move (undo/redo) event records, so redo stacks can be rebuilt from the log.
@@ -487,34 +446,6 @@ fn redo_stack(log: &Log) -> Result<Vec<u64>, StoreError> {
         }
     }
     Ok(stack)
-}
-
-/// The command an event recorded, with its blobs' bytes filled in from `blobs`.
-pub(crate) fn decode(e: &Event, blobs: &dyn BlobSource) -> Result<Option<Command>, StoreError> {
-    let Some(text) = e.command.as_deref() else {
-        return Ok(None);
-    };
-    let mut cmd: Command = serde_json::from_str(text)
-        .map_err(|err| StoreError::Corrupt(format!("event {} does not decode: {err}", e.seq)))?;
-    cmd.hydrate(blobs)
-        .map_err(|err| StoreError::Corrupt(format!("event {}: {err}", e.seq)))?;
-    // Before event version 2 a cancelled step was logged as the steps asked; its recorded
-    // result says how many it took.
-    if let Some(result) = e.result.as_deref().and_then(|r| serde_json::from_str::<Value>(r).ok()) {
-        cmd = cmd.as_done(&result);
-    }
-    Ok(Some(cmd))
-}
-
-pub(crate) fn check_hash(world: &World, e: &Event) -> Result<(), StoreError> {
-    let actual = world.state_hash();
-    if actual != e.state_hash {
-        return Err(StoreError::Corrupt(format!(
-            "state hash diverges at seq {} ({}): expected {}, got {actual}",
-            e.seq, e.tool, e.state_hash
-        )));
-    }
-    Ok(())
 }
 
 /// Locks a simulation. If an earlier call panicked while holding it, the world is first

@@ -12,7 +12,9 @@ use crate::command::{BlobSource, Command, EVENT_VERSION};
 use crate::outputs::{
     Divergence, EventRef, Forked, History, HistoryEvent, Redone, Undone, Verified,
 };
-use crate::sim::{check_hash, decode, lock_sim, rebuild_at, MoveRecord, Registry, Sim};
+use crate::fold::{self, FoldError, Verify};
+use crate::limits::Limits;
+use crate::sim::{lock_sim, rebuild_at, MoveRecord, Registry, Sim};
 use crate::store::{Event, Kind, Log, StoreError};
 use crate::value::{Args, Refusal};
 use crate::world::World;
@@ -65,7 +67,7 @@ impl Sim {
         let mut e = self.event(Kind::Move, tool, args);
         e.command = Some(serde_json::to_string(&record).map_err(|err| err.to_string())?);
         let json = result.to_string();
-        e.result_hash = Some(blake3::hash(json.as_bytes()).to_hex().to_string());
+        e.result_hash = Some(crate::digest::result_hash(&json));
         e.result = Some(json);
         e.state_hash = state_hash.clone();
         self.log
@@ -135,19 +137,15 @@ impl Sim {
         // Fold forward on a copy of the world: the log is only changed once all checks pass.
         let mut world = World::restore(self.id(), self.world.gui(), &self.world.snapshot())
             .map_err(|e| format!("Internal error: {e}"))?;
-        let mut redone = Vec::new();
-        let (mut steps, mut changes) = (self.work_since_snapshot, self.changes_since_snapshot);
-        for seq in &seqs {
-            let e = self.log.event(*seq).map_err(store_err)?.ok_or("an undone event is missing")?;
-            let cmd = decode(&e, &self.log).map_err(store_err)?.ok_or("an undone event has no command")?;
-            world.apply(&cmd, &mut |_| true);
-            check_hash(&world, &e).map_err(store_err)?;
-            if let Command::StepSimulation { steps: n } = cmd {
-                steps += n * (world.object_count() as u64).max(1);
-            }
-            changes += 1;
-            redone.push(EventRef { seq: e.seq, tool: e.tool });
-        }
+        let events = seqs
+            .iter()
+            .map(|seq| self.log.event(*seq).map_err(store_err)?.ok_or_else(|| "an undone event is missing".to_string()))
+            .collect::<Result<Vec<Event>, Refusal>>()?;
+        let folded = fold::fold(&mut world, &events, &self.log, &Limits::unbounded(), Verify::Each, &mut |_, _, _| Ok(()))
+            .map_err(|e| store_err(e.into()))?;
+        let redone = events.iter().map(|e| EventRef { seq: e.seq, tool: e.tool.clone() }).collect();
+        let steps = self.work_since_snapshot + folded.work;
+        let changes = self.changes_since_snapshot + folded.changes;
         let to = *seqs.last().ok_or("nothing to redo")?;
         let out = Redone {
             redone,
@@ -205,35 +203,38 @@ impl Sim {
             }
         };
         let first = chain.first().ok_or("the log has no root")?;
-        let root = decode(first, &self.log).map_err(store_err)?.ok_or("the root has no command")?;
+        let root = fold::decode(first, &self.log).map_err(|e| store_err(e.into()))?.ok_or("the root has no command")?;
         let Some((mut world, _)) = World::create(&root) else {
             return Err("the chain does not start with create_simulation".into());
         };
-        for e in &chain {
-            if e.seq != first.seq {
-                let cmd = decode(e, &self.log).map_err(store_err)?.ok_or("an event has no command")?;
-                world.apply(&cmd, &mut |_| true);
+        // After each event: count it and check the snapshot stored there (bytes and state).
+        let mut checked = (0, 0);
+        let mut after = |_: &World, e: &Event, _: usize| -> Result<(), FoldError> {
+            checked.0 += 1;
+            let Some((bytes, hash)) = self.log.snapshot_at(e.seq).map_err(|err| FoldError::Undecodable { seq: e.seq, why: err.to_string() })? else {
+                return Ok(());
+            };
+            checked.1 += 1;
+            let diverged = |expected: &str, actual: String| FoldError::Diverged { seq: e.seq, tool: e.tool.clone(), expected: expected.into(), actual };
+            let bytes_hash = crate::digest::content_hash(&bytes);
+            if bytes_hash != hash {
+                return Err(diverged(&hash, bytes_hash));
             }
-            out.events_checked += 1;
-            let actual = world.state_hash();
-            if actual != e.state_hash {
-                diverge(&mut out, e.seq, &e.state_hash, actual);
-                break;
+            match World::restore(self.id(), false, &bytes) {
+                Ok(w) if w.state_hash() == e.state_hash => Ok(()),
+                Ok(w) => Err(diverged(&e.state_hash, w.state_hash())),
+                Err(err) => Err(diverged(&e.state_hash, err)),
             }
-            if let Some((bytes, hash)) = self.log.snapshot_at(e.seq).map_err(store_err)? {
-                out.snapshots_checked += 1;
-                let bytes_hash = crate::digest::content_hash(&bytes);
-                if bytes_hash != hash {
-                    diverge(&mut out, e.seq, &hash, bytes_hash);
-                    break;
-                }
-                match World::restore(self.id(), false, &bytes) {
-                    Ok(w) if w.state_hash() == e.state_hash => {}
-                    Ok(w) => diverge(&mut out, e.seq, &e.state_hash, w.state_hash()),
-                    Err(err) => diverge(&mut out, e.seq, &e.state_hash, err),
-                }
-            }
+        };
+        let folded = fold::check_hash(&world, first)
+            .and_then(|()| after(&world, first, 0))
+            .and_then(|()| fold::fold(&mut world, &chain[1..], &self.log, &Limits::unbounded(), Verify::Each, &mut after));
+        match folded {
+            Ok(_) => {}
+            Err(FoldError::Diverged { seq, expected, actual, .. }) => diverge(&mut out, seq, &expected, actual),
+            Err(other) => return Err(store_err(other.into())),
         }
+        (out.events_checked, out.snapshots_checked) = checked;
         if out.ok && world.state_hash() != self.state_hash {
             let head = self.log.head_seq();
             diverge(&mut out, head, &self.state_hash.clone(), world.state_hash());
@@ -326,7 +327,7 @@ impl Registry {
             ok: true,
             mutates: true,
             inherited: false,
-            result_hash: Some(blake3::hash(result.as_bytes()).to_hex().to_string()),
+            result_hash: Some(crate::digest::result_hash(&result)),
             result: Some(result),
             state_hash: world.state_hash(),
         };
