@@ -90,7 +90,7 @@ impl Registry {
         let sim = match &file.history {
             Some(h) => {
                 let (world, chain) = world_from_history(h, &new_id, self.mac_key(), self.limits(), progress)?;
-                if let Some(fields) = disagreeing_fields(&file.readable, &readable(&world)) {
+                if let Some(fields) = disagreeing_fields(&file.readable.with_urdf_path_aliases(), &readable(&world)) {
                     return Err(format!(
                         "The file's readable fields disagree with its history: {fields} (remove \"history\" to load the readable fields alone)"
                     ));

@@ -42,7 +42,7 @@ pub struct SaveFile {
 }
 
 /// The old server's fields, plus `simulation_time`.
-#[derive(Serialize, Deserialize, Debug, Default, PartialEq)]
+#[derive(Serialize, Deserialize, Debug, Default, PartialEq, Clone)]
 pub struct Readable {
     /// Gravity.
     #[serde(default)]
@@ -133,9 +133,12 @@ pub fn readable(world: &World) -> Readable {
                     "shape": shape.name(),
                     "dimensions": shape.dimensions().into_iter().map(r32).collect::<Vec<_>>(),
                 }),
+                // Both names of the file: the old server documented `urdf_path` and wrote
+                // `file_path`, so readers of either find it.
                 ObjectKind::Robot { robot } => json!({
                     "object_id": id,
                     "type": "urdf",
+                    "urdf_path": robot.file_path,
                     "file_path": robot.file_path,
                     "use_fixed_base": robot.fixed_base,
                     "num_joints": robot.links.len(),
@@ -164,6 +167,23 @@ pub fn readable(world: &World) -> Readable {
         simulation_time: Some(json!(world.tables.time_s)),
         objects,
         constraints: world.constraint_summaries(),
+    }
+}
+
+impl Readable {
+    /// A copy in which each object that names its URDF under one key (`urdf_path` or
+    /// `file_path`) has the other too, so a file saved before both were written compares
+    /// equal to the readable fields its history gives today.
+    pub fn with_urdf_path_aliases(&self) -> Readable {
+        let mut out = self.clone();
+        for o in out.objects.iter_mut().filter_map(Value::as_object_mut) {
+            if let Some(path) = o.get("urdf_path").or_else(|| o.get("file_path")).cloned() {
+                for key in ["urdf_path", "file_path"] {
+                    o.entry(key).or_insert_with(|| path.clone());
+                }
+            }
+        }
+        out
     }
 }
 
