@@ -73,7 +73,8 @@ impl Registry {
     /// Loads a saved file into a new simulation. With a history: from its snapshot when the
     /// MAC is ours, else refolded from its events (every hash checked), then cross-checked
     /// against the readable fields. Without one (the old server's files): objects re-created
-    /// at their saved poses and velocities. A failed load creates nothing.
+    /// at their saved poses and velocities, robots read from the workspace as load_urdf reads
+    /// them. A failed load creates nothing.
     pub fn load(
         &self,
         args: &Args,
@@ -98,7 +99,7 @@ impl Registry {
         let sim = match &file.history {
             Some(h) => {
                 let (world, chain) = world_from_history(h, &new_id, self.mac_key(), self.limits(), progress)?;
-                if let Some(fields) = disagreeing_fields(&file.readable, &world) {
+                if let Some(fields) = disagreeing_fields(&file.readable.with_urdf_path_aliases(), &world) {
                     return Err(format!(
                         "The file's readable fields disagree with its history: {fields} (remove \"history\" to load the readable fields alone)"
                     ));
@@ -116,20 +117,29 @@ impl Registry {
     }
 
     fn load_readable(&self, file: &SaveFile, id: &str, gui: bool, args: &Args) -> Result<Sim, Refusal> {
-        let mut cmds = commands_from_readable(&file.readable, id)?.into_iter();
-        let (tool, mut root) = cmds.next().ok_or("no root")?;
-        if let Command::CreateSimulation { gui: g, .. } = &mut root {
-            *g = gui;
-        }
         let path = self.path_for(id);
-        let built = (|| {
-            let (mut sim, _) = Sim::create(&path, &tool, root, args, self.config().sync)?;
-            for (tool, cmd) in cmds {
-                sim.change(&tool, &Args::new(), Ok(cmd), self.limits(), &mut |_| true)
-                    .map_err(|why| format!("The file's objects cannot be re-created: {why}"))?;
+        let mut sim: Option<Sim> = None;
+        let emitted = commands_from_readable(&file.readable, id, self.sandbox(), &mut |tool, cmd| {
+            match &mut sim {
+                None => {
+                    let mut root = cmd;
+                    if let Command::CreateSimulation { gui: g, .. } = &mut root {
+                        *g = gui;
+                    }
+                    sim = Some(Sim::create(&path, tool, root, args, self.config().sync)?.0);
+                }
+                Some(sim) => {
+                    sim.change(tool, &Args::new(), Ok(cmd), self.limits(), &mut |_| true)
+                        .map_err(|why| format!("The file's objects cannot be re-created: {why}"))?;
+                }
             }
-            Ok(sim)
-        })();
+            Ok(())
+        });
+        let built = match (emitted, sim) {
+            (Ok(()), Some(sim)) => Ok(sim),
+            (Ok(()), None) => Err("The file gave no simulation to create".into()),
+            (Err(why), _) => Err(why),
+        };
         if built.is_err() {
             remove_log_files(&path);
         }

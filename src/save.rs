@@ -4,7 +4,8 @@
 //! the data directory. A file this server wrote (MAC valid) loads from its snapshot; any other
 //! is refolded from its events, every recorded hash checked. Readable fields that disagree
 //! with the history are refused, naming them. A file without `history` (the old server's)
-//! loads approximately: objects are re-created at their saved poses and velocities.
+//! loads approximately: objects are re-created at their saved poses and velocities, robots
+//! from the URDF their `urdf_path` (or `file_path`) names in the workspace.
 
 use base64::Engine;
 use serde::{Deserialize, Serialize};
@@ -13,7 +14,9 @@ use serde_json::{json, Value};
 use crate::command::{BlobSource, Command, Shape, EVENT_VERSION};
 use crate::limits::Limits;
 use crate::store::{Event, Kind};
+use crate::urdf_files::decide_load_urdf;
 use crate::value::{self, r32, r32s, Refusal};
+use crate::workspace::Sandbox;
 use crate::world::{ObjectKind, World};
 
 /// Identifies our files.
@@ -41,7 +44,7 @@ pub struct SaveFile {
 }
 
 /// The old server's fields, plus `simulation_time`.
-#[derive(Serialize, Deserialize, Debug, Default, PartialEq)]
+#[derive(Serialize, Deserialize, Debug, Default, PartialEq, Clone)]
 pub struct Readable {
     /// Gravity.
     #[serde(default)]
@@ -140,9 +143,12 @@ pub fn readable(world: &World) -> Readable {
                     "shape": shape.name(),
                     "dimensions": shape.dimensions().into_iter().map(r32).collect::<Vec<_>>(),
                 }),
+                // Both names of the file: the old server documented `urdf_path` and wrote
+                // `file_path`, so readers of either find it.
                 ObjectKind::Robot { robot } => json!({
                     "object_id": id,
                     "type": "urdf",
+                    "urdf_path": robot.file_path,
                     "file_path": robot.file_path,
                     "use_fixed_base": robot.fixed_base,
                     "num_joints": robot.links.len(),
@@ -171,6 +177,23 @@ pub fn readable(world: &World) -> Readable {
         simulation_time: Some(json!(world.current_time())),
         objects,
         constraints: world.constraint_summaries(),
+    }
+}
+
+impl Readable {
+    /// A copy in which each object that names its URDF under one key (`urdf_path` or
+    /// `file_path`) has the other too, so a file saved before both were written compares
+    /// equal to the readable fields its history gives today.
+    pub fn with_urdf_path_aliases(&self) -> Readable {
+        let mut out = self.clone();
+        for o in out.objects.iter_mut().filter_map(Value::as_object_mut) {
+            if let Some(path) = o.get("urdf_path").or_else(|| o.get("file_path")).cloned() {
+                for key in ["urdf_path", "file_path"] {
+                    o.entry(key).or_insert_with(|| path.clone());
+                }
+            }
+        }
+        out
     }
 }
 
@@ -363,23 +386,29 @@ pub fn world_from_events(
     Ok(world)
 }
 
-/// The commands that re-create an old-server file's objects (no history): the world is
-/// approximately the saved one — objects at their saved poses and velocities.
-pub fn commands_from_readable(r: &Readable, id: &str) -> Result<Vec<(String, Command)>, Refusal> {
+/// Passes to `emit`, root first, the commands (with their tools) that re-create an old-server
+/// file's objects (no history): the world is approximately the saved one — objects at their
+/// saved poses and velocities, robots read from the workspace through `sandbox` exactly as
+/// load_urdf reads them (joints at zero: the old server saved no joint state). Each command is
+/// emitted as soon as it is built, so a robot's files are held in memory one robot at a time.
+pub fn commands_from_readable(
+    r: &Readable,
+    id: &str,
+    sandbox: &Sandbox,
+    emit: &mut dyn FnMut(&str, Command) -> Result<(), Refusal>,
+) -> Result<(), Refusal> {
     let gravity = match &r.gravity {
         Some(g) => value::gravity("gravity", g).map_err(bad)?,
         None => [0.0, 0.0, -9.81],
     };
-    let mut out = vec![(
-        "load_simulation".to_string(),
-        Command::CreateSimulation { simulation_id: id.into(), gravity, gui: false },
-    )];
+    emit("load_simulation", Command::CreateSimulation { simulation_id: id.into(), gravity, gui: false })?;
     if let Some(t) = &r.timestep {
         let (timestep, given) = value::positive_given("timestep", t).map_err(bad)?;
-        out.push(("set_timestep".into(), Command::SetTimestep { timestep, timestep_given: Some(given) }));
+        emit("set_timestep", Command::SetTimestep { timestep, timestep_given: Some(given) })?;
     }
     let empty = serde_json::Map::new();
-    // The file's object ids → the ids the re-created objects get (0, 1, … in file order).
+    // The file's object ids → the ids the re-created objects get (0, 1, … in file order; a
+    // robot is one object).
     let mut ids = std::collections::BTreeMap::new();
     for (i, o) in r.objects.iter().enumerate() {
         if let Some(old) = o.get("object_id").and_then(Value::as_i64) {
@@ -390,46 +419,95 @@ pub fn commands_from_readable(r: &Readable, id: &str) -> Result<Vec<(String, Com
         let o = o.as_object().unwrap_or(&empty);
         let field = |k: &str| value::arg(o, k);
         let name = |k: &str| format!("objects[{i}].{k}");
-        let kind = field("type").and_then(Value::as_str).unwrap_or("primitive");
-        if kind != "primitive" {
-            return Err(bad(format!("{} is {kind}: only primitive objects can be loaded so far", name("type"))));
+        let pose = Pose {
+            position: field("position").map(|v| value::vec3(&name("position"), v)).transpose().map_err(bad)?.unwrap_or_default(),
+            orientation: field("orientation").map(|v| value::quat(&name("orientation"), v)).transpose().map_err(bad)?.unwrap_or([0.0, 0.0, 0.0, 1.0]),
+        };
+        match field("type").and_then(Value::as_str).unwrap_or("primitive") {
+            "primitive" => {
+                let (tool, cmd) = primitive_from_readable(o, i, pose)?;
+                emit(&tool, cmd)?
+            }
+            "urdf" => emit("load_urdf", urdf_from_readable(o, i, pose, sandbox)?)?,
+            other => return Err(bad(format!("{} is {other:?}, not primitive or urdf", name("type")))),
         }
-        let dims: Vec<f32> = match field("dimensions").and_then(Value::as_array) {
-            Some(d) => d.iter().map(|x| value::positive(&name("dimensions"), x)).collect::<Result<_, _>>().map_err(bad)?,
-            None => return Err(bad(format!("{} is missing", name("dimensions")))),
-        };
-        let dim = |k: usize| dims.get(k).copied().ok_or_else(|| bad(format!("{} is too short", name("dimensions"))));
-        let shape = match field("shape").and_then(Value::as_str).unwrap_or("") {
-            "box" => Shape::Box { half_extents: [dim(0)?, dim(1)?, dim(2)?] },
-            "sphere" => Shape::Sphere { radius: dim(0)? },
-            "cylinder" => Shape::Cylinder { radius: dim(0)?, height: dim(1)? },
-            "capsule" => Shape::Capsule { radius: dim(0)?, height: dim(1)? },
-            other => return Err(bad(format!("{} {other:?} is not box, sphere, cylinder or capsule", name("shape")))),
-        };
-        let tool = format!("add_{}", shape.name());
-        out.push((
-            tool,
-            Command::AddBody {
-                shape,
-                position: field("position").map(|v| value::vec3(&name("position"), v)).transpose().map_err(bad)?.unwrap_or_default(),
-                orientation: field("orientation").map(|v| value::quat(&name("orientation"), v)).transpose().map_err(bad)?.unwrap_or([0.0, 0.0, 0.0, 1.0]),
-                mass: field("mass").map(|v| value::non_negative(&name("mass"), v)).transpose().map_err(bad)?.unwrap_or(1.0),
-                color: field("color").map(|v| value::color(&name("color"), v)).transpose().map_err(bad)?,
-            },
-        ));
         let lin = field("linear_velocity").map(|v| value::vec3(&name("linear_velocity"), v)).transpose().map_err(bad)?;
         let ang = field("angular_velocity").map(|v| value::vec3(&name("angular_velocity"), v)).transpose().map_err(bad)?;
         if lin.is_some() || ang.is_some() {
-            out.push((
-                "set_object_velocity".into(),
-                Command::SetObjectVelocity { object_id: i as u32, linear_velocity: lin, angular_velocity: ang },
-            ));
+            emit("set_object_velocity", Command::SetObjectVelocity { object_id: i as u32, linear_velocity: lin, angular_velocity: ang })?;
         }
     }
     for (i, c) in r.constraints.iter().enumerate() {
-        out.push(("create_constraint".into(), constraint_from_readable(c, i, &ids)?));
+        emit("create_constraint", constraint_from_readable(c, i, &ids)?)?;
     }
-    Ok(out)
+    Ok(())
+}
+
+/// A readable object's saved base pose (the same fields for primitives and robots).
+struct Pose {
+    position: [f32; 3],
+    orientation: [f32; 4],
+}
+
+/// One readable primitive as the add_* command that re-creates it.
+fn primitive_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose) -> Result<(String, Command), Refusal> {
+    let field = |k: &str| value::arg(o, k);
+    let name = |k: &str| format!("objects[{i}].{k}");
+    let dims: Vec<f32> = match field("dimensions").and_then(Value::as_array) {
+        Some(d) => d.iter().map(|x| value::positive(&name("dimensions"), x)).collect::<Result<_, _>>().map_err(bad)?,
+        None => return Err(bad(format!("{} is missing", name("dimensions")))),
+    };
+    let dim = |k: usize| dims.get(k).copied().ok_or_else(|| bad(format!("{} is too short", name("dimensions"))));
+    let shape = match field("shape").and_then(Value::as_str).unwrap_or("") {
+        "box" => Shape::Box { half_extents: [dim(0)?, dim(1)?, dim(2)?] },
+        "sphere" => Shape::Sphere { radius: dim(0)? },
+        "cylinder" => Shape::Cylinder { radius: dim(0)?, height: dim(1)? },
+        "capsule" => Shape::Capsule { radius: dim(0)?, height: dim(1)? },
+        other => return Err(bad(format!("{} {other:?} is not box, sphere, cylinder or capsule", name("shape")))),
+    };
+    Ok((
+        format!("add_{}", shape.name()),
+        Command::AddBody {
+            shape,
+            position: pose.position,
+            orientation: pose.orientation,
+            mass: field("mass").map(|v| value::non_negative(&name("mass"), v)).transpose().map_err(bad)?.unwrap_or(1.0),
+            color: field("color").map(|v| value::color(&name("color"), v)).transpose().map_err(bad)?,
+        },
+    ))
+}
+
+/// One readable robot as load_urdf's command, built by load_urdf's own adapter from the
+/// arguments the old server passed to loadURDF: the same sandbox, built-in assets and blob
+/// reading, so the URDF and its meshes travel in the new log like any load_urdf's.
+fn urdf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, sandbox: &Sandbox) -> Result<Command, Refusal> {
+    let name = |k: &str| format!("objects[{i}].{k}");
+    let path = |k: &str| match value::arg(o, k) {
+        None => Ok(None),
+        Some(Value::String(p)) => Ok(Some(p.as_str())),
+        Some(v) => Err(bad(format!("{} must be a string; got {}", name(k), value::show(v)))),
+    };
+    // The old server documented `urdf_path` and wrote `file_path`; ours write both.
+    let (key, file) = match (path("urdf_path")?, path("file_path")?) {
+        (Some(a), Some(b)) if a != b => {
+            return Err(bad(format!("{} and {} name different files", name("urdf_path"), name("file_path"))))
+        }
+        (Some(p), _) => ("urdf_path", p),
+        (None, Some(p)) => ("file_path", p),
+        (None, None) => return Err(bad(format!("{} (or file_path) is missing", name("urdf_path")))),
+    };
+    let fixed_base = match value::arg(o, "use_fixed_base") {
+        None => false,
+        Some(Value::Bool(b)) => *b,
+        Some(v) => return Err(bad(format!("{} must be true or false; got {}", name("use_fixed_base"), value::show(v)))),
+    };
+    let args = value::Args::from_iter([
+        ("file_path".to_string(), json!(file)),
+        ("position".to_string(), json!(pose.position)),
+        ("orientation".to_string(), json!(pose.orientation)),
+        ("use_fixed_base".to_string(), json!(fixed_base)),
+    ]);
+    decide_load_urdf(sandbox, &args).map_err(|why| format!("{} cannot be loaded: {why}", name(key)))
 }
 
 /// One readable constraint as the command that re-creates it (object ids mapped to the

@@ -226,6 +226,7 @@ pub fn rel(a: f64, b: f64) -> f64 {
 
 /// Loads `tests/fixtures/<name>` into an in-process world as load_urdf would (no meshes: the
 /// fixtures used in process have none) and returns the robot's object id.
+#[allow(clippy::disallowed_methods)] // a test reads its fixture; the server's world never reads files
 pub fn load_fixture(
     w: &mut physics_mcp::world::World,
     name: &str,
