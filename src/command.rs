@@ -2,7 +2,7 @@
 //!
 //! A `Command` is what the log stores and what `World::apply` folds. It is built by an adapter
 //! from the client's JSON (shape checks, in `value.rs`), then checked against the current world
-//! and the limits (`Command::check`): ids exist, limits hold. Once accepted, applying it cannot
+//! and the limits (`Command::validate`): ids exist, limits hold. Once accepted, applying it cannot
 //! fail. Commands are serialised with serde_json (`float_roundtrip`), so decoding an event gives
 //! back exactly the command that was applied. Never change what an existing variant means: add
 //! a new one and bump `EVENT_VERSION`.
@@ -472,6 +472,54 @@ fn room_for_object(world: &World, limits: &Limits) -> Result<(), Refusal> {
     }
 }
 
+/// `name` must hold finite numbers.
+fn finite(name: &str, v: &[f32]) -> Result<(), Refusal> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(format!("{name} must be finite numbers; got {v:?}"))
+    }
+}
+
+/// `name` must be a finite number > 0.
+fn positive(name: &str, x: f32) -> Result<(), Refusal> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{name} must be a finite number > 0; got {x}"))
+    }
+}
+
+/// `name` must be a finite number ≥ 0.
+fn non_negative(name: &str, x: f32) -> Result<(), Refusal> {
+    if x.is_finite() && x >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{name} must be a finite number >= 0; got {x}"))
+    }
+}
+
+/// `name` must be a unit quaternion [x, y, z, w] (commands hold them normalised).
+fn unit_quaternion(name: &str, q: &[f32; 4]) -> Result<(), Refusal> {
+    finite(name, q)?;
+    let norm = q.iter().map(|x| x * x).sum::<f32>().sqrt();
+    if (norm - 1.0).abs() <= 1e-4 {
+        Ok(())
+    } else {
+        Err(format!("{name} must be a unit quaternion [x, y, z, w]; got {q:?} (length {norm})"))
+    }
+}
+
+/// `name` must be a finite, non-zero vector.
+fn non_zero(name: &str, v: &[f32; 3]) -> Result<(), Refusal> {
+    finite(name, v)?;
+    if v.iter().any(|x| *x != 0.0) {
+        Ok(())
+    } else {
+        Err(format!("{name} must be a non-zero vector; got {v:?}"))
+    }
+}
+
 /// The standard "object not found" sentence (SPEC).
 pub fn object_not_found(object_id: u32, sim_id: &str) -> Refusal {
     format!("Object {object_id} not found in simulation {sim_id}")
@@ -493,6 +541,92 @@ impl Command {
                 Command::StepSimulation { steps: taken.filter(|t| *t < steps).unwrap_or(steps) }
             }
             other => other,
+        }
+    }
+
+    /// The command's own values, whatever the world: what the adapters' parsing guarantees,
+    /// checked again for commands from files and logs (hostile or corrupt ones included).
+    pub fn validate_values(&self) -> Result<(), Refusal> {
+        match self {
+            Command::CreateSimulation { gravity, .. } => finite("gravity", gravity),
+            Command::ForkSimulation { .. } | Command::LoadSimulation { .. } | Command::StepSimulation { .. } => Ok(()),
+            Command::SetTimestep { timestep, timestep_given } => {
+                positive("timestep", *timestep)?;
+                match timestep_given {
+                    Some(t) if !(t.is_finite() && *t > 0.0) => Err(format!("timestep must be a finite number > 0; got {t}")),
+                    _ => Ok(()),
+                }
+            }
+            Command::AddBody { shape, position, orientation, mass, color } => {
+                for d in shape.dimensions() {
+                    positive("dimensions", d)?;
+                }
+                finite("position", position)?;
+                unit_quaternion("orientation", orientation)?;
+                non_negative("mass", *mass)?;
+                match color {
+                    Some(c) if !c.iter().all(|x| (0.0..=1.0).contains(x)) => {
+                        Err(format!("color must be numbers in [0, 1]; got {c:?}"))
+                    }
+                    _ => Ok(()),
+                }
+            }
+            Command::SetObjectPose { position, orientation, .. } | Command::LoadUrdf { position, orientation, .. } => {
+                finite("position", position)?;
+                unit_quaternion("orientation", orientation)
+            }
+            Command::ApplyForce { force, position, .. } => {
+                finite("force", force)?;
+                position.as_ref().map_or(Ok(()), |p| finite("position", p))
+            }
+            Command::ApplyTorque { torque, .. } => finite("torque", torque),
+            Command::SetObjectVelocity { linear_velocity, angular_velocity, .. } => {
+                linear_velocity.as_ref().map_or(Ok(()), |v| finite("linear_velocity", v))?;
+                angular_velocity.as_ref().map_or(Ok(()), |v| finite("angular_velocity", v))
+            }
+            Command::ChangeDynamics { change, .. } => {
+                let c = change;
+                let all = [
+                    ("mass", c.mass),
+                    ("lateral_friction", c.lateral_friction),
+                    ("spinning_friction", c.spinning_friction),
+                    ("rolling_friction", c.rolling_friction),
+                    ("restitution", c.restitution),
+                    ("linear_damping", c.linear_damping),
+                    ("angular_damping", c.angular_damping),
+                    ("contact_stiffness", c.contact_stiffness),
+                    ("contact_damping", c.contact_damping),
+                ];
+                all.iter().filter_map(|(n, v)| v.map(|v| (n, v))).try_for_each(|(n, v)| non_negative(n, v))
+            }
+            Command::RemoveObject { .. } | Command::RemoveConstraint { .. } | Command::SetDebugVisualization { .. } => Ok(()),
+            Command::SetJointMotor { motor, .. } => {
+                finite("target_position", &[motor.target_position])?;
+                finite("target_velocity", &[motor.target_velocity])?;
+                finite("position_gain", &[motor.position_gain])?;
+                finite("velocity_gain", &[motor.velocity_gain])?;
+                match (motor.mode, motor.force) {
+                    (_, None) => Ok(()),
+                    (ControlMode::TorqueControl, Some(f)) => finite("force", &[f]),
+                    (_, Some(f)) => non_negative("force", f),
+                }
+            }
+            Command::CreateConstraint { spec } => {
+                if matches!(spec.joint_type, ConstraintType::Prismatic | ConstraintType::Revolute) {
+                    non_zero("joint_axis", &spec.joint_axis)?;
+                }
+                finite("joint_axis", &spec.joint_axis)?;
+                finite("parent_frame_position", &spec.parent_frame_position)?;
+                finite("child_frame_position", &spec.child_frame_position)?;
+                unit_quaternion("parent_frame_orientation", &spec.parent_frame_orientation)?;
+                unit_quaternion("child_frame_orientation", &spec.child_frame_orientation)
+            }
+            Command::SetCamera { distance, yaw, pitch, target } => {
+                positive("distance", *distance)?;
+                finite("yaw", &[*yaw])?;
+                finite("pitch", &[*pitch])?;
+                finite("target", target)
+            }
         }
     }
 
@@ -524,9 +658,14 @@ impl Command {
         Ok(())
     }
 
-    /// Checks the command against the current world and limits. An `Ok` here guarantees
-    /// `World::apply` succeeds; an `Err` is the one-sentence reason, and nothing changes.
-    pub fn check(&self, world: &World, limits: &Limits) -> Result<(), Refusal> {
+    /// The one validation every path uses — a tool call, a foreign saved file's events, a
+    /// replayed or recovered log — so no value `World::apply` cannot take (a timestep ≤ 0, a
+    /// zero quaternion, a zero axis, ±inf) reaches it whatever the source: the command's own
+    /// values (`validate_values`), then against the current world and limits. An `Ok` here
+    /// guarantees `World::apply` succeeds; an `Err` is the one-sentence reason naming the
+    /// parameter, and nothing changes.
+    pub fn validate(&self, world: &World, limits: &Limits) -> Result<(), Refusal> {
+        self.validate_values()?;
         let exists = |id: u32| {
             if world.has_object(id) {
                 Ok(())

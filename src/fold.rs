@@ -20,7 +20,7 @@ pub enum FoldError {
         /// Why.
         why: String,
     },
-    /// The command does not pass `Command::check` (a hostile or foreign log).
+    /// The command does not pass `Command::validate` (a hostile or foreign log).
     Refused {
         /// The event.
         seq: u64,
@@ -135,7 +135,7 @@ pub fn fold_event(
             return Err(FoldError::Refused { seq: e.seq, why: "a second create_simulation in one chain".into() })
         }
         _ => {
-            cmd.check(world, limits).map_err(|why| FoldError::Refused { seq: e.seq, why })?;
+            cmd.validate(world, limits).map_err(|why| FoldError::Refused { seq: e.seq, why })?;
             world.apply(&cmd, &mut |_| true)
         }
     };
@@ -168,6 +168,15 @@ pub fn fold(
         after(world, e, i)?;
     }
     Ok(done)
+}
+
+/// The world a chain's first event (create_simulation) builds, its values validated first
+/// (a foreign file's root may hold anything), with the command's own result.
+pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Value), FoldError> {
+    let refused = |why: String| FoldError::Refused { seq: e.seq, why };
+    let root = decode(e, blobs)?.ok_or_else(|| refused("it has no command".into()))?;
+    root.validate_values().map_err(refused)?;
+    World::create(&root).ok_or_else(|| refused("the chain does not start with create_simulation".into()))
 }
 
 /// The `gui` flag a root command carries (None for any other command).

@@ -144,8 +144,7 @@ impl Replayer<'_> {
                     .ok_or_else(|| Self::diverged(e, "command", "a root command", "none"))?;
                 match &cmd {
                     Command::CreateSimulation { .. } => {
-                        let (w, result) = World::create(&cmd)
-                            .ok_or_else(|| Self::diverged(e, "command", "create_simulation", "other"))?;
+                        let (w, result) = fold::create_root(e, self.log).map_err(|err| ReplayError::Store(err.into()))?;
                         self.world = Some(w);
                         Self::check_result(e, &result)?;
                     }

@@ -365,13 +365,7 @@ pub fn world_from_events(
             let w = World::restore(id, gui, &bytes).map_err(bad)?;
             (at, w)
         }
-        None => {
-            let root = crate::fold::decode(first, blobs)
-                .map_err(bad)?
-                .ok_or_else(|| bad(format!("event {} has no command", first.seq)))?;
-            let (w, _) = World::create(&root).ok_or_else(|| bad("the first event is not create_simulation"))?;
-            (0, w)
-        }
+        None => (0, crate::fold::create_root(first, blobs).map_err(bad)?.0),
     };
     let total = (events.len() - start) as u64;
     crate::fold::check_hash(&world, &events[start])

@@ -223,7 +223,7 @@ impl Sim {
         limits: &Limits,
         control: StepControl,
     ) -> Result<Value, Refusal> {
-        let cmd = match decided.and_then(|c| c.check(&self.world, limits).map(|()| c)) {
+        let cmd = match decided.and_then(|c| c.validate(&self.world, limits).map(|()| c)) {
             Ok(c) => c,
             Err(why) => return Err(self.refuse(tool, args, why)),
         };
@@ -395,12 +395,7 @@ pub(crate) fn rebuild_at(
     let gui = own_root.as_ref().and_then(fold::root_gui).unwrap_or(false);
     let mut world = match start {
         Some(bytes) => World::restore(id, gui, &bytes).map_err(StoreError::Corrupt)?,
-        None => match fold::decode(first, log)? {
-            Some(root @ Command::CreateSimulation { .. }) => World::create(&root)
-                .map(|(w, _)| w.with_identity(id, gui))
-                .ok_or_else(|| StoreError::Corrupt("create_simulation does not build".into()))?,
-            _ => return Err(StoreError::Corrupt("no snapshot on the head's chain".into())),
-        },
+        None => fold::create_root(first, log)?.0.with_identity(id, gui),
     };
     fold::check_hash(&world, first)?;
     let verify = if verify_each { Verify::Each } else { Verify::Only(target) };

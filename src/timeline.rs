@@ -203,10 +203,7 @@ impl Sim {
             }
         };
         let first = chain.first().ok_or("the log has no root")?;
-        let root = fold::decode(first, &self.log).map_err(|e| store_err(e.into()))?.ok_or("the root has no command")?;
-        let Some((mut world, _)) = World::create(&root) else {
-            return Err("the chain does not start with create_simulation".into());
-        };
+        let (mut world, _) = fold::create_root(first, &self.log).map_err(|e| store_err(e.into()))?;
         // After each event: count it and check the snapshot stored there (bytes and state).
         let mut checked = (0, 0);
         let mut after = |_: &World, e: &Event, _: usize| -> Result<(), FoldError> {

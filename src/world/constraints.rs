@@ -78,7 +78,7 @@ fn joint(spec: &ConstraintSpec) -> GenericJoint {
 }
 
 impl World {
-    /// create_constraint: the spec passed `Command::check` (both objects exist and differ).
+    /// create_constraint: the spec passed `Command::validate` (both objects exist and differ).
     pub(super) fn insert_constraint(&mut self, spec: &ConstraintSpec) -> ConstraintCreated {
         let id = self.tables.next_constraint_id;
         self.tables.next_constraint_id += 1;

@@ -343,7 +343,7 @@ impl World {
     }
 
     /// Applies an accepted command and returns its result. Cannot fail for a command that
-    /// passed `Command::check`; `control` may stop a long step early (the steps done stay).
+    /// passed `Command::validate`; `control` may stop a long step early (the steps done stay).
     pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Value {
         match cmd {
             Command::CreateSimulation { .. }

@@ -1,5 +1,5 @@
 //! URDF text and mesh bytes → a robot model in PyBullet's numbering. Pure: no files, no rapier
-//! sets; the adapter reads the files, `Command::check` builds the model to refuse bad input,
+//! sets; the adapter reads the files, `Command::validate` builds the model to refuse bad input,
 //! and `World::apply` builds it again (the same bytes give the same model) to insert it.
 //!
 //! PyBullet numbers joints depth-first in pre-order from the root link, children in the order
