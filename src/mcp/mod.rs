@@ -5,6 +5,8 @@
 //! JSON-RPC failure, and the log keeps the arguments exactly as sent) and declares its input
 //! schema from `params.rs` and its output schema from `outputs.rs`. Errors are one sentence
 //! with `isError: true`; sim work runs on the blocking pool, one call at a time per simulation.
+//! Both schemas of every tool are made plain JSON Schema 2020-12 by `schema::plain` (see
+//! `tools`).
 
 mod constraints;
 mod objects;
@@ -13,13 +15,14 @@ mod persistence;
 mod prompts;
 mod resources;
 mod robots;
+mod schema;
 mod sensing;
 mod simulations;
 mod timeline;
 mod viewer;
 pub mod transport;
 
-use std::sync::Arc;
+use std::sync::{Arc, LazyLock};
 
 use rmcp::handler::server::router::tool::ToolRouter;
 use rmcp::handler::server::wrapper::Json;
@@ -63,15 +66,30 @@ impl PhysicsServer {
             reg,
             sessions,
             viewer_base: None,
-            tool_router: Self::simulation_router()
-                + Self::object_router()
-                + Self::timeline_router()
-                + Self::persistence_router()
-                + Self::robot_router()
-                + Self::constraint_router()
-                + Self::sensing_router()
-                + Self::viewer_router(),
+            tool_router: Self::tools(),
         }
+    }
+
+    /// Every tool, with plain input and output schemas. Built once per process: a session
+    /// gets a cheap clone (the schemas are shared `Arc`s).
+    fn tools() -> ToolRouter<PhysicsServer> {
+        static TOOLS: LazyLock<ToolRouter<PhysicsServer>> = LazyLock::new(|| {
+            let mut router = PhysicsServer::simulation_router()
+                + PhysicsServer::object_router()
+                + PhysicsServer::timeline_router()
+                + PhysicsServer::persistence_router()
+                + PhysicsServer::robot_router()
+                + PhysicsServer::constraint_router()
+                + PhysicsServer::sensing_router()
+                + PhysicsServer::viewer_router();
+            for route in router.map.values_mut() {
+                let tool = &mut route.attr;
+                tool.input_schema = Arc::new(schema::plain(&tool.input_schema));
+                tool.output_schema = tool.output_schema.as_deref().map(|s| Arc::new(schema::plain(s)));
+            }
+            router
+        });
+        TOOLS.clone()
     }
 
     /// The same server with the web viewer at `base` (`viewer_url` in results when gui is on).
