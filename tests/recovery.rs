@@ -1,7 +1,8 @@
 //! Process-level determinism and durability (issue 2, "Done means" 2 and 4c–4e): two server
 //! processes agree hash for hash; a kill -9'd server restarts with every simulation exactly as
 //! it was and continues like a twin that never stopped; the state hash covers what SPEC lists;
-//! stdio works; the data directory is exclusively locked; --token is enforced.
+//! stdio works; the data directory is exclusively locked; --token is enforced; ending a session
+//! answers 204.
 
 mod common;
 
@@ -242,6 +243,38 @@ async fn a_token_is_required_when_set() {
         .await
         .unwrap();
     assert_ne!(r.is_error, Some(true));
+}
+
+/// The Python `mcp` SDK logs `Session termination failed: 202` unless `DELETE /mcp` answers
+/// 200 or 204 (issue #10 item 7).
+#[tokio::test(flavor = "multi_thread")]
+async fn ending_a_session_answers_204_no_content() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let http = reqwest::Client::new();
+    let init = json!({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": {
+        "protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "raw", "version": "0"}}});
+    let response = http
+        .post(&server.url)
+        .header("Accept", "application/json, text/event-stream")
+        .header("Content-Type", "application/json")
+        .body(init.to_string())
+        .send()
+        .await
+        .expect("POST initialize");
+    assert_eq!(response.status().as_u16(), 200);
+    let session = response.headers()["mcp-session-id"].to_str().unwrap().to_string();
+    response.text().await.expect("initialize reply");
+    let end = |session: Option<String>| {
+        let mut request = http.delete(&server.url).header("MCP-Protocol-Version", "2025-11-25");
+        if let Some(s) = session {
+            request = request.header("mcp-session-id", s);
+        }
+        async move { request.send().await.expect("DELETE").status().as_u16() }
+    };
+    assert_eq!(end(Some(session)).await, 204);
+    // An error is left as rmcp answers it.
+    assert_eq!(end(None).await, 400);
 }
 
 #[tokio::test(flavor = "multi_thread")]

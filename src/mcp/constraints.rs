@@ -2,10 +2,11 @@
 //! writes a URDF, lives with the robot tools).
 
 use rmcp::handler::server::common::schema_for_type;
+use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::command::{Command, ConstraintSpec, ConstraintType};
 use crate::outputs::{ConstraintCreated, Message};
 use crate::value::{self, Args, Refusal};
@@ -55,7 +56,7 @@ impl PhysicsServer {
     /// body frame, child_frame_* in the child's (world coordinates for the world); joint_axis
     /// in the parent's constraint frame. The joined bodies stop colliding with each other.
     #[tool(input_schema = schema_for_type::<params::CreateConstraint>())]
-    async fn create_constraint(&self, args: JsonObject) -> ToolResult<ConstraintCreated> {
+    async fn create_constraint(&self, args: JsonObject) -> Result<Json<ConstraintCreated>, String> {
         self.change("create_constraint", args, decide_create).await
     }
 
@@ -64,7 +65,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::ConstraintRef>(),
         annotations(destructive_hint = true)
     )]
-    async fn remove_constraint(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn remove_constraint(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("remove_constraint", args, decide_remove).await
     }
 }

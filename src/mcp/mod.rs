@@ -5,6 +5,11 @@
 //! JSON-RPC failure, and the log keeps the arguments exactly as sent) and declares its input
 //! schema from `params.rs` and its output schema from `outputs.rs`. Errors are one sentence
 //! with `isError: true`; sim work runs on the blocking pool, one call at a time per simulation.
+//!
+//! A tool returns `Result<Json<T>, String>` spelled out: rmcp's `#[tool]` macro finds the
+//! output schema by reading `Json<…>` in the written return type, so an alias for it would
+//! silently drop the tool's `outputSchema`. Both schemas of every tool are then made plain
+//! JSON Schema 2020-12 by `schema::plain` (see `tools`).
 
 mod constraints;
 mod objects;
@@ -13,13 +18,14 @@ mod persistence;
 mod prompts;
 mod resources;
 mod robots;
+mod schema;
 mod sensing;
 mod simulations;
 mod timeline;
 mod viewer;
 pub mod transport;
 
-use std::sync::Arc;
+use std::sync::{Arc, LazyLock};
 
 use rmcp::handler::server::router::tool::ToolRouter;
 use rmcp::handler::server::wrapper::Json;
@@ -38,9 +44,6 @@ use crate::limits::Limits;
 use crate::sim::{lock_sim, Registry, Sim};
 use crate::value::{self, Args, Refusal};
 use crate::world::StepControl;
-
-/// Result type of every tool: structured output, or one sentence with `isError: true`.
-pub type ToolResult<T> = Result<Json<T>, String>;
 
 pub use resources::Sessions;
 
@@ -63,15 +66,30 @@ impl PhysicsServer {
             reg,
             sessions,
             viewer_base: None,
-            tool_router: Self::simulation_router()
-                + Self::object_router()
-                + Self::timeline_router()
-                + Self::persistence_router()
-                + Self::robot_router()
-                + Self::constraint_router()
-                + Self::sensing_router()
-                + Self::viewer_router(),
+            tool_router: Self::tools(),
         }
+    }
+
+    /// Every tool, with plain input and output schemas. Built once per process: a session
+    /// gets a cheap clone (the schemas are shared `Arc`s).
+    fn tools() -> ToolRouter<PhysicsServer> {
+        static TOOLS: LazyLock<ToolRouter<PhysicsServer>> = LazyLock::new(|| {
+            let mut router = PhysicsServer::simulation_router()
+                + PhysicsServer::object_router()
+                + PhysicsServer::timeline_router()
+                + PhysicsServer::persistence_router()
+                + PhysicsServer::robot_router()
+                + PhysicsServer::constraint_router()
+                + PhysicsServer::sensing_router()
+                + PhysicsServer::viewer_router();
+            for route in router.map.values_mut() {
+                let tool = &mut route.attr;
+                tool.input_schema = Arc::new(schema::plain(&tool.input_schema));
+                tool.output_schema = tool.output_schema.as_deref().map(|s| Arc::new(schema::plain(s)));
+            }
+            router
+        });
+        TOOLS.clone()
     }
 
     /// The same server with the web viewer at `base` (`viewer_url` in results when gui is on).
@@ -90,7 +108,7 @@ impl PhysicsServer {
 
     /// Passes a tool's result through, telling every session the resource list changed when
     /// it succeeded (the tools that create or destroy simulations).
-    fn simulations_changed<T>(&self, r: ToolResult<T>) -> ToolResult<T> {
+    fn simulations_changed<T>(&self, r: Result<Json<T>, String>) -> Result<Json<T>, String> {
         if r.is_ok() {
             self.sessions.resource_list_changed();
         }
@@ -126,7 +144,7 @@ impl PhysicsServer {
         args: Args,
         decide: impl FnOnce(&Args) -> Result<Command, Refusal> + Send + 'static,
         mut control: impl FnMut(u64) -> bool + Send + 'static,
-    ) -> ToolResult<T> {
+    ) -> Result<Json<T>, String> {
         let out = self
             .with_sim(args, move |sim, a, limits| {
                 let ctl: StepControl = &mut control;
@@ -149,7 +167,7 @@ impl PhysicsServer {
         tool: &'static str,
         args: Args,
         decide: impl FnOnce(&Args) -> Result<Command, Refusal> + Send + 'static,
-    ) -> ToolResult<T> {
+    ) -> Result<Json<T>, String> {
         self.change_with(tool, args, decide, |_| true).await
     }
 
@@ -160,7 +178,7 @@ impl PhysicsServer {
         tool: &'static str,
         args: Args,
         f: impl FnOnce(&Sim, &Args) -> Result<T, Refusal> + Send + 'static,
-    ) -> ToolResult<T> {
+    ) -> Result<Json<T>, String> {
         self.with_sim(args, move |sim, a, _| sim.read(tool, a, |s| f(s, a)))
             .await
             .map(Json)
@@ -174,7 +192,7 @@ impl PhysicsServer {
         tool: &'static str,
         args: Args,
         f: impl FnOnce(&Sim, &Args) -> Result<T, Refusal> + Send + 'static,
-    ) -> ToolResult<T> {
+    ) -> Result<Json<T>, String> {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
         if let Ok(mut guard) = sim.try_lock() {

@@ -1,10 +1,11 @@
 //! Object tools: add primitives, poses, velocities, forces, dynamics, state reads, removal.
 
 use rmcp::handler::server::common::schema_for_type;
+use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::command::{Command, DynamicsChange, Shape};
 use crate::reads;
 use crate::outputs::{DynamicsChanged, DynamicsInfo, Message, ObjectAdded, ObjectState};
@@ -129,31 +130,31 @@ impl PhysicsServer {
     /// Add a box. `dimensions` are HALF-extents [hx, hy, hz] (PyBullet convention); mass 0
     /// makes it static (e.g. a ground slab).
     #[tool(input_schema = schema_for_type::<params::AddBox>())]
-    async fn add_box(&self, args: JsonObject) -> ToolResult<ObjectAdded> {
+    async fn add_box(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_box", args, decide_box).await
     }
 
     /// Add a sphere; mass 0 makes it static.
     #[tool(input_schema = schema_for_type::<params::AddSphere>())]
-    async fn add_sphere(&self, args: JsonObject) -> ToolResult<ObjectAdded> {
+    async fn add_sphere(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_sphere", args, decide_sphere).await
     }
 
     /// Add a cylinder along the body's local z axis (`height` is the full height).
     #[tool(input_schema = schema_for_type::<params::AddRound>())]
-    async fn add_cylinder(&self, args: JsonObject) -> ToolResult<ObjectAdded> {
+    async fn add_cylinder(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_cylinder", args, decide_cylinder).await
     }
 
     /// Add a capsule along the body's local z axis (`height` is the cylindrical part).
     #[tool(input_schema = schema_for_type::<params::AddRound>())]
-    async fn add_capsule(&self, args: JsonObject) -> ToolResult<ObjectAdded> {
+    async fn add_capsule(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_capsule", args, decide_capsule).await
     }
 
     /// Teleport an object to a position and orientation (velocities are kept).
     #[tool(input_schema = schema_for_type::<params::SetPose>())]
-    async fn set_object_pose(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn set_object_pose(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_object_pose", args, decide_pose).await
     }
 
@@ -162,7 +163,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::ObjectRef>(),
         annotations(read_only_hint = true)
     )]
-    async fn get_object_state(&self, args: JsonObject) -> ToolResult<ObjectState> {
+    async fn get_object_state(&self, args: JsonObject) -> Result<Json<ObjectState>, String> {
         self.read("get_object_state", args, |sim, a| reads::object_state(&sim.read_context(), a))
             .await
     }
@@ -171,27 +172,27 @@ impl PhysicsServer {
     /// (PyBullet semantics). With `position` it acts at that world point (adding torque);
     /// without, at the centre of mass.
     #[tool(input_schema = schema_for_type::<params::ApplyForce>())]
-    async fn apply_force(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn apply_force(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("apply_force", args, decide_force).await
     }
 
     /// Apply a torque (N·m, world frame) during the NEXT SINGLE STEP only, then it is cleared
     /// (PyBullet semantics).
     #[tool(input_schema = schema_for_type::<params::ApplyTorque>())]
-    async fn apply_torque(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn apply_torque(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("apply_torque", args, decide_torque).await
     }
 
     /// Set an object's linear and/or angular velocity (give at least one).
     #[tool(input_schema = schema_for_type::<params::SetVelocity>())]
-    async fn set_object_velocity(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn set_object_velocity(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_object_velocity", args, decide_velocity).await
     }
 
     /// Change mass (0 = static), friction, restitution, damping and contact properties.
     /// Give at least one; each must be >= 0. Friction and restitution combine by multiplying.
     #[tool(input_schema = schema_for_type::<params::ChangeDynamics>())]
-    async fn change_dynamics(&self, args: JsonObject) -> ToolResult<DynamicsChanged> {
+    async fn change_dynamics(&self, args: JsonObject) -> Result<Json<DynamicsChanged>, String> {
         self.change("change_dynamics", args, decide_dynamics).await
     }
 
@@ -201,7 +202,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::DynamicsRef>(),
         annotations(read_only_hint = true)
     )]
-    async fn get_dynamics_info(&self, args: JsonObject) -> ToolResult<DynamicsInfo> {
+    async fn get_dynamics_info(&self, args: JsonObject) -> Result<Json<DynamicsInfo>, String> {
         self.read("get_dynamics_info", args, |sim, a| reads::dynamics_info(&sim.read_context(), a))
             .await
     }
@@ -211,7 +212,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::ObjectRef>(),
         annotations(destructive_hint = true)
     )]
-    async fn remove_object(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn remove_object(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("remove_object", args, decide_remove).await
     }
 }

@@ -5,7 +5,7 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::{JsonObject, ProgressNotificationParam, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::outputs::{Loaded, Saved};
 
 #[tool_router(router = persistence_router, vis = "pub(crate)")]
@@ -13,7 +13,7 @@ impl PhysicsServer {
     /// Save a simulation to a JSON file in the workspace: the old server's readable fields
     /// plus its full, verifiable history, so loading it gives the exact same state.
     #[tool(input_schema = schema_for_type::<params::Save>())]
-    async fn save_simulation(&self, args: JsonObject) -> ToolResult<Saved> {
+    async fn save_simulation(&self, args: JsonObject) -> Result<Json<Saved>, String> {
         let reg = self.reg.clone();
         self.with_sim(args, move |sim, a, _| sim.save(a, &reg)).await.map(Json)
     }
@@ -27,7 +27,7 @@ impl PhysicsServer {
         args: JsonObject,
         meta: RequestMetaObject,
         peer: Peer<RoleServer>,
-    ) -> ToolResult<Loaded> {
+    ) -> Result<Json<Loaded>, String> {
         #[allow(clippy::disallowed_methods)] // the adapter chooses fresh ids, never apply()
         let new_id = uuid::Uuid::new_v4().to_string();
         let reg = self.reg.clone();

@@ -5,7 +5,7 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::command::{Command, ControlMode, MotorSpec};
 use crate::outputs::{GeneratedUrdf, IkSolution, JointInfo, JointState, Message, NumJoints, UrdfLoaded};
 use crate::reads;
@@ -59,7 +59,7 @@ impl PhysicsServer {
     /// The URDF and its meshes are stored in the simulation's log, so replay, undo and load
     /// never depend on the files again.
     #[tool(input_schema = schema_for_type::<params::LoadUrdf>())]
-    async fn load_urdf(&self, args: JsonObject) -> ToolResult<UrdfLoaded> {
+    async fn load_urdf(&self, args: JsonObject) -> Result<Json<UrdfLoaded>, String> {
         let reg = self.reg.clone();
         self.change("load_urdf", args, move |a| crate::urdf_files::decide_load_urdf(reg.sandbox(), a))
             .await
@@ -67,21 +67,21 @@ impl PhysicsServer {
 
     /// Number of joints of an object (fixed joints included; 0 for primitives).
     #[tool(input_schema = schema_for_type::<params::ObjectRef>(), annotations(read_only_hint = true))]
-    async fn get_num_joints(&self, args: JsonObject) -> ToolResult<NumJoints> {
+    async fn get_num_joints(&self, args: JsonObject) -> Result<Json<NumJoints>, String> {
         self.read("get_num_joints", args, |sim, a| reads::num_joints(&sim.read_context(), a)).await
     }
 
     /// A joint's name, type, limits (lower 0 / upper -1 = none), effort and velocity limits,
     /// axis, child link name and parent link index.
     #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
-    async fn get_joint_info(&self, args: JsonObject) -> ToolResult<JointInfo> {
+    async fn get_joint_info(&self, args: JsonObject) -> Result<Json<JointInfo>, String> {
         self.read("get_joint_info", args, |sim, a| reads::joint_info(&sim.read_context(), a)).await
     }
 
     /// A joint's position, velocity, reaction forces (zeros: no force/torque sensor) and the
     /// torque its motor applied in the last step.
     #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
-    async fn get_joint_state(&self, args: JsonObject) -> ToolResult<JointState> {
+    async fn get_joint_state(&self, args: JsonObject) -> Result<Json<JointState>, String> {
         self.read("get_joint_state", args, |sim, a| reads::joint_state(&sim.read_context(), a)).await
     }
 
@@ -90,14 +90,14 @@ impl PhysicsServer {
     /// + velocity_gain·target_velocity (VELOCITY_CONTROL: target_velocity) with at most `force`
     /// of effort (default: the URDF effort limit, else 500); TORQUE_CONTROL applies `force`.
     #[tool(input_schema = schema_for_type::<params::MotorControl>())]
-    async fn set_joint_motor_control(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn set_joint_motor_control(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_joint_motor_control", args, decide_motor).await
     }
 
     /// Joint positions (one per movable joint, PyBullet order) that put the end-effector
     /// link's frame at target_position (and target_orientation), within joint limits.
     #[tool(input_schema = schema_for_type::<params::InverseKinematics>(), annotations(read_only_hint = true))]
-    async fn calculate_inverse_kinematics(&self, args: JsonObject) -> ToolResult<IkSolution> {
+    async fn calculate_inverse_kinematics(&self, args: JsonObject) -> Result<Json<IkSolution>, String> {
         self.read("calculate_inverse_kinematics", args, |sim, a| {
             reads::inverse_kinematics(&sim.read_context(), a)
         })
@@ -107,7 +107,7 @@ impl PhysicsServer {
     /// Write a two-link URDF (parent and child primitives joined by a revolute joint) inside
     /// the workspace, ready for load_urdf. Default path: generated/revolute_<n>.urdf.
     #[tool(input_schema = schema_for_type::<params::GenerateRevolute>())]
-    async fn generate_revolute_joint(&self, args: JsonObject) -> ToolResult<GeneratedUrdf> {
+    async fn generate_revolute_joint(&self, args: JsonObject) -> Result<Json<GeneratedUrdf>, String> {
         let reg = self.reg.clone();
         tokio::task::spawn_blocking(move || crate::urdf_files::generate_revolute_joint(reg.sandbox(), &args))
             .await

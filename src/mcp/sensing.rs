@@ -6,7 +6,7 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::{CallToolResult, ContentBlock, JsonObject};
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::outputs::{CameraImage, Contacts, ProjectionMatrix, RayBatch, RayHit, ViewMatrix};
 use crate::reads;
 use crate::sensing::camera;
@@ -67,13 +67,13 @@ impl PhysicsServer {
     /// Cast one ray: the first object it enters between ray_from and ray_to (a shape that
     /// contains ray_from is not reported). Sees poses as they are now.
     #[tool(input_schema = schema_for_type::<params::RayTest>(), annotations(read_only_hint = true))]
-    async fn ray_test(&self, args: JsonObject) -> ToolResult<RayHit> {
+    async fn ray_test(&self, args: JsonObject) -> Result<Json<RayHit>, String> {
         self.read("ray_test", args, |sim, a| reads::ray_test(&sim.read_context(), a)).await
     }
 
     /// Cast many rays at once (at most --max-rays); results in the order given.
     #[tool(input_schema = schema_for_type::<params::RayTestBatch>(), annotations(read_only_hint = true))]
-    async fn ray_test_batch(&self, args: JsonObject) -> ToolResult<RayBatch> {
+    async fn ray_test_batch(&self, args: JsonObject) -> Result<Json<RayBatch>, String> {
         let max = self.reg.limits().max_rays;
         self.read_blocking("ray_test_batch", args, move |sim, a| {
             reads::ray_test_batch(&sim.read_context(), a, max)
@@ -84,13 +84,13 @@ impl PhysicsServer {
     /// Every contact point of the last step: objects and links, points on A and B, normal
     /// from B to A, distance (negative = penetration) and normal force.
     #[tool(input_schema = schema_for_type::<params::SimRef>(), annotations(read_only_hint = true))]
-    async fn get_all_collisions(&self, args: JsonObject) -> ToolResult<Contacts> {
+    async fn get_all_collisions(&self, args: JsonObject) -> Result<Json<Contacts>, String> {
         self.read("get_all_collisions", args, |sim, a| reads::all_collisions(&sim.read_context(), a)).await
     }
 
     /// The contact points of the last step between two objects (A = obj_a).
     #[tool(input_schema = schema_for_type::<params::CollisionPair>(), annotations(read_only_hint = true))]
-    async fn get_collisions_for_pair(&self, args: JsonObject) -> ToolResult<Contacts> {
+    async fn get_collisions_for_pair(&self, args: JsonObject) -> Result<Json<Contacts>, String> {
         self.read("get_collisions_for_pair", args, |sim, a| {
             reads::collisions_for_pair(&sim.read_context(), a)
         })
@@ -100,19 +100,19 @@ impl PhysicsServer {
     /// A view matrix from eye, target and up (PyBullet's computeViewMatrix; 16 floats,
     /// column-major).
     #[tool(input_schema = schema_for_type::<params::ViewMatrix>(), annotations(read_only_hint = true))]
-    async fn compute_view_matrix(&self, args: JsonObject) -> ToolResult<ViewMatrix> {
+    async fn compute_view_matrix(&self, args: JsonObject) -> Result<Json<ViewMatrix>, String> {
         view_matrix(&args).map(Json)
     }
 
     /// A view matrix orbiting a target (PyBullet's computeViewMatrixFromYawPitchRoll, roll 0).
     #[tool(input_schema = schema_for_type::<params::ViewMatrixYawPitch>(), annotations(read_only_hint = true))]
-    async fn compute_view_matrix_from_yaw_pitch(&self, args: JsonObject) -> ToolResult<ViewMatrix> {
+    async fn compute_view_matrix_from_yaw_pitch(&self, args: JsonObject) -> Result<Json<ViewMatrix>, String> {
         view_matrix_from_yaw_pitch(&args).map(Json)
     }
 
     /// A perspective projection matrix (PyBullet's computeProjectionMatrixFOV).
     #[tool(input_schema = schema_for_type::<params::ProjectionMatrix>(), annotations(read_only_hint = true))]
-    async fn compute_projection_matrix(&self, args: JsonObject) -> ToolResult<ProjectionMatrix> {
+    async fn compute_projection_matrix(&self, args: JsonObject) -> Result<Json<ProjectionMatrix>, String> {
         projection_matrix(&args).map(Json)
     }
 

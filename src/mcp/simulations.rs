@@ -6,7 +6,7 @@ use rmcp::model::{JsonObject, ProgressNotificationParam, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 use tokio_util::sync::CancellationToken;
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::command::Command;
 use crate::outputs::{Created, Message, SimulationInfo, SimulationList, Stepped, TimestepSet};
 use crate::reads;
@@ -32,7 +32,7 @@ impl PhysicsServer {
     /// Create a new, empty physics simulation (no implicit ground: add a static box or
     /// load plane.urdf). Returns its id.
     #[tool(input_schema = schema_for_type::<params::CreateSimulation>())]
-    async fn create_simulation(&self, args: JsonObject) -> ToolResult<Created> {
+    async fn create_simulation(&self, args: JsonObject) -> Result<Json<Created>, String> {
         let gravity = match arg(&args, "gravity") {
             Some(g) => value::gravity("gravity", g)?,
             None => [0.0, 0.0, -9.81],
@@ -59,7 +59,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::NoParams>(),
         annotations(read_only_hint = true)
     )]
-    async fn list_simulations(&self, _args: JsonObject) -> ToolResult<SimulationList> {
+    async fn list_simulations(&self, _args: JsonObject) -> Result<Json<SimulationList>, String> {
         let reg = self.reg.clone();
         tokio::task::spawn_blocking(move || reg.list())
             .await
@@ -72,7 +72,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::SimRef>(),
         annotations(destructive_hint = true)
     )]
-    async fn destroy_simulation(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn destroy_simulation(&self, args: JsonObject) -> Result<Json<Message>, String> {
         let id = value::string(&args, "sim_id")?;
         let reg = self.reg.clone();
         let out = tokio::task::spawn_blocking(move || reg.destroy(&id))
@@ -92,7 +92,7 @@ impl PhysicsServer {
         meta: RequestMetaObject,
         peer: Peer<RoleServer>,
         ct: CancellationToken,
-    ) -> ToolResult<Stepped> {
+    ) -> Result<Json<Stepped>, String> {
         let total = value::integer_or(&args, "steps", 1).unwrap_or(1).max(1) as u64;
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<u64>();
         let forward = meta.get_progress_token().map(|token| {
@@ -123,7 +123,7 @@ impl PhysicsServer {
 
     /// Set the simulation's fixed timestep in seconds (PyBullet's default is 1/240).
     #[tool(input_schema = schema_for_type::<params::SetTimestep>())]
-    async fn set_timestep(&self, args: JsonObject) -> ToolResult<TimestepSet> {
+    async fn set_timestep(&self, args: JsonObject) -> Result<Json<TimestepSet>, String> {
         self.change("set_timestep", args, decide_timestep).await
     }
 
@@ -133,7 +133,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::SimRef>(),
         annotations(read_only_hint = true)
     )]
-    async fn get_simulation_info(&self, args: JsonObject) -> ToolResult<SimulationInfo> {
+    async fn get_simulation_info(&self, args: JsonObject) -> Result<Json<SimulationInfo>, String> {
         self.read("get_simulation_info", args, |sim, a| {
             reads::simulation_info(&sim.read_context(), a)
         })

@@ -5,7 +5,7 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::outputs::{Forked, History, Redone, Undone, Verified};
 use crate::timeline::HISTORY_MAX_LIMIT;
 use crate::value::{self, arg, Args, Refusal};
@@ -34,7 +34,7 @@ impl PhysicsServer {
     /// the state before them (ids, time and all). Read-only calls are skipped. Redo reverses
     /// it until a new state-changing call starts a new branch.
     #[tool(input_schema = schema_for_type::<params::Count>())]
-    async fn undo(&self, args: JsonObject) -> ToolResult<Undone> {
+    async fn undo(&self, args: JsonObject) -> Result<Json<Undone>, String> {
         self.with_sim(args, |sim, a, _| match count(a) {
             Ok(n) => sim.undo(a, n),
             Err(why) => Err(sim.refuse("undo", a, why)),
@@ -45,7 +45,7 @@ impl PhysicsServer {
 
     /// Redo the `count` most recently undone calls (default 1), bit for bit.
     #[tool(input_schema = schema_for_type::<params::Count>())]
-    async fn redo(&self, args: JsonObject) -> ToolResult<Redone> {
+    async fn redo(&self, args: JsonObject) -> Result<Json<Redone>, String> {
         self.with_sim(args, |sim, a, _| match count(a) {
             Ok(n) => sim.redo(a, n),
             Err(why) => Err(sim.refuse("redo", a, why)),
@@ -60,7 +60,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::HistoryPage>(),
         annotations(read_only_hint = true)
     )]
-    async fn get_history(&self, args: JsonObject) -> ToolResult<History> {
+    async fn get_history(&self, args: JsonObject) -> Result<Json<History>, String> {
         self.read_blocking("get_history", args, |sim, a| {
             let since = seq(a, "since_seq")?.unwrap_or(0);
             let limit = value::integer_or(a, "limit", 50)?;
@@ -75,7 +75,7 @@ impl PhysicsServer {
     /// Fork a simulation at one of its state-changing events (default: now) into a new,
     /// independent simulation that inherits its history and evolves bit for bit alike.
     #[tool(input_schema = schema_for_type::<params::Fork>())]
-    async fn fork_simulation(&self, args: JsonObject) -> ToolResult<Forked> {
+    async fn fork_simulation(&self, args: JsonObject) -> Result<Json<Forked>, String> {
         let parent = value::string(&args, "sim_id")?;
         let at = seq(&args, "at_seq")?;
         #[allow(clippy::disallowed_methods)] // the adapter chooses fresh ids, never apply()
@@ -97,7 +97,7 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::SimRef>(),
         annotations(read_only_hint = true)
     )]
-    async fn verify_simulation(&self, args: JsonObject) -> ToolResult<Verified> {
+    async fn verify_simulation(&self, args: JsonObject) -> Result<Json<Verified>, String> {
         self.read_blocking("verify_simulation", args, |sim, _| sim.verify()).await
     }
 }

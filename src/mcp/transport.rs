@@ -8,7 +8,7 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 
 use axum::extract::{Request, State};
-use axum::http::{header, StatusCode};
+use axum::http::{header, Method, StatusCode};
 use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use rmcp::transport::streamable_http_server::session::local::LocalSessionManager;
@@ -73,6 +73,18 @@ async fn require_known_host(State(hosts): State<Arc<Vec<String>>>, req: Request,
         return (StatusCode::FORBIDDEN, "the viewer answers only to this server's own host names\n").into_response();
     }
     next.run(req).await
+}
+
+/// Answers a successful `DELETE /mcp` (the client ending its session) with 204 No Content
+/// instead of rmcp's 202 Accepted: the Python `mcp` SDK expects 200 or 204 there and logs
+/// `Session termination failed: 202` at every session end otherwise. Errors pass unchanged.
+async fn session_end_no_content(req: Request, next: Next) -> Response {
+    let delete = req.method() == Method::DELETE;
+    let mut response = next.run(req).await;
+    if delete && response.status() == StatusCode::ACCEPTED {
+        *response.status_mut() = StatusCode::NO_CONTENT;
+    }
+    response
 }
 
 /// Compares secrets without an early exit that would leak how many bytes matched.
@@ -155,8 +167,10 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let token: Option<Arc<str>> = opts.token.as_deref().map(Arc::from);
     let viewer = crate::viewer::router(reg.clone())
         .route_layer(middleware::from_fn_with_state(Arc::new(hosts_for_viewer), require_known_host));
-    let app = axum::Router::new()
+    let mcp = axum::Router::new()
         .nest_service("/mcp", service)
+        .layer(middleware::from_fn(session_end_no_content));
+    let app = mcp
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
     eprintln!("physics-mcp listening on http://{local}/mcp");

@@ -3,10 +3,11 @@
 //! get_camera_image.
 
 use rmcp::handler::server::common::schema_for_type;
+use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer, ToolResult};
+use super::{params, PhysicsServer};
 use crate::command::Command;
 use crate::outputs::Message;
 use crate::value::{self, Args, Refusal};
@@ -33,7 +34,7 @@ impl PhysicsServer {
     /// Choose what the viewer draws besides the bodies: contact points (default true) and body
     /// frames (default false). Recorded with the simulation.
     #[tool(input_schema = schema_for_type::<params::DebugVisualization>())]
-    async fn enable_debug_visualization(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn enable_debug_visualization(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("enable_debug_visualization", args, decide_debug).await
     }
 
@@ -41,7 +42,7 @@ impl PhysicsServer {
     /// (PyBullet's resetDebugVisualizerCamera). get_camera_image uses it when no matrices are
     /// given.
     #[tool(input_schema = schema_for_type::<params::SetCamera>())]
-    async fn set_camera(&self, args: JsonObject) -> ToolResult<Message> {
+    async fn set_camera(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_camera", args, decide_camera).await
     }
 }
