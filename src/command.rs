@@ -201,7 +201,12 @@ pub struct DynamicsChange {
 impl DynamicsChange {
     /// Names of the properties this change sets, in a fixed order (reported as `changed`).
     pub fn names(&self) -> Vec<&'static str> {
-        let all = [
+        self.fields().iter().filter(|(_, v)| v.is_some()).map(|(n, _)| *n).collect()
+    }
+
+    /// Every property with its parameter name, in a fixed order (names, validation).
+    pub fn fields(&self) -> [(&'static str, Option<f32>); 9] {
+        [
             ("mass", self.mass),
             ("lateral_friction", self.lateral_friction),
             ("spinning_friction", self.spinning_friction),
@@ -211,8 +216,7 @@ impl DynamicsChange {
             ("angular_damping", self.angular_damping),
             ("contact_stiffness", self.contact_stiffness),
             ("contact_damping", self.contact_damping),
-        ];
-        all.iter().filter(|(_, v)| v.is_some()).map(|(n, _)| *n).collect()
+        ]
     }
 }
 
@@ -585,19 +589,7 @@ impl Command {
                 angular_velocity.as_ref().map_or(Ok(()), |v| finite("angular_velocity", v))
             }
             Command::ChangeDynamics { change, .. } => {
-                let c = change;
-                let all = [
-                    ("mass", c.mass),
-                    ("lateral_friction", c.lateral_friction),
-                    ("spinning_friction", c.spinning_friction),
-                    ("rolling_friction", c.rolling_friction),
-                    ("restitution", c.restitution),
-                    ("linear_damping", c.linear_damping),
-                    ("angular_damping", c.angular_damping),
-                    ("contact_stiffness", c.contact_stiffness),
-                    ("contact_damping", c.contact_damping),
-                ];
-                all.iter().filter_map(|(n, v)| v.map(|v| (n, v))).try_for_each(|(n, v)| non_negative(n, v))
+                change.fields().into_iter().filter_map(|(n, v)| v.map(|v| (n, v))).try_for_each(|(n, v)| non_negative(n, v))
             }
             Command::RemoveObject { .. } | Command::RemoveConstraint { .. } | Command::SetDebugVisualization { .. } => Ok(()),
             Command::SetJointMotor { motor, .. } => {
