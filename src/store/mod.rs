@@ -189,9 +189,14 @@ fn migrate(conn: &mut Connection) -> Result<(), StoreError> {
 
 fn row_to_event(r: &rusqlite::Row) -> rusqlite::Result<Event> {
     let kind: String = r.get(1)?;
+    // An unknown kind is a damaged or hostile file (the schema's CHECK forbids it): an error,
+    // never silently read as some other kind.
+    let kind = Kind::parse(&kind).ok_or_else(|| {
+        rusqlite::Error::FromSqlConversionFailure(1, rusqlite::types::Type::Text, format!("unknown event kind {kind:?}").into())
+    })?;
     Ok(Event {
         seq: r.get::<_, i64>(0)? as u64,
-        kind: Kind::parse(&kind).unwrap_or(Kind::Refused),
+        kind,
         parent: r.get::<_, Option<i64>>(2)?.map(|p| p as u64),
         tool: r.get(3)?,
         arguments: r.get(4)?,
