@@ -502,9 +502,12 @@ fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
         }
         anyhow::bail!("{} is not a 32-byte key; remove it to make a new one", path.display());
     }
-    #[allow(clippy::disallowed_methods)] // a secret must be random
-    let seed = format!("{}{}", uuid::Uuid::new_v4(), uuid::Uuid::new_v4());
-    let key = *blake3::hash(seed.as_bytes()).as_bytes();
+    // A secret key straight from the operating system's generator (not derived from ids
+    // made for uniqueness, whose randomness is not a promise about secrecy).
+    let mut key = [0u8; 32];
+    #[allow(clippy::disallowed_methods)] // a secret must be random; start-up, outside the core
+    getrandom::fill(&mut key)
+        .map_err(|e| anyhow::anyhow!("cannot make {}: no system randomness ({e})", path.display()))?;
     std::fs::write(&path, key)?;
     Ok(key)
 }
