@@ -613,6 +613,20 @@ impl Log {
         Ok(())
     }
 
+    /// Closes the file before it is deleted (destroy_simulation): drops buffered events, waits
+    /// for a background checkpoint still holding the file, and leaves the log on an empty
+    /// in-memory database, so nothing done afterwards can reach or recreate the deleted files.
+    pub fn close_for_deletion(&mut self) {
+        self.pending.clear();
+        while self.checkpointing.load(Ordering::Acquire) {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        match Connection::open_in_memory() {
+            Ok(empty) => drop(std::mem::replace(&mut self.conn, empty)),
+            Err(e) => tracing::warn!("could not close {}: {e}", self.path.display()),
+        }
+    }
+
     /// Total bytes of the database file (for benchmarks and reports).
     pub fn file_bytes(&self) -> u64 {
         let wal = self.path.with_extension("sqlite-wal");
