@@ -141,7 +141,9 @@ fn print_history(file: &Path) -> anyhow::Result<()> {
             e.parent.map(|p| p.to_string()).unwrap_or_default(),
             e.tool,
             if e.ok { "yes" } else { "no" },
-            &e.state_hash[..e.state_hash.len().min(12)],
+            // The first 12 characters, not bytes: the log may be anyone's file, and slicing
+            // a non-ASCII hash at byte 12 could split a character.
+            e.state_hash.chars().take(12).collect::<String>(),
             if e.inherited { "[inherited] " } else { "" },
             summary
         );

@@ -17,6 +17,7 @@ impl Sim {
     /// Writes the simulation to a workspace file: readable fields plus the full history chain
     /// and its latest snapshot (MAC'd). Recorded as a read; a refusal changes nothing.
     pub fn save(&mut self, args: &Args, reg: &Registry) -> Result<Saved, Refusal> {
+        self.ensure_live()?;
         match self.write_save(args, reg) {
             Ok(out) => self.read("save_simulation", args, |_| Ok(out)),
             Err(why) => Err(self.refuse("save_simulation", args, why)),

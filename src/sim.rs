@@ -93,6 +93,9 @@ pub struct Sim {
     pub(crate) redo: Vec<u64>,
     pub(crate) work_since_snapshot: u64,
     pub(crate) changes_since_snapshot: u32,
+    /// Set by destroy_simulation, under the lock, before the files are deleted: a request that
+    /// took this simulation's handle earlier then finds it gone and writes nothing.
+    destroyed: bool,
 }
 
 impl Sim {
@@ -138,6 +141,7 @@ impl Sim {
                 redo: Vec::new(),
                 work_since_snapshot: 0,
                 changes_since_snapshot: 0,
+                destroyed: false,
             },
             result,
         ))
@@ -159,7 +163,25 @@ impl Sim {
             redo,
             work_since_snapshot: rebuilt.work_since_snapshot,
             changes_since_snapshot: rebuilt.changes_since_snapshot,
+            destroyed: false,
         })
+    }
+
+    /// Refuses every call on a destroyed simulation with the standard sentence, before
+    /// anything is computed or logged.
+    pub(crate) fn ensure_live(&self) -> Result<(), Refusal> {
+        if self.destroyed {
+            Err(sim_not_found(self.id()))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Marks the simulation destroyed and closes its log (dropping buffered events), so its
+    /// files can be deleted and nothing recreates them.
+    fn mark_destroyed(&mut self) {
+        self.destroyed = true;
+        self.log.close_for_deletion();
     }
 
     /// The simulation id.
@@ -204,6 +226,9 @@ impl Sim {
 
     /// Records a refusal (nothing changes) and hands the sentence back.
     pub fn refuse(&mut self, tool: &str, args: &Args, why: Refusal) -> Refusal {
+        if let Err(gone) = self.ensure_live() {
+            return gone;
+        }
         let mut e = self.event(Kind::Refused, tool, args);
         e.result = Some(why.clone());
         e.state_hash = self.state_hash.clone();
@@ -223,6 +248,7 @@ impl Sim {
         limits: &Limits,
         control: StepControl,
     ) -> Result<Value, Refusal> {
+        self.ensure_live()?;
         let cmd = match decided.and_then(|c| c.validate(&self.world, limits).map(|()| c)) {
             Ok(c) => c,
             Err(why) => return Err(self.refuse(tool, args, why)),
@@ -281,6 +307,7 @@ impl Sim {
         args: &Args,
         f: impl FnOnce(&Sim) -> Result<T, Refusal>,
     ) -> Result<T, Refusal> {
+        self.ensure_live()?;
         match f(self) {
             Ok(out) => {
                 // Hashed as a JSON value (sorted keys), like every recorded result, so replay
@@ -327,6 +354,9 @@ impl Sim {
     /// Rebuilds this simulation from its log (after a failed commit or a panic mid-call), so
     /// the world never holds a change the log does not.
     fn reload(&mut self) {
+        if self.destroyed {
+            return; // its files are gone on purpose; reopening would recreate them
+        }
         self.flush();
         let path = self.log.path().to_path_buf();
         match Sim::recover(&path, self.sync) {
@@ -502,9 +532,12 @@ fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
         }
         anyhow::bail!("{} is not a 32-byte key; remove it to make a new one", path.display());
     }
-    #[allow(clippy::disallowed_methods)] // a secret must be random
-    let seed = format!("{}{}", uuid::Uuid::new_v4(), uuid::Uuid::new_v4());
-    let key = *blake3::hash(seed.as_bytes()).as_bytes();
+    // A secret key straight from the operating system's generator (not derived from ids
+    // made for uniqueness, whose randomness is not a promise about secrecy).
+    let mut key = [0u8; 32];
+    #[allow(clippy::disallowed_methods)] // a secret must be random; start-up, outside the core
+    getrandom::fill(&mut key)
+        .map_err(|e| anyhow::anyhow!("cannot make {}: no system randomness ({e})", path.display()))?;
     std::fs::write(&path, key)?;
     Ok(key)
 }
@@ -648,12 +681,14 @@ impl Registry {
     /// Removes a simulation and deletes its log.
     pub fn destroy(&self, id: &str) -> Result<Message, Refusal> {
         let sim = self.table().remove(id).ok_or_else(|| sim_not_found(id))?;
-        // Wait for any call in flight, then close the log before deleting it.
+        // Wait for any call in flight; then, still under the lock, mark it destroyed and close
+        // its log before deleting the files, so a request that took the handle earlier finds
+        // it gone instead of writing to (or recreating) deleted files.
         let path = {
-            let guard = lock_sim(&sim);
+            let mut guard = lock_sim(&sim);
+            guard.mark_destroyed();
             guard.log().path().to_path_buf()
         };
-        drop(sim);
         remove_log_files(&path);
         Ok(Message::new(format!("Simulation {id} destroyed")))
     }

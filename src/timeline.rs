@@ -81,6 +81,7 @@ impl Sim {
 
     /// Moves the head back over the last `count` state-changing events of this simulation.
     pub fn undo(&mut self, args: &Args, count: u64) -> Result<Undone, Refusal> {
+        self.ensure_live()?;
         // Walk back only `count` events (plus the target): undo costs what it undoes.
         let mut walked = 0u64;
         let back = self
@@ -126,6 +127,7 @@ impl Sim {
 
     /// Re-applies the `count` most recently undone events (along the undone branch).
     pub fn redo(&mut self, args: &Args, count: u64) -> Result<Redone, Refusal> {
+        self.ensure_live()?;
         let available = self.redo.len() as u64;
         if count == 0 || count > available {
             let why = format!(
@@ -246,6 +248,7 @@ impl Registry {
     pub fn fork(&self, parent_id: &str, at_seq: Option<u64>, new_id: String, args: &Args) -> Result<Forked, Refusal> {
         let parent = self.get(parent_id)?;
         let mut p = lock_sim(&parent);
+        p.ensure_live()?;
         let result = self.fork_locked(&mut p, at_seq, new_id, args);
         match result {
             Ok((forked, sim)) => match self.insert(sim) {

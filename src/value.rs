@@ -291,11 +291,15 @@ pub fn object_id(args: &Args, name: &str) -> Result<u32, Refusal> {
 
 /// Reports an f32 as the f64 with the same shortest decimal form, so results read `0.1`, not
 /// `0.10000000149011612` (serde_json widens f32 to f64 before printing).
+///
+/// A non-finite value (only a bug or a corrupt state makes one) stays non-finite: serde_json
+/// writes it as JSON `null`, which no client can mistake for a measurement, and a typed result
+/// refuses to decode it; turning it into 0 would report a plausible, wrong number.
 pub fn r32(x: f32) -> f64 {
     if !x.is_finite() {
-        return 0.0;
+        return f64::from(x);
     }
-    format!("{x}").parse::<f64>().unwrap_or(x as f64)
+    format!("{x}").parse::<f64>().unwrap_or(f64::from(x))
 }
 
 /// `r32` over a fixed-size array.
@@ -307,6 +311,13 @@ pub fn r32s<const N: usize>(a: [f32; N]) -> [f64; N] {
 mod tests {
     use super::*;
     use serde_json::json;
+
+    #[test]
+    fn non_finite_results_are_null_not_zero() {
+        assert!(r32(f32::NAN).is_nan());
+        assert_eq!(r32(f32::NEG_INFINITY), f64::NEG_INFINITY);
+        assert_eq!(json!(r32s([0.1, f32::INFINITY, f32::NAN])), json!([0.1, null, null]));
+    }
 
     #[test]
     fn vectors_accept_arrays_and_json_strings_only() {

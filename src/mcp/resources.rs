@@ -81,6 +81,7 @@ fn parse(uri: &str) -> Result<(&str, Part), String> {
 
 /// The contents of one part of one simulation.
 fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize) -> Result<ResourceContents, Refusal> {
+    sim.ensure_live()?;
     let cx = sim.read_context();
     let text = |v: Value| ResourceContents::text(v.to_string(), uri).with_mime_type(part.mime());
     match part {

@@ -14,6 +14,7 @@ use axum::response::{IntoResponse, Response};
 use rmcp::transport::streamable_http_server::session::local::LocalSessionManager;
 use rmcp::transport::streamable_http_server::{StreamableHttpServerConfig, StreamableHttpService};
 use rmcp::ServiceExt;
+use subtle::ConstantTimeEq;
 use tokio_util::sync::CancellationToken;
 
 use super::{PhysicsServer, Sessions};
@@ -47,7 +48,8 @@ async fn require_token(State(token): State<Option<Arc<str>>>, req: Request, next
         let ok = bearer
             .into_iter()
             .chain(query.as_deref())
-            .any(|given| constant_time_eq(given.as_bytes(), token.as_bytes()));
+            // Constant time, so a wrong guess does not tell how many bytes were right.
+            .any(|given| bool::from(given.as_bytes().ct_eq(token.as_bytes())));
         if !ok {
             return (StatusCode::UNAUTHORIZED, "missing or wrong bearer token (--token)\n")
                 .into_response();
@@ -85,11 +87,6 @@ async fn session_end_no_content(req: Request, next: Next) -> Response {
         *response.status_mut() = StatusCode::NO_CONTENT;
     }
     response
-}
-
-/// Compares secrets without an early exit that would leak how many bytes matched.
-fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 async fn shutdown_signal(ct: CancellationToken) {

@@ -5,12 +5,13 @@
 //! fraction of the way from `ray_from` to `ray_to`.
 
 use rapier3d::prelude::*;
+use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 
 use super::scene::Indexed;
 use crate::outputs::RayHit;
 use crate::value::{r32, r32s};
 
-/// Rays per thread below which a batch is not split.
+/// Rays below which a batch, or a piece of one, is not split (a thread hop costs more).
 const RAYS_PER_THREAD: usize = 512;
 
 /// A miss, as PyBullet reports one.
@@ -55,24 +56,12 @@ pub fn cast(scene: &Indexed, from: [f32; 3], to: [f32; 3]) -> RayHit {
     }
 }
 
-/// Many rays, results in the order given; large batches are spread over the machine's cores
-/// (the results do not depend on how they are split).
+/// Many rays against one scene built once for the call, results in the order given; large
+/// batches run on rayon's pool (each ray is independent, so results do not depend on how
+/// they are split).
 pub fn cast_batch(scene: &Indexed, rays: &[([f32; 3], [f32; 3])]) -> Vec<RayHit> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let per = rays.len().div_ceil(threads).max(RAYS_PER_THREAD);
-    if rays.len() <= per {
+    if rays.len() <= RAYS_PER_THREAD {
         return rays.iter().map(|(f, t)| cast(scene, *f, *t)).collect();
     }
-    std::thread::scope(|s| {
-        let jobs: Vec<_> = rays
-            .chunks(per)
-            .map(|chunk| (chunk, s.spawn(move || chunk.iter().map(|(f, t)| cast(scene, *f, *t)).collect::<Vec<_>>())))
-            .collect();
-        jobs.into_iter()
-            .flat_map(|(chunk, job)| {
-                // A thread that failed is redone here, so results always line up with rays.
-                job.join().unwrap_or_else(|_| chunk.iter().map(|(f, t)| cast(scene, *f, *t)).collect())
-            })
-            .collect()
-    })
+    rays.par_iter().with_min_len(RAYS_PER_THREAD).map(|(f, t)| cast(scene, *f, *t)).collect()
 }

@@ -189,9 +189,14 @@ fn migrate(conn: &mut Connection) -> Result<(), StoreError> {
 
 fn row_to_event(r: &rusqlite::Row) -> rusqlite::Result<Event> {
     let kind: String = r.get(1)?;
+    // An unknown kind is a damaged or hostile file (the schema's CHECK forbids it): an error,
+    // never silently read as some other kind.
+    let kind = Kind::parse(&kind).ok_or_else(|| {
+        rusqlite::Error::FromSqlConversionFailure(1, rusqlite::types::Type::Text, format!("unknown event kind {kind:?}").into())
+    })?;
     Ok(Event {
         seq: r.get::<_, i64>(0)? as u64,
-        kind: Kind::parse(&kind).unwrap_or(Kind::Refused),
+        kind,
         parent: r.get::<_, Option<i64>>(2)?.map(|p| p as u64),
         tool: r.get(3)?,
         arguments: r.get(4)?,
@@ -606,6 +611,20 @@ impl Log {
             std::thread::sleep(std::time::Duration::from_millis(10));
         }
         Ok(())
+    }
+
+    /// Closes the file before it is deleted (destroy_simulation): drops buffered events, waits
+    /// for a background checkpoint still holding the file, and leaves the log on an empty
+    /// in-memory database, so nothing done afterwards can reach or recreate the deleted files.
+    pub fn close_for_deletion(&mut self) {
+        self.pending.clear();
+        while self.checkpointing.load(Ordering::Acquire) {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        match Connection::open_in_memory() {
+            Ok(empty) => drop(std::mem::replace(&mut self.conn, empty)),
+            Err(e) => tracing::warn!("could not close {}: {e}", self.path.display()),
+        }
     }
 
     /// Total bytes of the database file (for benchmarks and reports).

@@ -78,6 +78,16 @@ struct StateView<'a> {
     bodies: Vec<BodyView<'a>>,
 }
 
+/// The postcard encoding of a hash view. The views are derived `Serialize` types of numbers,
+/// strings, options, arrays and collections of known length, which postcard always encodes into
+/// a `Vec`; so a failure is a bug in a view type, never bad data, and it stops the call with that
+/// reason (the call fails and the simulation is rebuilt from its log) instead of hashing an
+/// empty buffer, which would make different states hash alike. Returning a `Result` instead
+/// would ripple through every caller of `state_hash` for a case these types cannot produce.
+fn encode<T: Serialize + ?Sized>(view: &T) -> Vec<u8> {
+    postcard::to_stdvec(view).expect("state-hash views are plain known-length data that postcard always encodes")
+}
+
 pub(super) fn state_hash(w: &World) -> String {
     let bodies = w
         .tables
@@ -111,7 +121,7 @@ pub(super) fn state_hash(w: &World) -> String {
         viewer: &w.tables.viewer,
         bodies,
     };
-    let mut bytes = postcard::to_stdvec(&view).unwrap_or_default();
+    let mut bytes = encode(&view);
     // Robots are appended only when there are some, so worlds of primitives keep the hashes
     // recorded before robots existed.
     let robots: Vec<RobotView> = w
@@ -124,12 +134,12 @@ pub(super) fn state_hash(w: &World) -> String {
         })
         .collect();
     if !robots.is_empty() {
-        bytes.extend(postcard::to_stdvec(&robots).unwrap_or_default());
+        bytes.extend(encode(&robots));
     }
     // Constraints likewise, behind a tag so they can never read as robots.
     if !w.tables.constraints.is_empty() {
         let views = super::constraints::hash_views(w);
-        bytes.extend(postcard::to_stdvec(&("constraints", views)).unwrap_or_default());
+        bytes.extend(encode(&("constraints", views)));
     }
     blake3::hash(&bytes).to_hex().to_string()
 }
