@@ -29,7 +29,7 @@ fn targets(w: &World, id: u32, orientation: bool) -> Vec<Target> {
         .map(|_| {
             let q: Vec<f64> = movable.iter().map(|i| rng.gen_range(joints[*i].lower..=joints[*i].upper)).collect();
             let (p, r): (DVec3, DQuat) = ik::link_pose(&joints, DVec3::ZERO, DQuat::IDENTITY, 7, &q);
-            let rot = orientation.then(|| [r.x as f32, r.y as f32, r.z as f32, r.w as f32]);
+            let rot = orientation.then_some([r.x as f32, r.y as f32, r.z as f32, r.w as f32]);
             ([p.x as f32, p.y as f32, p.z as f32], rot)
         })
         .collect()

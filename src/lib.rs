@@ -1,13 +1,19 @@
 //! physics-mcp: an MCP server for deterministic, replayable rigid-body simulations.
 //!
 //! # Layout
+//! The deterministic core is its own crate, `crates/physics-core` (re-exported here, so these
+//! are also `physics_mcp::world`, …); its `clippy.toml` bans clocks, randomness, the
+//! environment, files, threads and hash maps there:
 //! - `value`   — parsing tool arguments (vectors, quaternions, numbers) with clear refusals.
 //! - `command` — `Command`, the validated form of every state-changing call, and its checks.
 //! - `world`   — the deterministic state machine over rapier3d: `apply`, `state_hash`,
 //!   `snapshot`/`restore`. No I/O, no clock, no randomness.
 //! - `outputs` — the structured results of the tools (with JSON schemas).
-//! - `reads`   — the read-only tools, shared by the MCP adapters and replay.
 //! - `digest`  — content hashes of snapshots and blobs (blake3, parallel when large).
+//! - `limits`  — the limits every request is checked against.
+//!
+//! The server, in this crate:
+//! - `reads`   — the read-only tools, shared by the MCP adapters and replay.
 //! - `fold`    — the one fold routine (decode → check → apply → compare the recorded hash).
 //! - `store`   — the SQLite event log of one simulation: events, head, snapshots, blobs.
 //! - `sim`     — `Sim` = log + world (decide → apply → append → reply) and the `Registry`.
@@ -19,22 +25,19 @@
 //! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
 //!   writing generate_revolute_joint's URDFs.
 //! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
-//! - `limits`  — the CLI limits every request is checked against.
+//! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
 
-pub mod command;
-pub mod digest;
+pub use physics_core::{command, digest, limits, outputs, value, world};
+
+pub mod cli;
 pub mod fold;
-pub mod limits;
-pub mod outputs;
 pub mod persistence;
 pub mod reads;
 pub mod replay;
 pub mod save;
 pub mod sensing;
-pub mod value;
 pub mod workspace;
-pub mod world;
 pub mod sim;
 pub mod store;
 pub mod timeline;

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use clap::{Parser, Subcommand};
-use physics_mcp::limits::Limits;
+use physics_mcp::cli::LimitArgs;
 use physics_mcp::mcp::transport::{serve_http, serve_stdio, HttpOptions};
 use physics_mcp::sim::{Config, Registry};
 use physics_mcp::store::SyncMode;
@@ -31,7 +31,7 @@ struct Common {
     #[arg(long, value_enum, default_value_t = SyncMode::Normal)]
     sync: SyncMode,
     #[command(flatten)]
-    limits: Limits,
+    limits: LimitArgs,
 }
 
 #[derive(Subcommand)]
@@ -88,7 +88,6 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
     } else {
         indicatif::ProgressBar::hidden()
     };
-    #[allow(clippy::disallowed_methods)] // the CLI times itself; the world never sees it
     let started = std::time::Instant::now();
     let progress = |done, total| {
         bar.set_length(total);
@@ -155,7 +154,7 @@ fn open_registry(c: Common) -> anyhow::Result<Arc<Registry>> {
     Ok(Arc::new(Registry::open(Config {
         data_dir: c.data,
         workspace: c.workspace,
-        limits: c.limits,
+        limits: c.limits.into(),
         sync: c.sync,
     })?))
 }

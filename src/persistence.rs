@@ -90,7 +90,6 @@ impl Registry {
         if size > MAX_SAVE_BYTES {
             return Err(format!("file_path {user} is {size} bytes; saved files are limited to {MAX_SAVE_BYTES}"));
         }
-        #[allow(clippy::disallowed_methods)] // the adapter reads files; the world never does
         let bytes = std::fs::read(&path).map_err(|e| format!("could not read {user}: {e}"))?;
         let file: SaveFile = serde_json::from_slice(&bytes)
             .map_err(|e| format!("The file is not a valid saved simulation: {e}"))?;

@@ -264,7 +264,6 @@ pub fn replay(path: &Path, until: Option<u64>, mut progress: impl FnMut(u64, u64
 /// Replays a saved JSON file's history: every event refolded from create_simulation in a
 /// fresh world (its snapshot is never trusted here), every recorded state hash checked.
 pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<Summary, ReplayError> {
-    #[allow(clippy::disallowed_methods)] // the CLI reads its input file
     let bytes = std::fs::read(path).map_err(|e| StoreError::Corrupt(format!("{}: {e}", path.display())))?;
     let file: crate::save::SaveFile = serde_json::from_slice(&bytes)
         .map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))?;

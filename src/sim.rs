@@ -525,7 +525,6 @@ pub struct Registry {
 /// of their snapshot under this key, so only files this server wrote load from a snapshot.
 fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
     let path = data_dir.join("mac.key");
-    #[allow(clippy::disallowed_methods)] // start-up, outside the deterministic core
     if let Ok(bytes) = std::fs::read(&path) {
         if let Ok(key) = <[u8; 32]>::try_from(bytes.as_slice()) {
             return Ok(key);
@@ -535,7 +534,6 @@ fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
     // A secret key straight from the operating system's generator (not derived from ids
     // made for uniqueness, whose randomness is not a promise about secrecy).
     let mut key = [0u8; 32];
-    #[allow(clippy::disallowed_methods)] // a secret must be random; start-up, outside the core
     getrandom::fill(&mut key)
         .map_err(|e| anyhow::anyhow!("cannot make {}: no system randomness ({e})", path.display()))?;
     std::fs::write(&path, key)?;
@@ -548,7 +546,6 @@ fn prepare_dir(flag: &str, dir: &Path) -> anyhow::Result<PathBuf> {
     std::fs::create_dir_all(dir)
         .map_err(|e| anyhow::anyhow!("cannot create {flag} {}: {e}", dir.display()))?;
     let canon = dir.canonicalize()?;
-    #[allow(clippy::disallowed_methods)] // start-up check, outside the deterministic core
     let home = std::env::var_os("HOME").map(PathBuf::from).and_then(|h| h.canonicalize().ok());
     if canon == Path::new("/") || Some(&canon) == home.as_ref() {
         anyhow::bail!(

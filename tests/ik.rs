@@ -38,7 +38,7 @@ fn ik_reaches_random_reachable_targets_within_limits() {
         let with_orientation = case >= n;
         let config: Vec<f64> = movable.iter().map(|i| rng.gen_range(joints[*i].lower..=joints[*i].upper)).collect();
         let (p, r) = ik::link_pose(&joints, base.0, base.1, ee, &config);
-        let target_rot = with_orientation.then(|| [r.x as f32, r.y as f32, r.z as f32, r.w as f32]);
+        let target_rot = with_orientation.then_some([r.x as f32, r.y as f32, r.z as f32, r.w as f32]);
         let target = [p.x as f32, p.y as f32, p.z as f32];
         let zeros = Some(vec![0.0; 7]);
         let sol = w.inverse_kinematics(id, ee, target, target_rot, None, None, zeros.clone()).unwrap();

@@ -14,6 +14,7 @@ use rmcp::ServiceExt;
 use serde_json::{json, Value};
 
 /// A session script: every kind of state-changing call, returning the hash after each.
+#[allow(clippy::approx_constant)] // 0.7071: a client's rounded quaternion, sent as a client would
 async fn script(c: &Client, sim: &str) -> Vec<String> {
     let calls: Vec<(&str, Value)> = vec![
         ("add_box", json!({"dimensions": [5, 5, 0.5], "position": [0, 0, -0.5], "mass": 0})),

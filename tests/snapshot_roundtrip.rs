@@ -79,12 +79,12 @@ fn pile() -> World {
 
 /// The scripted disturbances applied at step `k` of the continuation.
 fn disturb(w: &mut World, k: u32) {
-    if k % 50 == 0 {
+    if k.is_multiple_of(50) {
         let id = 1 + (k / 50) % 200;
         apply(w, Command::ApplyForce { object_id: id, force: [30.0, -10.0, 80.0], position: Some([0.5, 0.5, 1.0]), link_index: -1 });
         apply(w, Command::ApplyTorque { object_id: id + 1, torque: [0.0, 0.0, 3.0], link_index: -1 });
     }
-    if k % 120 == 0 {
+    if k.is_multiple_of(120) {
         let id = 2 + (k / 120) % 190;
         apply(w, Command::ChangeDynamics {
             object_id: id,

@@ -13,8 +13,11 @@ use rmcp::transport::StreamableHttpClientTransport;
 use rmcp::{ClientHandler, RoleClient, ServiceExt};
 use serde_json::json;
 
+/// The (progress, total) pairs of the notifications received.
+type Notified = Vec<(f64, Option<f64>)>;
+
 #[derive(Clone, Default)]
-struct ProgressLog(Arc<Mutex<Vec<(f64, Option<f64>)>>>);
+struct ProgressLog(Arc<Mutex<Notified>>);
 
 impl ClientHandler for ProgressLog {
     async fn on_progress(&self, p: ProgressNotificationParam, _: NotificationContext<RoleClient>) {

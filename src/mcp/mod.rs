@@ -148,7 +148,6 @@ impl PhysicsServer {
         let out = self
             .with_sim(args, move |sim, a, limits| {
                 let ctl: StepControl = &mut control;
-                #[allow(clippy::disallowed_methods)] // timing for the debug log; never enters the world
                 let started = std::time::Instant::now();
                 let out = sim.change(tool, a, decide(a), limits, ctl);
                 // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).

@@ -28,7 +28,6 @@ impl PhysicsServer {
         meta: RequestMetaObject,
         peer: Peer<RoleServer>,
     ) -> Result<Json<Loaded>, String> {
-        #[allow(clippy::disallowed_methods)] // the adapter chooses fresh ids, never apply()
         let new_id = uuid::Uuid::new_v4().to_string();
         let reg = self.reg.clone();
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<(u64, u64)>();

@@ -38,7 +38,6 @@ impl PhysicsServer {
             None => [0.0, 0.0, -9.81],
         };
         let gui = value::bool_or(&args, "gui", false)?;
-        #[allow(clippy::disallowed_methods)] // the adapter chooses fresh ids, never apply()
         let simulation_id = uuid::Uuid::new_v4().to_string();
         let root = Command::CreateSimulation {
             simulation_id,

@@ -78,7 +78,6 @@ impl PhysicsServer {
     async fn fork_simulation(&self, args: JsonObject) -> Result<Json<Forked>, String> {
         let parent = value::string(&args, "sim_id")?;
         let at = seq(&args, "at_seq")?;
-        #[allow(clippy::disallowed_methods)] // the adapter chooses fresh ids, never apply()
         let new_id = uuid::Uuid::new_v4().to_string();
         let reg = self.reg.clone();
         let out = tokio::task::spawn_blocking(move || reg.fork(&parent, at, new_id, &args))

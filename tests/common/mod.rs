@@ -226,14 +226,12 @@ pub fn rel(a: f64, b: f64) -> f64 {
 
 /// Loads `tests/fixtures/<name>` into an in-process world as load_urdf would (no meshes: the
 /// fixtures used in process have none) and returns the robot's object id.
-#[allow(clippy::disallowed_methods)] // a test reads its fixture; the server's world never reads files
 pub fn load_fixture(
     w: &mut physics_mcp::world::World,
     name: &str,
     position: [f32; 3],
     fixed_base: bool,
 ) -> u32 {
-    #[allow(clippy::disallowed_methods)] // a test reads its fixture, as the adapter would
     let text = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)).unwrap();
     let cmd = physics_mcp::command::Command::LoadUrdf {
         file_path: name.into(),

@@ -1,33 +1,26 @@
 //! Limits on everything a client can ask for (TigerBeetle's "put a limit on everything").
-//! Each is a CLI flag; the defaults are SPEC's.
-
-use clap::Args;
+//! Each is a CLI flag (the server crate's `cli::LimitArgs`, which takes its defaults from
+//! [`DEFAULT`]); the defaults are SPEC's.
 
 /// Per-server limits, settable from the command line.
-#[derive(Args, Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Limits {
     /// Simulations per data directory.
-    #[arg(long, default_value_t = DEFAULT.max_sims)]
     pub max_sims: usize,
     /// Objects per simulation (a URDF robot counts as one).
-    #[arg(long, default_value_t = DEFAULT.max_objects)]
     pub max_objects: usize,
     /// Constraints per simulation.
-    #[arg(long, default_value_t = DEFAULT.max_constraints)]
     pub max_constraints: usize,
     /// Steps per step_simulation call.
-    #[arg(long, default_value_t = DEFAULT.max_steps)]
     pub max_steps: u64,
     /// Rays per ray_test_batch call.
-    #[arg(long, default_value_t = DEFAULT.max_rays)]
     pub max_rays: usize,
     /// Pixels per camera image.
-    #[arg(long, default_value_t = DEFAULT.max_image_px)]
     pub max_image_px: usize,
 }
 
 /// SPEC's defaults: one table for the CLI flags and `Default`.
-const DEFAULT: Limits = Limits {
+pub const DEFAULT: Limits = Limits {
     max_sims: 32,
     max_objects: 10_000,
     max_constraints: 1_000,

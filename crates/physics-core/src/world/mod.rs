@@ -1,8 +1,8 @@
 //! The deterministic state machine: a rapier3d world plus our own tables.
 //!
 //! `World::apply` is the only way state changes. It reads nothing but the command it is given:
-//! no clock, no randomness, no files, no environment (clippy's `disallowed-methods` enforces
-//! this for the folder). Iteration is always in id order (`BTreeMap`). A snapshot is the whole
+//! no clock, no randomness, no files, no environment (physics-core's clippy.toml bans them for
+//! this crate). Iteration is always in id order (`BTreeMap`). A snapshot is the whole
 //! rapier `PhysicsWorld` (broad and narrow phase included) plus our tables, so restoring one and
 //! continuing is bit-identical to never having stopped.
 

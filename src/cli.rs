@@ -1,0 +1,64 @@
+//! Command-line flags that fill core structs. The core (`physics_core`) has no clap, so the
+//! flags for `Limits` live here; their defaults come from the core's one table,
+//! `limits::DEFAULT`, so the CLI and `Limits::default()` cannot drift.
+
+use clap::Args;
+
+use crate::limits::{Limits, DEFAULT};
+
+/// Per-server limits, as command-line flags (converted into [`Limits`]).
+#[derive(Args, Clone, Debug)]
+pub struct LimitArgs {
+    /// Simulations per data directory.
+    #[arg(long, default_value_t = DEFAULT.max_sims)]
+    pub max_sims: usize,
+    /// Objects per simulation (a URDF robot counts as one).
+    #[arg(long, default_value_t = DEFAULT.max_objects)]
+    pub max_objects: usize,
+    /// Constraints per simulation.
+    #[arg(long, default_value_t = DEFAULT.max_constraints)]
+    pub max_constraints: usize,
+    /// Steps per step_simulation call.
+    #[arg(long, default_value_t = DEFAULT.max_steps)]
+    pub max_steps: u64,
+    /// Rays per ray_test_batch call.
+    #[arg(long, default_value_t = DEFAULT.max_rays)]
+    pub max_rays: usize,
+    /// Pixels per camera image.
+    #[arg(long, default_value_t = DEFAULT.max_image_px)]
+    pub max_image_px: usize,
+}
+
+impl From<LimitArgs> for Limits {
+    fn from(a: LimitArgs) -> Limits {
+        // Destructured, so a field added to one struct and not the other does not compile.
+        let LimitArgs { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px } = a;
+        Limits { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        limits: LimitArgs,
+    }
+
+    #[test]
+    fn flag_defaults_are_the_core_defaults() {
+        let cli = Cli::parse_from(["physics-mcp"]);
+        assert_eq!(Limits::from(cli.limits), Limits::default());
+    }
+
+    #[test]
+    fn flags_set_the_limits() {
+        let cli = Cli::parse_from(["physics-mcp", "--max-objects", "7", "--max-steps", "9"]);
+        let l = Limits::from(cli.limits);
+        assert_eq!((l.max_objects, l.max_steps), (7, 9));
+        assert_eq!(l.max_rays, DEFAULT.max_rays);
+    }
+}
