@@ -40,6 +40,7 @@ fn rapier_link_pose(w: &mut World, id: u32, link: usize, q: &[f64]) -> (DVec3, D
     (DVec3::new(t.x as f64, t.y as f64, t.z as f64), DQuat::from_xyzw(r.x as f64, r.y as f64, r.z as f64, r.w as f64))
 }
 
+#[allow(clippy::disallowed_methods)] // a test reads its seed from the environment
 fn seed() -> u64 {
     let s = std::env::var("PHYSICS_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0x1ca_7a11);
     println!("seed={s} (PHYSICS_SEED={s} replays this run)");
@@ -64,7 +65,7 @@ fn ik_reaches_random_reachable_targets_within_limits() {
         let with_orientation = case >= n;
         let config: Vec<f64> = movable.iter().map(|i| rng.gen_range(joints[*i].lower..=joints[*i].upper)).collect();
         let (p, r) = ik::link_pose(&joints, base.0, base.1, ee, &config);
-        let target_rot = with_orientation.then(|| [r.x as f32, r.y as f32, r.z as f32, r.w as f32]);
+        let target_rot = with_orientation.then_some([r.x as f32, r.y as f32, r.z as f32, r.w as f32]);
         let target = [p.x as f32, p.y as f32, p.z as f32];
         let zeros = Some(vec![0.0; 7]);
         let sol = w.inverse_kinematics(id, ee, target, target_rot, None, None, zeros.clone()).unwrap();

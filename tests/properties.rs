@@ -109,6 +109,7 @@ fn run(sim: &SharedSim, op: &Op) -> String {
 }
 
 /// Random sequences per property: enough by default that CI explores, many more on a soak run.
+#[allow(clippy::disallowed_methods)] // a test reads its soak flag from the environment
 fn cases() -> u32 {
     if std::env::var("PHYSICS_MCP_SOAK").is_ok_and(|v| v == "1") {
         1024
@@ -117,6 +118,7 @@ fn cases() -> u32 {
     }
 }
 
+#[allow(clippy::disallowed_methods)] // a test reads its seed from the environment
 fn seeded_runner(cases: u32) -> (TestRunner, u64) {
     let seed: u64 = std::env::var("PHYSICS_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(20261122);
     let mut bytes = [0u8; 32];
