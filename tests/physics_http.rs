@@ -109,8 +109,17 @@ async fn apply_force_acts_for_exactly_one_step_and_mass_changes_take_effect() {
     assert!(rel(w1, v1 / 2.0) <= 1e-4, "mass 2 gives Δv {w1}, expected half of {v1}");
 }
 
-/// Highest point the ball's bottom reaches after its first contact with the ground.
-async fn rebound_height(c: &Client, ground_restitution: Option<f64>) -> f64 {
+/// What a ball dropped from 1 m did after its first contact with the ground.
+struct Rebound {
+    /// Highest point its bottom reached after that contact (m).
+    peak: f64,
+    /// Whether it moved upward after the contact (a real bounce).
+    rose: bool,
+    /// Its bottom's height and vertical velocity when the run ended.
+    end: (f64, f64),
+}
+
+async fn rebound(c: &Client, ground_restitution: Option<f64>) -> Rebound {
     let sim = c.new_sim(json!({})).await;
     let g = c.ground(&sim).await;
     if let Some(r) = ground_restitution {
@@ -127,33 +136,42 @@ async fn rebound_height(c: &Client, ground_restitution: Option<f64>) -> f64 {
         json!({"sim_id": sim, "object_id": ball, "restitution": 0.9, "linear_damping": 0}),
     )
     .await;
-    let mut bounced = false;
+    let (mut landed, mut rose) = (false, false);
     let mut peak: f64 = 0.0;
+    let mut end = (f64::NAN, f64::NAN);
     for _ in 0..200 {
         c.step(&sim, 4).await;
         let st = c.state(&sim, ball).await;
         let z = v3(&st["position"])[2] - r;
         let vz = v3(&st["linear_velocity"])[2];
-        if !bounced && z < 0.05 {
-            bounced = true;
+        end = (z, vz);
+        if !landed && z < 0.05 {
+            landed = true;
         }
-        if bounced {
+        if landed {
             peak = peak.max(z);
+            rose |= vz > 0.1;
             if vz < 0.0 && peak > 0.05 {
                 break;
             }
         }
     }
-    peak
+    // A ball that never reached the ground would report a rebound of 0 and pass as "dead".
+    assert!(landed, "the ball never reached the ground (ground restitution {ground_restitution:?}): ended at {end:?}");
+    Rebound { peak, rose, end }
 }
 
 #[tokio::test(flavor = "multi_thread")]
 async fn restitution_combines_by_multiplying() {
     let (_d, _s, c) = setup().await;
-    let bouncy = rebound_height(&c, Some(1.0)).await;
-    assert!(bouncy > 0.5, "rebound {bouncy} m of 1 m drop (theory 0.81)");
-    let dead = rebound_height(&c, None).await;
-    assert!(dead < 0.02, "with a restitution-0 ground the ball rebounded {dead} m");
+    let bouncy = rebound(&c, Some(1.0)).await;
+    assert!(bouncy.rose, "with a restitution-1 ground the ball never moved up again");
+    assert!(bouncy.peak > 0.5, "rebound {} m of 1 m drop (theory 0.81)", bouncy.peak);
+    let dead = rebound(&c, None).await;
+    assert!(dead.peak < 0.02, "with a restitution-0 ground the ball rebounded {} m", dead.peak);
+    // It stopped on the ground (not still falling, not stuck in the air).
+    let (z, vz) = dead.end;
+    assert!(z.abs() < 0.01 && vz.abs() < 0.05, "with a restitution-0 ground the ball ended at z {z} m, vz {vz} m/s");
 }
 
 async fn slide_distance(c: &Client, mu_box: f64) -> (f64, f64) {

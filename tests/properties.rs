@@ -5,6 +5,8 @@
 //!
 //! The seed comes from `PHYSICS_SEED` (a decimal u64) or a fixed default; every failure prints
 //! `seed=…` so it replays exactly: `PHYSICS_SEED=… cargo test --test properties`.
+//!
+//! Each property runs 64 random sequences by default (CI); `PHYSICS_MCP_SOAK=1` runs 1024.
 
 use std::path::Path;
 
@@ -106,6 +108,17 @@ fn run(sim: &SharedSim, op: &Op) -> String {
     s.state_hash().to_string()
 }
 
+/// Random sequences per property: enough by default that CI explores, many more on a soak run.
+#[allow(clippy::disallowed_methods)] // a test reads its soak flag from the environment
+fn cases() -> u32 {
+    if std::env::var("PHYSICS_MCP_SOAK").is_ok_and(|v| v == "1") {
+        1024
+    } else {
+        64
+    }
+}
+
+#[allow(clippy::disallowed_methods)] // a test reads its seed from the environment
 fn seeded_runner(cases: u32) -> (TestRunner, u64) {
     let seed: u64 = std::env::var("PHYSICS_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(20261122);
     let mut bytes = [0u8; 32];
@@ -114,8 +127,8 @@ fn seeded_runner(cases: u32) -> (TestRunner, u64) {
     (TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &bytes)), seed)
 }
 
-fn check(name: &str, cases: u32, body: impl Fn(Vec<Op>, usize) -> Result<(), TestCaseError>) {
-    let (mut runner, seed) = seeded_runner(cases);
+fn check(name: &str, body: impl Fn(Vec<Op>, usize) -> Result<(), TestCaseError>) {
+    let (mut runner, seed) = seeded_runner(cases());
     let strategy = (proptest::collection::vec(op(), 4..24), any::<prop::sample::Index>());
     if let Err(e) = runner.run(&strategy, |(ops, at)| body(ops.clone(), at.index(ops.len()))) {
         panic!("{name} failed with seed={seed} (rerun: PHYSICS_SEED={seed}): {e}");
@@ -124,7 +137,7 @@ fn check(name: &str, cases: u32, body: impl Fn(Vec<Op>, usize) -> Result<(), Tes
 
 #[test]
 fn folding_twice_gives_the_same_hashes_and_a_refold_of_the_log_agrees() {
-    check("fold twice", 12, |ops, _| {
+    check("fold twice", |ops, _| {
         let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
         let (r1, r2) = (registry(d1.path()), registry(d2.path()));
         let (a, b) = (new_sim(&r1, "a"), new_sim(&r2, "b"));
@@ -143,7 +156,7 @@ fn folding_twice_gives_the_same_hashes_and_a_refold_of_the_log_agrees() {
 
 #[test]
 fn stopping_at_a_random_point_and_continuing_equals_an_uninterrupted_run() {
-    check("restart mid-run", 12, |ops, at| {
+    check("restart mid-run", |ops, at| {
         let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
         let r1 = registry(d1.path());
         let a = new_sim(&r1, "s");
@@ -163,7 +176,7 @@ fn stopping_at_a_random_point_and_continuing_equals_an_uninterrupted_run() {
 
 #[test]
 fn undo_k_then_redo_k_restores_the_hash() {
-    check("undo/redo", 12, |ops, _| {
+    check("undo/redo", |ops, _| {
         let d = tempfile::tempdir().unwrap();
         let r = registry(d.path());
         let s = new_sim(&r, "s");
@@ -185,7 +198,7 @@ fn undo_k_then_redo_k_restores_the_hash() {
 
 #[test]
 fn a_fork_at_seq_s_then_the_same_calls_reproduces_the_originals_hashes() {
-    check("fork", 10, |ops, at| {
+    check("fork", |ops, at| {
         let d = tempfile::tempdir().unwrap();
         let r = registry(d.path());
         let s = new_sim(&r, "orig");
@@ -207,7 +220,7 @@ fn a_fork_at_seq_s_then_the_same_calls_reproduces_the_originals_hashes() {
 
 #[test]
 fn save_then_load_then_continue_equals_continue() {
-    check("save/load", 8, |ops, at| {
+    check("save/load", |ops, at| {
         let d = tempfile::tempdir().unwrap();
         let r = registry(d.path());
         let s = new_sim(&r, "orig");

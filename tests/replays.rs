@@ -37,7 +37,9 @@ fn every_recorded_session_replays_to_its_recorded_hashes() {
         let last = events.iter().rev().find(|e| e.kind.is_state_changing() || e.kind == physics_mcp::store::Kind::Move).unwrap();
         assert_eq!(summary.final_hash, events.last().unwrap().state_hash, "{}", f.display());
         assert!(summary.state_events >= 4 && summary.snapshots_checked >= 1, "{}: {summary:?}", f.display());
-        assert!(!last.state_hash.is_empty());
+        // The world the refold ends with is the one the last state-changing (or undo/redo)
+        // event recorded: the head did not move after it.
+        assert_eq!(summary.final_hash, last.state_hash, "{}", f.display());
         moves += events.iter().filter(|e| e.kind == physics_mcp::store::Kind::Move).count();
         forks += events.iter().filter(|e| e.inherited).count().min(1);
         refusals += events.iter().filter(|e| !e.ok).count();

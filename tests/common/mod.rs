@@ -107,6 +107,16 @@ impl Server {
         (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
     }
 
+    /// SIGTERM, as an operator stops the server: it commits buffered events before it exits.
+    #[allow(dead_code)]
+    pub fn terminate(mut self) {
+        let pid = self.child.id().to_string();
+        let sent = Command::new("kill").args(["-TERM", &pid]).status().expect("run kill");
+        assert!(sent.success(), "kill -TERM {pid} failed");
+        let status = self.child.wait().unwrap();
+        assert!(status.success(), "the server exited with {status} after SIGTERM");
+    }
+
     /// kill -9.
     pub fn kill(mut self) {
         let _ = self.child.kill();
