@@ -85,7 +85,7 @@ pub fn work(cmd: &Command, world: &World) -> u64 {
 }
 
 /// The event version from which a step's command records the steps taken.
-pub const STEPS_AS_TAKEN_SINCE: u32 = 2;
+const STEPS_AS_TAKEN_SINCE: u32 = 2;
 
 /// The command an event recorded, with its blobs' bytes filled in from `blobs`, as it was
 /// carried out (`Command::as_done`: before event version 2 a cancelled step was logged as the
@@ -99,12 +99,39 @@ pub fn decode(e: &Event, blobs: &dyn BlobSource) -> Result<Option<Command>, Fold
     let undecodable = |why: String| FoldError::Undecodable { seq: e.seq, why };
     let mut cmd: Command = serde_json::from_str(text).map_err(|err| undecodable(err.to_string()))?;
     cmd.hydrate(blobs).map_err(undecodable)?;
-    if e.version < STEPS_AS_TAKEN_SINCE {
-        if let Some(result) = e.result.as_deref().and_then(|r| serde_json::from_str::<Value>(r).ok()) {
-            cmd = cmd.as_done(&result);
-        }
+    Ok(Some(upcast(cmd, e)))
+}
+
+/// `cmd` (recorded by `e`) as it was carried out: events older than `STEPS_AS_TAKEN_SINCE`
+/// get the steps their recorded result says they took; newer ones are returned unchanged.
+pub fn upcast(cmd: Command, e: &Event) -> Command {
+    if e.version >= STEPS_AS_TAKEN_SINCE {
+        return cmd;
     }
-    Ok(Some(cmd))
+    match e.result.as_deref().and_then(|r| serde_json::from_str::<Value>(r).ok()) {
+        Some(result) => cmd.as_done(&result),
+        None => cmd,
+    }
+}
+
+/// Checks a stored snapshot taken at event `e`: its bytes against their recorded hash, and the
+/// world it restores to against `e`'s recorded state hash (verify_simulation and replay).
+pub fn check_snapshot(e: &Event, bytes: &[u8], hash: &str) -> Result<(), FoldError> {
+    let diverged = |expected: &str, actual: String| FoldError::Diverged {
+        seq: e.seq,
+        tool: e.tool.clone(),
+        expected: expected.into(),
+        actual,
+    };
+    let bytes_hash = crate::digest::content_hash(bytes);
+    if bytes_hash != hash {
+        return Err(diverged(hash, bytes_hash));
+    }
+    match World::restore("snapshot-check", false, bytes) {
+        Ok(w) if w.state_hash() == e.state_hash => Ok(()),
+        Ok(w) => Err(diverged(&e.state_hash, w.state_hash())),
+        Err(err) => Err(diverged(&e.state_hash, err)),
+    }
 }
 
 /// Compares the world with the state hash `e` recorded.

@@ -122,15 +122,10 @@ impl Replayer<'_> {
 
     fn check_snapshot(&mut self, e: &Event) -> Result<(), ReplayError> {
         if let Some((bytes, hash)) = self.log.snapshot_at(e.seq)? {
-            let actual = crate::digest::content_hash(&bytes);
-            if actual != hash {
-                return Err(Self::diverged(e, "snapshot bytes", &hash, &actual));
-            }
-            let restored = World::restore(&self.id, false, &bytes)
-                .map_err(|err| Self::diverged(e, "snapshot", "a decodable snapshot", &err))?;
-            if restored.state_hash() != e.state_hash {
-                return Err(Self::diverged(e, "snapshot state", &e.state_hash, &restored.state_hash()));
-            }
+            fold::check_snapshot(e, &bytes, &hash).map_err(|err| match err {
+                FoldError::Diverged { expected, actual, .. } => Self::diverged(e, "snapshot", &expected, &actual),
+                other => ReplayError::Store(other.into()),
+            })?;
             self.summary.snapshots_checked += 1;
         }
         Ok(())

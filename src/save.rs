@@ -281,10 +281,9 @@ pub fn saved_event(e: &Event) -> SavedEvent {
 /// other command keeps its recorded text byte for byte.
 fn command_as_done(e: &Event) -> String {
     let text = e.command.clone().unwrap_or_default();
-    let result = e.result.as_deref().and_then(|r| serde_json::from_str::<Value>(r).ok());
-    match (serde_json::from_str::<Command>(&text), result) {
-        (Ok(cmd @ Command::StepSimulation { .. }), Some(result)) if e.version < crate::fold::STEPS_AS_TAKEN_SINCE => {
-            let done = cmd.clone().as_done(&result);
+    match serde_json::from_str::<Command>(&text) {
+        Ok(cmd @ Command::StepSimulation { .. }) => {
+            let done = crate::fold::upcast(cmd.clone(), e);
             if done == cmd { text } else { serde_json::to_string(&done).unwrap_or(text) }
         }
         _ => text,

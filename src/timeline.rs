@@ -214,16 +214,7 @@ impl Sim {
                 return Ok(());
             };
             checked.1 += 1;
-            let diverged = |expected: &str, actual: String| FoldError::Diverged { seq: e.seq, tool: e.tool.clone(), expected: expected.into(), actual };
-            let bytes_hash = crate::digest::content_hash(&bytes);
-            if bytes_hash != hash {
-                return Err(diverged(&hash, bytes_hash));
-            }
-            match World::restore(self.id(), false, &bytes) {
-                Ok(w) if w.state_hash() == e.state_hash => Ok(()),
-                Ok(w) => Err(diverged(&e.state_hash, w.state_hash())),
-                Err(err) => Err(diverged(&e.state_hash, err)),
-            }
+            fold::check_snapshot(e, &bytes, &hash)
         };
         let folded = fold::check_hash(&world, first)
             .and_then(|()| after(&world, first, 0))
