@@ -60,7 +60,7 @@ fn scene_100() -> World {
 fn camera_args(width: u32, height: u32) -> serde_json::Map<String, serde_json::Value> {
     let view = physics_mcp::sensing::camera::view_matrix([5.0, -5.0, 4.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
     let proj = physics_mcp::sensing::camera::projection_matrix(60.0, f64::from(width) / f64::from(height), 0.1, 100.0);
-    json!({"width": width, "height": height, "view_matrix": view.to_vec(), "projection_matrix": proj.to_vec()})
+    json!({"sim_id": "bench", "width": width, "height": height, "view_matrix": view.to_vec(), "projection_matrix": proj.to_vec()})
         .as_object()
         .cloned()
         .unwrap()
@@ -69,6 +69,11 @@ fn camera_args(width: u32, height: u32) -> serde_json::Map<String, serde_json::V
 fn camera_matrix(args: &serde_json::Map<String, serde_json::Value>, name: &str) -> [f64; 16] {
     let v: Vec<f64> = args[name].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
     v.try_into().unwrap()
+}
+
+/// get_camera_image's parameters, parsed as the tool parses them.
+fn cam(args: &serde_json::Map<String, serde_json::Value>) -> physics_mcp::mcp::params::CameraImage {
+    physics_mcp::mcp::params::parse("get_camera_image", args).unwrap()
 }
 
 fn cx(w: &World) -> ReadContext<'_> {
@@ -122,10 +127,10 @@ fn bench_camera(c: &mut Criterion) {
     for (wd, ht) in [(320, 240), (640, 480)] {
         let args = camera_args(wd, ht);
         g.bench_function(format!("image_{wd}x{ht}"), |b| {
-            b.iter(|| reads::camera_image(&cx(&w), &args, usize::MAX).unwrap())
+            b.iter(|| reads::camera_image(&cx(&w), &cam(&args), usize::MAX).unwrap())
         });
-        let ms = median_ms(|| drop(reads::camera_image(&cx(&w), &args, usize::MAX).unwrap()), 30);
-        let r = reads::camera_image(&cx(&w), &args, usize::MAX).unwrap();
+        let ms = median_ms(|| drop(reads::camera_image(&cx(&w), &cam(&args), usize::MAX).unwrap()), 30);
+        let r = reads::camera_image(&cx(&w), &cam(&args), usize::MAX).unwrap();
         let (view, proj) = (
             camera_matrix(&args, "view_matrix"),
             camera_matrix(&args, "projection_matrix"),
@@ -146,7 +151,7 @@ fn bench_camera(c: &mut Criterion) {
     let mut args = camera_args(320, 240);
     args.remove("view_matrix");
     args.remove("projection_matrix");
-    let r = reads::camera_image(&cx(&w), &args, usize::MAX).unwrap();
+    let r = reads::camera_image(&cx(&w), &cam(&args), usize::MAX).unwrap();
     let b64 = base64::engine::general_purpose::STANDARD.encode(&r.png).len();
     let structured = serde_json::to_string(&r.summary).unwrap().len();
     println!(

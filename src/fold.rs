@@ -7,6 +7,7 @@ use serde_json::Value;
 
 use crate::command::{BlobSource, Command};
 use crate::limits::Limits;
+use crate::outputs::Outcome;
 use crate::store::{Event, StoreError};
 use crate::world::World;
 
@@ -154,16 +155,16 @@ pub fn fold_event(
     blobs: &dyn BlobSource,
     limits: &Limits,
     verify: bool,
-) -> Result<(Command, Value), FoldError> {
+) -> Result<(Command, Option<Outcome>), FoldError> {
     let cmd = decode(e, blobs)?.ok_or_else(|| FoldError::Undecodable { seq: e.seq, why: "it has no command".into() })?;
     let result = match &cmd {
-        Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => Value::Null,
+        Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => None,
         Command::CreateSimulation { .. } => {
             return Err(FoldError::Refused { seq: e.seq, why: "a second create_simulation in one chain".into() })
         }
         _ => {
             cmd.validate(world, limits).map_err(|why| FoldError::Refused { seq: e.seq, why })?;
-            world.apply(&cmd, &mut |_| true)
+            Some(world.apply(&cmd, &mut |_| true))
         }
     };
     if verify {
@@ -199,7 +200,7 @@ pub fn fold(
 
 /// The world a chain's first event (create_simulation) builds, its values validated first
 /// (a foreign file's root may hold anything), with the command's own result.
-pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Value), FoldError> {
+pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Outcome), FoldError> {
     let refused = |why: String| FoldError::Refused { seq: e.seq, why };
     let root = decode(e, blobs)?.ok_or_else(|| refused("it has no command".into()))?;
     root.validate_values().map_err(refused)?;

@@ -11,7 +11,8 @@ use crate::save::{
 };
 use crate::sim::{remove_log_files, Registry, Sim};
 use crate::timeline::store_err;
-use crate::value::{self, Args, Refusal};
+use crate::mcp::params;
+use crate::value::{Args, Refusal};
 
 impl Sim {
     /// Writes the simulation to a workspace file: readable fields plus the full history chain
@@ -25,7 +26,7 @@ impl Sim {
     }
 
     fn write_save(&self, args: &Args, reg: &Registry) -> Result<Saved, Refusal> {
-        let user = value::string(args, "file_path")?;
+        let user = params::parse::<params::Save>("save_simulation", args)?.file_path.0;
         let target = reg.sandbox().writable(&user)?;
         let head = self.log.head_seq();
         let chain = self.log.chain_to(head).map_err(store_err)?;
@@ -83,8 +84,8 @@ impl Registry {
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<Loaded, Refusal> {
         self.check_room()?;
-        let user = value::string(args, "file_path")?;
-        let gui = value::bool_or(args, "gui", false)?;
+        let p: params::Load = params::parse("load_simulation", args)?;
+        let (user, gui) = (p.file_path.0, p.gui.is_some_and(|g| g.0));
         let path = self.sandbox().existing(&user)?;
         let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(u64::MAX);
         if size > MAX_SAVE_BYTES {

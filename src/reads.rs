@@ -1,6 +1,7 @@
-//! The read-only tools of a simulation, computed from a world and the log's position. One
-//! place, so the MCP adapters answer and `replay` re-checks a recorded read identically
-//! (replay compares the blake3 of each read's result JSON with the one the log recorded).
+//! The read-only tools of a simulation, computed from a world and the log's position, from
+//! their typed parameters (`mcp::params`). One place, so the MCP adapters answer and `replay`
+//! re-checks a recorded read identically (replay compares the blake3 of each read's result
+//! JSON with the one the log recorded); `Read` names every read a log can hold.
 
 use serde_json::Value;
 
@@ -12,7 +13,9 @@ use crate::outputs::{
 use crate::sensing::camera::{self, Mat4};
 use crate::sensing::scene::Indexed;
 use crate::sensing::{contacts, rays, render};
-use crate::value::{self, r32, r32s, Args, Refusal};
+use crate::mcp::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
+use crate::mcp::params::{Fork, HistoryPage, Save};
+use crate::value::{r32, r32s, Args, Refusal};
 use crate::world::World;
 
 /// Where the log stood when a read was made (get_simulation_info reports it).
@@ -28,45 +31,42 @@ pub struct ReadContext<'a> {
 }
 
 /// get_object_state.
-pub fn object_state(cx: &ReadContext, a: &Args) -> Result<ObjectState, Refusal> {
-    let id = value::object_id(a, "object_id")?;
+pub fn object_state(cx: &ReadContext, p: &ObjectRef) -> Result<ObjectState, Refusal> {
+    let id = p.object_id.0;
     cx.world
         .object_state(id)
         .ok_or_else(|| object_not_found(id, cx.world.simulation_id()))
 }
 
 /// get_dynamics_info.
-pub fn dynamics_info(cx: &ReadContext, a: &Args) -> Result<DynamicsInfo, Refusal> {
-    let id = value::object_id(a, "object_id")?;
+pub fn dynamics_info(cx: &ReadContext, p: &DynamicsRef) -> Result<DynamicsInfo, Refusal> {
+    let id = p.object_id.0;
     let w = cx.world;
     if !w.has_object(id) {
         return Err(object_not_found(id, w.simulation_id()));
     }
-    let link = value::link_index(a)?;
+    let link = crate::mcp::lenient::link_index(p.link_index)?;
     w.check_link(id, link)?;
     w.dynamics_info(id, link).ok_or_else(|| object_not_found(id, w.simulation_id()))
 }
 
 fn robot_read<T>(
     cx: &ReadContext,
-    a: &Args,
+    p: &JointRef,
     f: impl FnOnce(&World, u32, usize) -> Option<T>,
 ) -> Result<T, Refusal> {
-    let id = value::object_id(a, "object_id")?;
+    let id = p.object_id.0;
     let w = cx.world;
     if !w.has_object(id) {
         return Err(object_not_found(id, w.simulation_id()));
     }
-    let i = w.check_joint(id, value::integer(
-        "joint_index",
-        value::required(a, "joint_index", "a joint index (integer >= 0)")?,
-    )?)?;
+    let i = w.check_joint(id, p.joint_index.get())?;
     f(w, id, i).ok_or_else(|| object_not_found(id, w.simulation_id()))
 }
 
 /// get_num_joints (0 for primitives).
-pub fn num_joints(cx: &ReadContext, a: &Args) -> Result<NumJoints, Refusal> {
-    let id = value::object_id(a, "object_id")?;
+pub fn num_joints(cx: &ReadContext, p: &ObjectRef) -> Result<NumJoints, Refusal> {
+    let id = p.object_id.0;
     if !cx.world.has_object(id) {
         return Err(object_not_found(id, cx.world.simulation_id()));
     }
@@ -74,45 +74,49 @@ pub fn num_joints(cx: &ReadContext, a: &Args) -> Result<NumJoints, Refusal> {
 }
 
 /// get_joint_info.
-pub fn joint_info(cx: &ReadContext, a: &Args) -> Result<JointInfo, Refusal> {
-    robot_read(cx, a, |w, id, i| w.joint_info(id, i))
+pub fn joint_info(cx: &ReadContext, p: &JointRef) -> Result<JointInfo, Refusal> {
+    robot_read(cx, p, |w, id, i| w.joint_info(id, i))
 }
 
 /// get_joint_state.
-pub fn joint_state(cx: &ReadContext, a: &Args) -> Result<JointState, Refusal> {
-    robot_read(cx, a, |w, id, i| w.joint_state(id, i))
+pub fn joint_state(cx: &ReadContext, p: &JointRef) -> Result<JointState, Refusal> {
+    robot_read(cx, p, |w, id, i| w.joint_state(id, i))
+}
+
+/// A list given per movable joint must have one value per movable joint.
+fn per_joint(name: &str, list: &Option<crate::mcp::lenient::NumList>, n: usize) -> Result<Option<Vec<f64>>, Refusal> {
+    match list {
+        Some(l) if l.0.len() != n => {
+            Err(format!("{name} must have one value per movable joint ({n}); got {}", l.0.len()))
+        }
+        other => Ok(other.as_ref().map(|l| l.0.clone())),
+    }
 }
 
 /// calculate_inverse_kinematics.
-pub fn inverse_kinematics(cx: &ReadContext, a: &Args) -> Result<IkSolution, Refusal> {
-    let id = value::object_id(a, "object_id")?;
+pub fn inverse_kinematics(cx: &ReadContext, p: &InverseKinematics) -> Result<IkSolution, Refusal> {
+    let id = p.object_id.0;
     let w = cx.world;
     if !w.has_object(id) {
         return Err(object_not_found(id, w.simulation_id()));
     }
     let n = w.link_count(id);
-    let ee = value::integer(
-        "end_effector_link_index",
-        value::required(a, "end_effector_link_index", "a link index (integer >= 0)")?,
-    )?;
+    let ee = p.end_effector_link_index.get();
     if ee < 0 || ee as usize >= n {
         return Err(format!("end_effector_link_index {ee} out of range: object {id} has {n} links"));
     }
     let movable = w.robot(id).map_or(0, |r| r.movable().len());
-    let target_position = value::req_vec3(a, "target_position")?;
-    let target_orientation = value::arg(a, "target_orientation")
-        .map(|v| value::quat("target_orientation", v))
-        .transpose()?;
-    let lower = value::opt_list_of(a, "lower_limits", movable)?;
-    let upper = value::opt_list_of(a, "upper_limits", movable)?;
-    value::opt_list_of(a, "joint_ranges", movable)?;
-    let rest = value::opt_list_of(a, "rest_poses", movable)?;
-    w.inverse_kinematics(id, ee as usize, target_position, target_orientation, lower, upper, rest)
+    let lower = per_joint("lower_limits", &p.lower_limits, movable)?;
+    let upper = per_joint("upper_limits", &p.upper_limits, movable)?;
+    per_joint("joint_ranges", &p.joint_ranges, movable)?;
+    let rest = per_joint("rest_poses", &p.rest_poses, movable)?;
+    let target_orientation = p.target_orientation.as_ref().map(|q| q.0);
+    w.inverse_kinematics(id, ee as usize, p.target_position.0, target_orientation, lower, upper, rest)
         .ok_or_else(|| object_not_found(id, w.simulation_id()))
 }
 
 /// get_simulation_info.
-pub fn simulation_info(cx: &ReadContext, _a: &Args) -> Result<SimulationInfo, Refusal> {
+pub fn simulation_info(cx: &ReadContext) -> Result<SimulationInfo, Refusal> {
     let w = cx.world;
     Ok(SimulationInfo {
         simulation_id: w.simulation_id().to_string(),
@@ -129,41 +133,105 @@ pub fn simulation_info(cx: &ReadContext, _a: &Args) -> Result<SimulationInfo, Re
     })
 }
 
-/// Re-executes a recorded read for replay: Some(result JSON) for the reads replay checks,
-/// None for tools whose results depend on more than the world (history, verification,
-/// saves, forks' fresh ids, the simulation list).
-pub fn replay_read(tool: &str, cx: &ReadContext, a: &Args) -> Option<Result<Value, Refusal>> {
-    fn json<T: serde::Serialize>(r: Result<T, Refusal>) -> Result<Value, Refusal> {
-        r.and_then(|v| serde_json::to_value(v).map_err(|e| e.to_string()))
+/// Every read a simulation's log can hold, with its parameters: parsed once, answered by an
+/// exhaustive match. A tool that is not a read is an error, never silently skipped.
+#[derive(Debug, Clone)]
+pub enum Read {
+    /// get_object_state.
+    ObjectState(ObjectRef),
+    /// get_dynamics_info.
+    DynamicsInfo(DynamicsRef),
+    /// get_simulation_info.
+    SimulationInfo(SimRef),
+    /// get_num_joints.
+    NumJoints(ObjectRef),
+    /// get_joint_info.
+    JointInfo(JointRef),
+    /// get_joint_state.
+    JointState(JointRef),
+    /// calculate_inverse_kinematics.
+    InverseKinematics(InverseKinematics),
+    /// ray_test.
+    RayTest(RayTest),
+    /// ray_test_batch.
+    RayTestBatch(RayTestBatch),
+    /// get_all_collisions.
+    AllCollisions(SimRef),
+    /// get_collisions_for_pair.
+    CollisionsForPair(CollisionPair),
+    /// get_camera_image.
+    CameraImage(CameraParams),
+    /// get_history: its result depends on the log, not the world.
+    History(HistoryPage),
+    /// verify_simulation: its result depends on the log, not the world.
+    Verify(SimRef),
+    /// save_simulation: its result names a file.
+    Save(Save),
+    /// fork_simulation (the parent's event): its result names a fresh simulation.
+    Fork(Fork),
+}
+
+impl Read {
+    /// A read recorded in a log, from its tool name and arguments. Earlier releases ignored
+    /// unknown parameters, so they are dropped here rather than refused (`params::parse_recorded`).
+    pub fn recorded(tool: &str, a: &Args) -> Result<Read, Refusal> {
+        fn p<P: serde::de::DeserializeOwned + schemars::JsonSchema + 'static>(tool: &str, a: &Args) -> Result<P, Refusal> {
+            params::parse_recorded(tool, a)
+        }
+        Ok(match tool {
+            "get_object_state" => Read::ObjectState(p(tool, a)?),
+            "get_dynamics_info" => Read::DynamicsInfo(p(tool, a)?),
+            "get_simulation_info" => Read::SimulationInfo(p(tool, a)?),
+            "get_num_joints" => Read::NumJoints(p(tool, a)?),
+            "get_joint_info" => Read::JointInfo(p(tool, a)?),
+            "get_joint_state" => Read::JointState(p(tool, a)?),
+            "calculate_inverse_kinematics" => Read::InverseKinematics(p(tool, a)?),
+            "ray_test" => Read::RayTest(p(tool, a)?),
+            "ray_test_batch" => Read::RayTestBatch(p(tool, a)?),
+            "get_all_collisions" => Read::AllCollisions(p(tool, a)?),
+            "get_collisions_for_pair" => Read::CollisionsForPair(p(tool, a)?),
+            "get_camera_image" => Read::CameraImage(p(tool, a)?),
+            "get_history" => Read::History(p(tool, a)?),
+            "verify_simulation" => Read::Verify(p(tool, a)?),
+            "save_simulation" => Read::Save(p(tool, a)?),
+            "fork_simulation" => Read::Fork(p(tool, a)?),
+            other => return Err(format!("{other} is not a read this server knows")),
+        })
     }
-    Some(match tool {
-        "get_object_state" => json(object_state(cx, a)),
-        "get_dynamics_info" => json(dynamics_info(cx, a)),
-        "get_simulation_info" => json(simulation_info(cx, a)),
-        "get_num_joints" => json(num_joints(cx, a)),
-        "get_joint_info" => json(joint_info(cx, a)),
-        "get_joint_state" => json(joint_state(cx, a)),
-        "calculate_inverse_kinematics" => json(inverse_kinematics(cx, a)),
-        "ray_test" => json(ray_test(cx, a)),
-        "ray_test_batch" => json(ray_test_batch(cx, a, usize::MAX)),
-        "get_all_collisions" => json(all_collisions(cx, a)),
-        "get_collisions_for_pair" => json(collisions_for_pair(cx, a)),
-        "get_camera_image" => json(camera_image(cx, a, usize::MAX)),
-        _ => return None,
-    })
+
+    /// Re-executes the read for replay, with no limits (it was accepted once): Some(result
+    /// JSON) for the reads whose result is a function of the world, None for those that
+    /// depend on more (history, verification, saves, forks' fresh ids).
+    pub fn replay(&self, cx: &ReadContext) -> Option<Result<Value, Refusal>> {
+        fn json<T: serde::Serialize>(r: Result<T, Refusal>) -> Result<Value, Refusal> {
+            r.and_then(|v| serde_json::to_value(v).map_err(|e| e.to_string()))
+        }
+        Some(match self {
+            Read::ObjectState(p) => json(object_state(cx, p)),
+            Read::DynamicsInfo(p) => json(dynamics_info(cx, p)),
+            Read::SimulationInfo(_) => json(simulation_info(cx)),
+            Read::NumJoints(p) => json(num_joints(cx, p)),
+            Read::JointInfo(p) => json(joint_info(cx, p)),
+            Read::JointState(p) => json(joint_state(cx, p)),
+            Read::InverseKinematics(p) => json(inverse_kinematics(cx, p)),
+            Read::RayTest(p) => json(ray_test(cx, p)),
+            Read::RayTestBatch(p) => json(ray_test_batch(cx, p, usize::MAX)),
+            Read::AllCollisions(_) => json(all_collisions(cx)),
+            Read::CollisionsForPair(p) => json(collisions_for_pair(cx, p)),
+            Read::CameraImage(p) => json(camera_image(cx, p, usize::MAX)),
+            Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) => return None,
+        })
+    }
 }
 
 /// ray_test.
-pub fn ray_test(cx: &ReadContext, a: &Args) -> Result<RayHit, Refusal> {
-    let from = value::req_vec3(a, "ray_from")?;
-    let to = value::req_vec3(a, "ray_to")?;
-    Ok(rays::cast(&Indexed::new(cx.world), from, to))
+pub fn ray_test(cx: &ReadContext, p: &RayTest) -> Result<RayHit, Refusal> {
+    Ok(rays::cast(&Indexed::new(cx.world), p.ray_from.0, p.ray_to.0))
 }
 
 /// ray_test_batch (at most `max_rays` rays).
-pub fn ray_test_batch(cx: &ReadContext, a: &Args, max_rays: usize) -> Result<RayBatch, Refusal> {
-    let list = |name: &str| value::vec3_list(name, value::required(a, name, "a list of [x, y, z] vectors")?);
-    let (from, to) = (list("rays_from")?, list("rays_to")?);
+pub fn ray_test_batch(cx: &ReadContext, p: &RayTestBatch, max_rays: usize) -> Result<RayBatch, Refusal> {
+    let (from, to) = (&p.rays_from.0, &p.rays_to.0);
     if from.len() != to.len() {
         return Err(format!(
             "rays_from and rays_to must have the same length; got {} and {}",
@@ -177,19 +245,19 @@ pub fn ray_test_batch(cx: &ReadContext, a: &Args, max_rays: usize) -> Result<Ray
     if from.len() > max_rays {
         return Err(format!("Too many rays: {} in one batch (at most {max_rays}, --max-rays)", from.len()));
     }
-    let rays: Vec<_> = from.into_iter().zip(to).collect();
+    let rays: Vec<_> = from.iter().copied().zip(to.iter().copied()).collect();
     Ok(RayBatch { results: rays::cast_batch(&Indexed::new(cx.world), &rays) })
 }
 
 /// get_all_collisions.
-pub fn all_collisions(cx: &ReadContext, _a: &Args) -> Result<Contacts, Refusal> {
+pub fn all_collisions(cx: &ReadContext) -> Result<Contacts, Refusal> {
     Ok(Contacts { contacts: contacts::contacts(cx.world, None) })
 }
 
 /// get_collisions_for_pair.
-pub fn collisions_for_pair(cx: &ReadContext, a: &Args) -> Result<Contacts, Refusal> {
+pub fn collisions_for_pair(cx: &ReadContext, p: &CollisionPair) -> Result<Contacts, Refusal> {
     let w = cx.world;
-    let (oa, ob) = (value::object_id(a, "obj_a")?, value::object_id(a, "obj_b")?);
+    let (oa, ob) = (p.obj_a.0, p.obj_b.0);
     for id in [oa, ob] {
         if !w.has_object(id) {
             return Err(object_not_found(id, w.simulation_id()));
@@ -210,25 +278,16 @@ pub struct Rendered {
     pub png: Vec<u8>,
 }
 
-/// A 4×4 matrix argument, or `default` when absent.
-fn matrix(a: &Args, name: &str, default: impl FnOnce() -> Mat4) -> Result<Mat4, Refusal> {
-    match value::arg(a, name) {
-        Some(v) => value::numbers64(name, v, "16 finite numbers (a 4x4 matrix, column-major)"),
-        None => Ok(default()),
-    }
-}
-
 /// get_camera_image (at most `max_px` pixels).
-pub fn camera_image(cx: &ReadContext, a: &Args, max_px: usize) -> Result<Rendered, Refusal> {
+pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result<Rendered, Refusal> {
     let w = cx.world;
-    let side = |name: &str| -> Result<u32, Refusal> {
-        let v = value::integer(name, value::required(a, name, "an image size in pixels (integer >= 1)")?)?;
+    let side = |name: &str, v: i64| -> Result<u32, Refusal> {
         u32::try_from(v)
             .ok()
             .filter(|v| *v >= 1)
             .ok_or_else(|| format!("{name} must be an integer >= 1; got {v}"))
     };
-    let (width, height) = (side("width")?, side("height")?);
+    let (width, height) = (side("width", p.width.get())?, side("height", p.height.get())?);
     let px = width as u64 * height as u64;
     if px > max_px as u64 {
         return Err(format!(
@@ -236,13 +295,19 @@ pub fn camera_image(cx: &ReadContext, a: &Args, max_px: usize) -> Result<Rendere
         ));
     }
     let cam = &w.tables.viewer;
-    let view = matrix(a, "view_matrix", || {
-        let t = cam.target.map(f64::from);
-        camera::view_matrix_from_yaw_pitch(t, cam.distance.into(), cam.yaw.into(), cam.pitch.into(), 2)
-    })?;
-    let proj = matrix(a, "projection_matrix", || camera::default_projection(width, height))?;
-    let include_depth = value::bool_or(a, "include_depth", false)?;
-    let include_segmentation = value::bool_or(a, "include_segmentation", false)?;
+    let view: Mat4 = match &p.view_matrix {
+        Some(m) => m.0,
+        None => {
+            let t = cam.target.map(f64::from);
+            camera::view_matrix_from_yaw_pitch(t, cam.distance.into(), cam.yaw.into(), cam.pitch.into(), 2)
+        }
+    };
+    let proj: Mat4 = match &p.projection_matrix {
+        Some(m) => m.0,
+        None => camera::default_projection(width, height),
+    };
+    let include_depth = p.include_depth.as_ref().is_some_and(|b| b.0);
+    let include_segmentation = p.include_segmentation.as_ref().is_some_and(|b| b.0);
     let frame = render::render(w, width, height, &view, &proj);
     let mut counts = std::collections::BTreeMap::<u32, u64>::new();
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);

@@ -15,7 +15,7 @@ use serde_json::Value;
 
 use crate::command::Command;
 use crate::outputs::{EventRef, Redone, Undone};
-use crate::reads::{replay_read, ReadContext};
+use crate::reads::{Read, ReadContext};
 use crate::fold::{self, FoldError};
 use crate::limits::Limits;
 use crate::sim::{rebuild_at, MoveRecord};
@@ -141,7 +141,7 @@ impl Replayer<'_> {
                     Command::CreateSimulation { .. } => {
                         let (w, result) = fold::create_root(e, self.log).map_err(|err| ReplayError::Store(err.into()))?;
                         self.world = Some(w);
-                        Self::check_result(e, &result)?;
+                        Self::check_result(e, &result.to_value())?;
                     }
                     Command::ForkSimulation { simulation_id, gui, .. }
                     | Command::LoadSimulation { simulation_id, gui, .. } => {
@@ -169,7 +169,7 @@ impl Replayer<'_> {
                 if let Command::StepSimulation { steps } = cmd {
                     self.summary.steps += steps;
                 }
-                Self::check_result(e, &result)?;
+                Self::check_result(e, &result.map_or(Value::Null, |r| r.to_value()))?;
                 self.head = e.seq;
                 self.summary.state_events += 1;
                 self.check_state(e)?;
@@ -203,10 +203,11 @@ impl Replayer<'_> {
             }
             Kind::Read => {
                 let args: Args = serde_json::from_str(&e.arguments).unwrap_or_default();
+                let read = Read::recorded(&e.tool, &args).map_err(|why| Self::diverged(e, "read", "a read it can re-run", &why))?;
                 let world = self.world(e)?;
                 let hash = world.state_hash();
                 let cx = ReadContext { world, head_seq: self.head, last_seq: self.prev_seq, state_hash: &hash };
-                match replay_read(&e.tool, &cx, &args) {
+                match read.replay(&cx) {
                     Some(Ok(result)) => {
                         Self::check_result(e, &result)?;
                         self.summary.reads_checked += 1;

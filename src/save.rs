@@ -494,7 +494,9 @@ fn urdf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, 
         Some(Value::Bool(b)) => *b,
         Some(v) => return Err(bad(format!("{} must be true or false; got {}", name("use_fixed_base"), value::show(v)))),
     };
+    // As load_urdf's arguments (read by the same rules; the simulation is the one being built).
     let args = value::Args::from_iter([
+        ("sim_id".to_string(), json!("")),
         ("file_path".to_string(), json!(file)),
         ("position".to_string(), json!(pose.position)),
         ("orientation".to_string(), json!(pose.orientation)),

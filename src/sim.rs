@@ -12,12 +12,11 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use serde::Serialize;
-use serde_json::Value;
 
 use crate::command::{Command, NoBlobs, EVENT_VERSION};
 use crate::fold::{self, Verify};
 use crate::limits::Limits;
-use crate::outputs::{Message, SimulationList, SimulationSummary};
+use crate::outputs::{Message, Outcome, SimulationList, SimulationSummary};
 use crate::reads::ReadContext;
 use crate::store::{Event, Kind, Log, StoreError, SyncMode};
 use crate::value::{Args, Refusal};
@@ -106,11 +105,11 @@ impl Sim {
         root: Command,
         args: &Args,
         sync: SyncMode,
-    ) -> Result<(Sim, Value), String> {
+    ) -> Result<(Sim, Outcome), String> {
         let (world, result) = World::create(&root).ok_or("not a root command")?;
         let mut log = Log::create(path, world.simulation_id(), sync).map_err(|e| e.to_string())?;
         let args_json = log.store_arguments(serde_json::to_string(args).unwrap_or_default());
-        let result_json = result.to_string();
+        let result_json = result.to_value().to_string();
         let snapshot = world.snapshot();
         let snap_hash = crate::digest::content_hash(&snapshot);
         let event = Event {
@@ -247,7 +246,7 @@ impl Sim {
         decided: Result<Command, Refusal>,
         limits: &Limits,
         control: StepControl,
-    ) -> Result<Value, Refusal> {
+    ) -> Result<Outcome, Refusal> {
         self.ensure_live()?;
         let cmd = match decided.and_then(|c| c.validate(&self.world, limits).map(|()| c)) {
             Ok(c) => c,
@@ -261,11 +260,11 @@ impl Sim {
         let result = self.world.apply(&cmd, control);
         // Logged as carried out: a cancelled step records the steps it took, so every fold
         // of the log repeats exactly what the world did.
-        let cmd = cmd.as_done(&result);
+        let cmd = cmd.as_taken(result.steps_taken());
         let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
         self.work_since_snapshot += crate::fold::work(&cmd, &self.world);
         self.changes_since_snapshot += 1;
-        let result_json = result.to_string();
+        let result_json = result.to_value().to_string();
         let mut e = self.event(Kind::Change, tool, args);
         e.parent = Some(self.log.head_seq());
         e.command = Some(command_json);
@@ -657,7 +656,7 @@ impl Registry {
     }
 
     /// Creates a simulation from a root command whose id the caller generated.
-    pub fn create(&self, root: Command, args: &Args) -> Result<Value, Refusal> {
+    pub fn create(&self, root: Command, args: &Args) -> Result<Outcome, Refusal> {
         let Command::CreateSimulation { simulation_id, .. } = &root else {
             return Err("not a root command".into());
         };

@@ -10,6 +10,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::command::{Blob, Command};
+use crate::mcp::lenient::{NumList, Positive};
+use crate::mcp::params;
 use crate::value::{self, Refusal};
 use crate::workspace::Sandbox;
 use crate::world::urdf::mesh_names;
@@ -39,12 +41,17 @@ fn read_limited(path: &Path, shown: &str, limit: u64) -> Result<Vec<u8>, Refusal
     std::fs::read(path).map_err(|e| format!("could not read {shown}: {e}"))
 }
 
-/// Builds load_urdf's command: the URDF text and every mesh it names, read now, travel in it.
+/// Builds load_urdf's command from its arguments (as a loaded file's robot entry gives them).
 pub fn decide_load_urdf(sandbox: &Sandbox, a: &value::Args) -> Result<Command, Refusal> {
-    let user = value::string(a, "file_path")?;
-    let position = value::opt_vec3(a, "position")?.unwrap_or([0.0; 3]);
-    let orientation = value::quat_or_identity(a, "orientation")?;
-    let fixed_base = value::bool_or(a, "use_fixed_base", false)?;
+    load_urdf_command(sandbox, &params::parse("load_urdf", a)?)
+}
+
+/// Builds load_urdf's command: the URDF text and every mesh it names, read now, travel in it.
+pub fn load_urdf_command(sandbox: &Sandbox, p: &params::LoadUrdf) -> Result<Command, Refusal> {
+    let user = p.file_path.0.clone();
+    let position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
+    let orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
+    let fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
     let (text, dir) = match sandbox.existing(&user) {
         Ok(path) => {
             let bytes = read_limited(&path, &format!("file_path {user}"), MAX_URDF_BYTES)?;
@@ -143,11 +150,10 @@ fn link_xml(name: &str, shape: &str, dims: &[f64], mass: f64, rgba: &str) -> Res
     ))
 }
 
-fn dims(a: &value::Args, name: &str) -> Result<Vec<f64>, Refusal> {
-    let v = value::required(a, name, "a list of positive numbers")?;
-    let list = value::number_list(name, v)?;
+fn dims<'a>(name: &str, list: &'a NumList) -> Result<&'a [f64], Refusal> {
+    let list = &list.0;
     if list.is_empty() || list.iter().any(|x| *x <= 0.0) {
-        return Err(format!("{name} must be positive numbers; got {}", value::show(v)));
+        return Err(format!("{name} must be positive numbers; got {list:?}"));
     }
     Ok(list)
 }
@@ -156,25 +162,25 @@ fn dims(a: &value::Args, name: &str) -> Result<Vec<f64>, Refusal> {
 /// where it went and what it holds. The parent link's frame is the robot's base; the child
 /// link's frame is the joint frame (at `joint_origin` in the parent frame), with the child
 /// shape centred on it.
-pub fn generate_revolute_joint(sandbox: &Sandbox, a: &value::Args) -> Result<crate::outputs::GeneratedUrdf, Refusal> {
-    let parent_shape = value::string(a, "parent_shape")?;
-    let child_shape = value::string(a, "child_shape")?;
-    let parent = link_xml("parent", &parent_shape, &dims(a, "parent_dimensions")?, value::positive_or(a, "parent_mass", 1.0)? as f64, "0.2 0.4 0.8 1")?;
-    let child = link_xml("child", &child_shape, &dims(a, "child_dimensions")?, value::positive_or(a, "child_mass", 1.0)? as f64, "0.9 0.4 0.1 1")?;
-    let axis = value::opt_vec3(a, "joint_axis")?.unwrap_or([0.0, 0.0, 1.0]);
+pub fn generate_revolute_joint(sandbox: &Sandbox, p: &params::GenerateRevolute) -> Result<crate::outputs::GeneratedUrdf, Refusal> {
+    let (parent_shape, child_shape) = (p.parent_shape.0.clone(), p.child_shape.0.clone());
+    let mass = |m: &Option<Positive>| m.as_ref().map_or(1.0, |m| m.0) as f64;
+    let parent = link_xml("parent", &parent_shape, dims("parent_dimensions", &p.parent_dimensions)?, mass(&p.parent_mass), "0.2 0.4 0.8 1")?;
+    let child = link_xml("child", &child_shape, dims("child_dimensions", &p.child_dimensions)?, mass(&p.child_mass), "0.9 0.4 0.1 1")?;
+    let axis = p.joint_axis.as_ref().map_or([0.0, 0.0, 1.0], |v| v.0);
     if axis.iter().all(|x| *x == 0.0) {
         return Err("joint_axis must be a non-zero vector [x, y, z]".into());
     }
-    let origin = value::opt_vec3(a, "joint_origin")?.unwrap_or([0.0; 3]);
-    let lower = value::number_or(a, "joint_lower_limit", -std::f32::consts::PI)?;
-    let upper = value::number_or(a, "joint_upper_limit", std::f32::consts::PI)?;
+    let origin = p.joint_origin.as_ref().map_or([0.0; 3], |v| v.0);
+    let lower = p.joint_lower_limit.as_ref().map_or(-std::f32::consts::PI, |v| v.0);
+    let upper = p.joint_upper_limit.as_ref().map_or(std::f32::consts::PI, |v| v.0);
     if lower > upper {
         return Err(format!("joint_lower_limit ({lower}) must not exceed joint_upper_limit ({upper})"));
     }
-    let effort = value::non_negative_or(a, "max_effort", 100.0)?;
-    let velocity = value::non_negative_or(a, "max_velocity", 10.0)?;
-    let target = match value::arg(a, "output_path") {
-        Some(_) => sandbox.writable(&value::string(a, "output_path")?)?,
+    let effort = p.max_effort.as_ref().map_or(100.0, |v| v.0);
+    let velocity = p.max_velocity.as_ref().map_or(10.0, |v| v.0);
+    let target = match &p.output_path {
+        Some(path) => sandbox.writable(&path.0)?,
         None => {
             let free = (1..10_000)
                 .map(|n| format!("generated/revolute_{n}.urdf"))

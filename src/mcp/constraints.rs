@@ -6,44 +6,43 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer};
+use super::objects::quat_or_identity;
+use super::params::{self, ConstraintRef, CreateConstraint};
+use super::PhysicsServer;
 use crate::command::{Command, ConstraintSpec, ConstraintType};
 use crate::outputs::{ConstraintCreated, Message};
-use crate::value::{self, Args, Refusal};
+use crate::value::Refusal;
 
-fn decide_create(a: &Args) -> Result<Command, Refusal> {
-    let parent_id = value::object_id(a, "parent_id")?;
-    let child = value::integer("child_id", value::required(a, "child_id", "an object id or -1 (the world)")?)?;
-    let child_id = match child {
+fn decide_create(p: CreateConstraint) -> Result<Command, Refusal> {
+    let child_id = match p.child_id.get() {
         -1 => None,
         c => Some(u32::try_from(c).map_err(|_| format!("child_id must be an object id or -1 (the world); got {c}"))?),
     };
-    let name = value::string(a, "joint_type")?;
+    let name = p.joint_type.0;
     let joint_type = ConstraintType::parse(&name).ok_or_else(|| {
         format!("joint_type must be fixed, prismatic, spherical or revolute; got {name:?}")
     })?;
-    let joint_axis = value::opt_vec3(a, "joint_axis")?.unwrap_or([0.0, 0.0, 1.0]);
+    let joint_axis = p.joint_axis.map_or([0.0, 0.0, 1.0], |v| v.0);
     let needs_axis = matches!(joint_type, ConstraintType::Prismatic | ConstraintType::Revolute);
     if needs_axis && joint_axis.iter().all(|x| *x == 0.0) {
         return Err(format!("joint_axis must be a non-zero vector for a {} constraint; got [0, 0, 0]", joint_type.name()));
     }
     Ok(Command::CreateConstraint {
         spec: ConstraintSpec {
-            parent_id,
+            parent_id: p.parent_id.0,
             child_id,
             joint_type,
             joint_axis,
-            parent_frame_position: value::opt_vec3(a, "parent_frame_position")?.unwrap_or_default(),
-            child_frame_position: value::opt_vec3(a, "child_frame_position")?.unwrap_or_default(),
-            parent_frame_orientation: value::quat_or_identity(a, "parent_frame_orientation")?,
-            child_frame_orientation: value::quat_or_identity(a, "child_frame_orientation")?,
+            parent_frame_position: p.parent_frame_position.map(|v| v.0).unwrap_or_default(),
+            child_frame_position: p.child_frame_position.map(|v| v.0).unwrap_or_default(),
+            parent_frame_orientation: quat_or_identity(p.parent_frame_orientation),
+            child_frame_orientation: quat_or_identity(p.child_frame_orientation),
         },
     })
 }
 
-fn decide_remove(a: &Args) -> Result<Command, Refusal> {
-    let v = value::required(a, "constraint_id", "a constraint id (integer >= 0)")?;
-    let i = value::integer("constraint_id", v)?;
+fn decide_remove(p: ConstraintRef) -> Result<Command, Refusal> {
+    let i = p.constraint_id.get();
     let constraint_id = u32::try_from(i)
         .map_err(|_| format!("constraint_id must be a constraint id (integer >= 0); got {i}"))?;
     Ok(Command::RemoveConstraint { constraint_id })

@@ -2,8 +2,9 @@
 //! `Sim` calls, and from results to MCP tool results. No physics here.
 //!
 //! Every tool takes the raw argument object (so a wrong type is a clear `isError` result, not a
-//! JSON-RPC failure, and the log keeps the arguments exactly as sent) and declares its input
-//! schema from `params.rs` and its output schema from `outputs.rs`. Errors are one sentence
+//! JSON-RPC failure, and the log keeps the arguments exactly as sent), parses it once into its
+//! `params.rs` type — whose schema is the tool's input schema — and declares its output schema
+//! from `outputs.rs`. Errors are one sentence
 //! with `isError: true`; sim work runs on the blocking pool, one call at a time per simulation.
 //!
 //! A tool returns `Result<Json<T>, String>` spelled out: rmcp's `#[tool]` macro finds the
@@ -12,8 +13,9 @@
 //! JSON Schema 2020-12 by `schema::plain` (see `tools`).
 
 mod constraints;
+pub mod lenient;
 mod objects;
-mod params;
+pub mod params;
 mod persistence;
 mod prompts;
 mod resources;
@@ -36,14 +38,20 @@ use rmcp::model::{
 };
 use rmcp::service::{NotificationContext, RequestContext};
 use rmcp::{tool_handler, RoleServer, ServerHandler};
+use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 use crate::command::Command;
 use crate::limits::Limits;
+use crate::outputs::Outcome;
 use crate::sim::{lock_sim, Registry, Sim};
 use crate::value::{self, Args, Refusal};
 use crate::world::StepControl;
+
+/// What a tool's parameter type must be: parsed from the arguments, described by its schema.
+pub(crate) trait Params: DeserializeOwned + JsonSchema + Send + 'static {}
+impl<P: DeserializeOwned + JsonSchema + Send + 'static> Params for P {}
 
 pub use resources::Sessions;
 
@@ -137,48 +145,51 @@ impl PhysicsServer {
         .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?
     }
 
-    /// A state-changing call whose steps may be watched (progress) or stopped (cancel).
-    async fn change_with<T: DeserializeOwned>(
+    /// A state-changing call whose steps may be watched (progress) or stopped (cancel): the
+    /// arguments are parsed as `P`, `decide` makes the command, and a refusal of either is
+    /// recorded like any other.
+    async fn change_with<P: Params, T: TryFrom<Outcome>>(
         &self,
         tool: &'static str,
         args: Args,
-        decide: impl FnOnce(&Args) -> Result<Command, Refusal> + Send + 'static,
+        decide: impl FnOnce(P) -> Result<Command, Refusal> + Send + 'static,
         mut control: impl FnMut(u64) -> bool + Send + 'static,
     ) -> Result<Json<T>, String> {
         let out = self
             .with_sim(args, move |sim, a, limits| {
                 let ctl: StepControl = &mut control;
                 let started = std::time::Instant::now();
-                let out = sim.change(tool, a, decide(a), limits, ctl);
+                let decided = params::parse::<P>(tool, a).and_then(decide);
+                let out = sim.change(tool, a, decided, limits, ctl);
                 // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).
                 tracing::debug!(target: "physics_mcp::timing", tool, sim_change_ms = started.elapsed().as_secs_f64() * 1e3);
                 out
             })
             .await?;
-        serde_json::from_value(out)
+        T::try_from(out)
             .map(Json)
-            .map_err(|e| format!("Internal error: unexpected result shape: {e}"))
+            .map_err(|_| format!("Internal error: {tool} gave a result of an unexpected kind"))
     }
 
     /// A state-changing call.
-    async fn change<T: DeserializeOwned>(
+    async fn change<P: Params, T: TryFrom<Outcome>>(
         &self,
         tool: &'static str,
         args: Args,
-        decide: impl FnOnce(&Args) -> Result<Command, Refusal> + Send + 'static,
+        decide: impl FnOnce(P) -> Result<Command, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         self.change_with(tool, args, decide, |_| true).await
     }
 
     /// A read-only call that may take long (history pages, verification): always on the
-    /// blocking pool.
-    async fn read_blocking<T: Serialize + Send + 'static>(
+    /// blocking pool. The arguments are parsed as `P`; a refusal is recorded.
+    async fn read_blocking<P: Params, T: Serialize + Send + 'static>(
         &self,
         tool: &'static str,
         args: Args,
-        f: impl FnOnce(&Sim, &Args) -> Result<T, Refusal> + Send + 'static,
+        f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
-        self.with_sim(args, move |sim, a, _| sim.read(tool, a, |s| f(s, a)))
+        self.with_sim(args, move |sim, a, _| sim.read(tool, a, |s| f(s, params::parse::<P>(tool, a)?)))
             .await
             .map(Json)
     }
@@ -186,16 +197,16 @@ impl PhysicsServer {
     /// A read-only call on a simulation; recorded as a read event. Reads take microseconds,
     /// so when the simulation is idle they run right here instead of on the blocking pool;
     /// when a long call holds it, they wait on the pool like everything else.
-    async fn read<T: Serialize + Send + 'static>(
+    async fn read<P: Params, T: Serialize + Send + 'static>(
         &self,
         tool: &'static str,
         args: Args,
-        f: impl FnOnce(&Sim, &Args) -> Result<T, Refusal> + Send + 'static,
+        f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
         if let Ok(mut guard) = sim.try_lock() {
-            return guard.read(tool, &args, |s| f(s, &args)).map(Json);
+            return guard.read(tool, &args, |s| f(s, params::parse::<P>(tool, &args)?)).map(Json);
         }
         self.read_blocking(tool, args, f).await
     }

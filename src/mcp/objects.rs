@@ -5,106 +5,104 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer};
+use super::lenient::{link_index, Color, NonNegative, Quat, Vec3};
+use super::params::{self, AddBox, AddRound, AddSphere, ApplyForce, ApplyTorque, ChangeDynamics, ObjectRef, SetPose, SetVelocity};
+use super::PhysicsServer;
 use crate::command::{Command, DynamicsChange, Shape};
-use crate::reads;
 use crate::outputs::{DynamicsChanged, DynamicsInfo, Message, ObjectAdded, ObjectState};
-use crate::value::{self, arg, Args, Refusal};
+use crate::reads;
+use crate::value::Refusal;
+
+/// An optional quaternion, the identity when absent.
+pub(super) fn quat_or_identity(q: Option<Quat>) -> [f32; 4] {
+    q.map_or([0.0, 0.0, 0.0, 1.0], |q| q.0)
+}
 
 /// The parts every add_* call shares: position, orientation, mass, color.
-fn decide_add(a: &Args, shape: Shape) -> Result<Command, Refusal> {
-    Ok(Command::AddBody {
+fn decide_add(shape: Shape, position: Vec3, orientation: Option<Quat>, mass: Option<NonNegative>, color: Option<Color>) -> Command {
+    Command::AddBody {
         shape,
-        position: value::req_vec3(a, "position")?,
-        orientation: value::quat_or_identity(a, "orientation")?,
-        mass: value::non_negative_or(a, "mass", 1.0)?,
-        color: arg(a, "color").map(|c| value::color("color", c)).transpose()?,
-    })
+        position: position.0,
+        orientation: quat_or_identity(orientation),
+        mass: mass.map_or(1.0, |m| m.0),
+        color: color.map(|c| c.0),
+    }
 }
 
-fn req_positive(a: &Args, name: &str) -> Result<f32, Refusal> {
-    value::positive(name, value::required(a, name, "a finite number > 0")?)
-}
-
-fn decide_box(a: &Args) -> Result<Command, Refusal> {
-    let d = value::req_vec3(a, "dimensions")?;
+fn decide_box(p: AddBox) -> Result<Command, Refusal> {
+    let d = p.dimensions.0;
     if d.iter().any(|x| *x <= 0.0) {
         return Err(format!(
             "dimensions must be 3 half-extents > 0 [hx, hy, hz]; got {:?}",
             d
         ));
     }
-    decide_add(a, Shape::Box { half_extents: d })
+    Ok(decide_add(Shape::Box { half_extents: d }, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_sphere(a: &Args) -> Result<Command, Refusal> {
-    let radius = req_positive(a, "radius")?;
-    decide_add(a, Shape::Sphere { radius })
+fn decide_sphere(p: AddSphere) -> Result<Command, Refusal> {
+    Ok(decide_add(Shape::Sphere { radius: p.radius.0 }, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_cylinder(a: &Args) -> Result<Command, Refusal> {
-    let (radius, height) = (req_positive(a, "radius")?, req_positive(a, "height")?);
-    decide_add(a, Shape::Cylinder { radius, height })
+fn decide_cylinder(p: AddRound) -> Result<Command, Refusal> {
+    let shape = Shape::Cylinder { radius: p.radius.0, height: p.height.0 };
+    Ok(decide_add(shape, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_capsule(a: &Args) -> Result<Command, Refusal> {
-    let (radius, height) = (req_positive(a, "radius")?, req_positive(a, "height")?);
-    decide_add(a, Shape::Capsule { radius, height })
+fn decide_capsule(p: AddRound) -> Result<Command, Refusal> {
+    let shape = Shape::Capsule { radius: p.radius.0, height: p.height.0 };
+    Ok(decide_add(shape, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_pose(a: &Args) -> Result<Command, Refusal> {
+fn decide_pose(p: SetPose) -> Result<Command, Refusal> {
     Ok(Command::SetObjectPose {
-        object_id: value::object_id(a, "object_id")?,
-        position: value::req_vec3(a, "position")?,
-        orientation: value::quat_or_identity(a, "orientation")?,
+        object_id: p.object_id.0,
+        position: p.position.0,
+        orientation: quat_or_identity(p.orientation),
     })
 }
 
-fn decide_force(a: &Args) -> Result<Command, Refusal> {
+fn decide_force(p: ApplyForce) -> Result<Command, Refusal> {
     Ok(Command::ApplyForce {
-        object_id: value::object_id(a, "object_id")?,
-        force: value::req_vec3(a, "force")?,
-        position: value::opt_vec3(a, "position")?,
-        link_index: value::link_index(a)?,
+        object_id: p.object_id.0,
+        force: p.force.0,
+        position: p.position.map(|v| v.0),
+        link_index: link_index(p.link_index)?,
     })
 }
 
-fn decide_torque(a: &Args) -> Result<Command, Refusal> {
+fn decide_torque(p: ApplyTorque) -> Result<Command, Refusal> {
     Ok(Command::ApplyTorque {
-        object_id: value::object_id(a, "object_id")?,
-        torque: value::req_vec3(a, "torque")?,
-        link_index: value::link_index(a)?,
+        object_id: p.object_id.0,
+        torque: p.torque.0,
+        link_index: link_index(p.link_index)?,
     })
 }
 
-fn decide_velocity(a: &Args) -> Result<Command, Refusal> {
-    let object_id = value::object_id(a, "object_id")?;
-    let linear_velocity = value::opt_vec3(a, "linear_velocity")?;
-    let angular_velocity = value::opt_vec3(a, "angular_velocity")?;
-    if linear_velocity.is_none() && angular_velocity.is_none() {
+fn decide_velocity(p: SetVelocity) -> Result<Command, Refusal> {
+    if p.linear_velocity.is_none() && p.angular_velocity.is_none() {
         return Err("linear_velocity or angular_velocity is required: give at least one [x, y, z]".into());
     }
     Ok(Command::SetObjectVelocity {
-        object_id,
-        linear_velocity,
-        angular_velocity,
+        object_id: p.object_id.0,
+        linear_velocity: p.linear_velocity.map(|v| v.0),
+        angular_velocity: p.angular_velocity.map(|v| v.0),
     })
 }
 
-fn decide_dynamics(a: &Args) -> Result<Command, Refusal> {
-    let object_id = value::object_id(a, "object_id")?;
-    let link_index = value::link_index(a)?;
-    let get = |name: &str| arg(a, name).map(|v| value::non_negative(name, v)).transpose();
+fn decide_dynamics(p: ChangeDynamics) -> Result<Command, Refusal> {
+    let link_index = link_index(p.link_index)?;
+    let get = |v: Option<NonNegative>| v.map(|x| x.0);
     let change = DynamicsChange {
-        mass: get("mass")?,
-        lateral_friction: get("lateral_friction")?,
-        spinning_friction: get("spinning_friction")?,
-        rolling_friction: get("rolling_friction")?,
-        restitution: get("restitution")?,
-        linear_damping: get("linear_damping")?,
-        angular_damping: get("angular_damping")?,
-        contact_stiffness: get("contact_stiffness")?,
-        contact_damping: get("contact_damping")?,
+        mass: get(p.mass),
+        lateral_friction: get(p.lateral_friction),
+        spinning_friction: get(p.spinning_friction),
+        rolling_friction: get(p.rolling_friction),
+        restitution: get(p.restitution),
+        linear_damping: get(p.linear_damping),
+        angular_damping: get(p.angular_damping),
+        contact_stiffness: get(p.contact_stiffness),
+        contact_damping: get(p.contact_damping),
     };
     if change.names().is_empty() {
         return Err("change_dynamics needs at least one property: mass, lateral_friction, \
@@ -113,16 +111,14 @@ fn decide_dynamics(a: &Args) -> Result<Command, Refusal> {
             .into());
     }
     Ok(Command::ChangeDynamics {
-        object_id,
+        object_id: p.object_id.0,
         link_index,
         change,
     })
 }
 
-fn decide_remove(a: &Args) -> Result<Command, Refusal> {
-    Ok(Command::RemoveObject {
-        object_id: value::object_id(a, "object_id")?,
-    })
+fn decide_remove(p: ObjectRef) -> Result<Command, Refusal> {
+    Ok(Command::RemoveObject { object_id: p.object_id.0 })
 }
 
 #[tool_router(router = object_router, vis = "pub(crate)")]
@@ -164,7 +160,7 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn get_object_state(&self, args: JsonObject) -> Result<Json<ObjectState>, String> {
-        self.read("get_object_state", args, |sim, a| reads::object_state(&sim.read_context(), a))
+        self.read("get_object_state", args, |sim, p| reads::object_state(&sim.read_context(), &p))
             .await
     }
 
@@ -203,7 +199,7 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn get_dynamics_info(&self, args: JsonObject) -> Result<Json<DynamicsInfo>, String> {
-        self.read("get_dynamics_info", args, |sim, a| reads::dynamics_info(&sim.read_context(), a))
+        self.read("get_dynamics_info", args, |sim, p| reads::dynamics_info(&sim.read_context(), &p))
             .await
     }
 

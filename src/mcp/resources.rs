@@ -13,7 +13,7 @@ use base64::Engine;
 use rmcp::model::{ErrorData, ListResourceTemplatesResult, ListResourcesResult, ReadResourceResult, Resource,
                   ResourceContents, ResourceTemplate};
 use rmcp::{Peer, RoleServer};
-use serde_json::{json, Map, Value};
+use serde_json::{json, Value};
 
 use super::PhysicsServer;
 use crate::reads;
@@ -86,7 +86,7 @@ fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize) -> Result<ResourceC
     let text = |v: Value| ResourceContents::text(v.to_string(), uri).with_mime_type(part.mime());
     match part {
         Part::Info => {
-            let info = reads::simulation_info(&cx, &Map::new())?;
+            let info = reads::simulation_info(&cx)?;
             Ok(text(serde_json::to_value(info).map_err(|e| format!("Internal error: {e}"))?))
         }
         Part::History => {
@@ -106,9 +106,9 @@ fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize) -> Result<ResourceC
         }
         Part::Image => {
             let (w, h) = IMAGE_SIZE;
-            let args = json!({"width": w, "height": h});
-            let args = args.as_object().cloned().unwrap_or_default();
-            let rendered = reads::camera_image(&cx, &args, max_px)?;
+            let args = json!({"sim_id": cx.world.simulation_id(), "width": w, "height": h});
+            let p = super::params::parse("sim://image", args.as_object().unwrap_or(&Default::default()))?;
+            let rendered = reads::camera_image(&cx, &p, max_px)?;
             let png = base64::engine::general_purpose::STANDARD.encode(&rendered.png);
             Ok(ResourceContents::blob(png, uri).with_mime_type(part.mime()))
         }

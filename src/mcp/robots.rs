@@ -5,18 +5,20 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer};
+use super::lenient::NonNegative;
+use super::params::{self, GenerateRevolute, LoadUrdf, MotorControl};
+use super::PhysicsServer;
 use crate::command::{Command, ControlMode, MotorSpec};
 use crate::outputs::{GeneratedUrdf, IkSolution, JointInfo, JointState, Message, NumJoints, UrdfLoaded};
 use crate::reads;
-use crate::value::{self, arg, Args, Refusal};
+use crate::value::Refusal;
 
-fn decide_motor(a: &Args) -> Result<Command, Refusal> {
-    let object_id = value::object_id(a, "object_id")?;
-    let joint_index = value::integer("joint_index", value::required(a, "joint_index", "a joint index (integer >= 0)")?)?;
+fn decide_motor(p: MotorControl) -> Result<Command, Refusal> {
+    let object_id = p.object_id.0;
+    let joint_index = p.joint_index.get();
     let joint_index = u32::try_from(joint_index)
         .map_err(|_| format!("Joint index {joint_index} out of range: object {object_id} has no such joint"))?;
-    let mode = match value::string(a, "control_mode")?.as_str() {
+    let mode = match p.control_mode.0.as_str() {
         "POSITION_CONTROL" => ControlMode::PositionControl,
         "VELOCITY_CONTROL" => ControlMode::VelocityControl,
         "TORQUE_CONTROL" => ControlMode::TorqueControl,
@@ -26,28 +28,27 @@ fn decide_motor(a: &Args) -> Result<Command, Refusal> {
             ))
         }
     };
-    let number = |name: &str| arg(a, name).map(|v| value::number(name, v)).transpose();
-    let target_position = number("target_position")?;
-    let force = number("force")?;
-    let target_position = match (mode, target_position) {
+    let force = p.force.map(|f| f.0);
+    let target_position = match (mode, p.target_position) {
         (ControlMode::PositionControl, None) => {
             return Err("target_position is required for POSITION_CONTROL".into())
         }
-        (_, p) => p.unwrap_or(0.0),
+        (_, t) => t.map_or(0.0, |t| t.0),
     };
     if mode == ControlMode::TorqueControl && force.is_none() {
         return Err("force is required for TORQUE_CONTROL (it is the torque applied each step)".into());
     }
+    let gain = |g: Option<NonNegative>, default: f32| g.map_or(default, |g| g.0);
     Ok(Command::SetJointMotor {
         object_id,
         joint_index,
         motor: MotorSpec {
             mode,
             target_position,
-            target_velocity: number("target_velocity")?.unwrap_or(0.0),
+            target_velocity: p.target_velocity.map_or(0.0, |v| v.0),
             force,
-            position_gain: value::non_negative_or(a, "position_gain", 0.1)?,
-            velocity_gain: value::non_negative_or(a, "velocity_gain", 1.0)?,
+            position_gain: gain(p.position_gain, 0.1),
+            velocity_gain: gain(p.velocity_gain, 1.0),
         },
     })
 }
@@ -61,28 +62,28 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::LoadUrdf>())]
     async fn load_urdf(&self, args: JsonObject) -> Result<Json<UrdfLoaded>, String> {
         let reg = self.reg.clone();
-        self.change("load_urdf", args, move |a| crate::urdf_files::decide_load_urdf(reg.sandbox(), a))
+        self.change("load_urdf", args, move |p: LoadUrdf| crate::urdf_files::load_urdf_command(reg.sandbox(), &p))
             .await
     }
 
     /// Number of joints of an object (fixed joints included; 0 for primitives).
     #[tool(input_schema = schema_for_type::<params::ObjectRef>(), annotations(read_only_hint = true))]
     async fn get_num_joints(&self, args: JsonObject) -> Result<Json<NumJoints>, String> {
-        self.read("get_num_joints", args, |sim, a| reads::num_joints(&sim.read_context(), a)).await
+        self.read("get_num_joints", args, |sim, p| reads::num_joints(&sim.read_context(), &p)).await
     }
 
     /// A joint's name, type, limits (lower 0 / upper -1 = none), effort and velocity limits,
     /// axis, child link name and parent link index.
     #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
     async fn get_joint_info(&self, args: JsonObject) -> Result<Json<JointInfo>, String> {
-        self.read("get_joint_info", args, |sim, a| reads::joint_info(&sim.read_context(), a)).await
+        self.read("get_joint_info", args, |sim, p| reads::joint_info(&sim.read_context(), &p)).await
     }
 
     /// A joint's position, velocity, reaction forces (zeros: no force/torque sensor) and the
     /// torque its motor applied in the last step.
     #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
     async fn get_joint_state(&self, args: JsonObject) -> Result<Json<JointState>, String> {
-        self.read("get_joint_state", args, |sim, a| reads::joint_state(&sim.read_context(), a)).await
+        self.read("get_joint_state", args, |sim, p| reads::joint_state(&sim.read_context(), &p)).await
     }
 
     /// Set a joint motor, acting on every later step until changed. POSITION_CONTROL and
@@ -98,8 +99,8 @@ impl PhysicsServer {
     /// link's frame at target_position (and target_orientation), within joint limits.
     #[tool(input_schema = schema_for_type::<params::InverseKinematics>(), annotations(read_only_hint = true))]
     async fn calculate_inverse_kinematics(&self, args: JsonObject) -> Result<Json<IkSolution>, String> {
-        self.read("calculate_inverse_kinematics", args, |sim, a| {
-            reads::inverse_kinematics(&sim.read_context(), a)
+        self.read("calculate_inverse_kinematics", args, |sim, p| {
+            reads::inverse_kinematics(&sim.read_context(), &p)
         })
         .await
     }
@@ -109,7 +110,8 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::GenerateRevolute>())]
     async fn generate_revolute_joint(&self, args: JsonObject) -> Result<Json<GeneratedUrdf>, String> {
         let reg = self.reg.clone();
-        tokio::task::spawn_blocking(move || crate::urdf_files::generate_revolute_joint(reg.sandbox(), &args))
+        let p: GenerateRevolute = params::parse("generate_revolute_joint", &args)?;
+        tokio::task::spawn_blocking(move || crate::urdf_files::generate_revolute_joint(reg.sandbox(), &p))
             .await
             .map_err(|_| "Internal error: nothing was written".to_string())?
             .map(Json)

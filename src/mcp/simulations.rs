@@ -6,14 +6,16 @@ use rmcp::model::{JsonObject, ProgressNotificationParam, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 use tokio_util::sync::CancellationToken;
 
-use super::{params, PhysicsServer};
+use super::lenient::int_or;
+use super::params::{self, CreateSimulation, NoParams, SetTimestep, SimRef, Step};
+use super::PhysicsServer;
 use crate::command::Command;
 use crate::outputs::{Created, Message, SimulationInfo, SimulationList, Stepped, TimestepSet};
 use crate::reads;
-use crate::value::{self, arg, Args, Refusal};
+use crate::value::Refusal;
 
-fn decide_step(a: &Args) -> Result<Command, Refusal> {
-    let steps = value::integer_or(a, "steps", 1)?;
+fn decide_step(p: Step) -> Result<Command, Refusal> {
+    let steps = int_or(p.steps, 1);
     let steps = u64::try_from(steps)
         .ok()
         .filter(|s| *s > 0)
@@ -21,9 +23,8 @@ fn decide_step(a: &Args) -> Result<Command, Refusal> {
     Ok(Command::StepSimulation { steps })
 }
 
-fn decide_timestep(a: &Args) -> Result<Command, Refusal> {
-    let v = value::required(a, "timestep", "a number of seconds > 0")?;
-    let (timestep, given) = value::positive_given("timestep", v)?;
+fn decide_timestep(p: SetTimestep) -> Result<Command, Refusal> {
+    let (timestep, given) = p.timestep.0;
     Ok(Command::SetTimestep { timestep, timestep_given: Some(given) })
 }
 
@@ -33,11 +34,9 @@ impl PhysicsServer {
     /// load plane.urdf). Returns its id.
     #[tool(input_schema = schema_for_type::<params::CreateSimulation>())]
     async fn create_simulation(&self, args: JsonObject) -> Result<Json<Created>, String> {
-        let gravity = match arg(&args, "gravity") {
-            Some(g) => value::gravity("gravity", g)?,
-            None => [0.0, 0.0, -9.81],
-        };
-        let gui = value::bool_or(&args, "gui", false)?;
+        let p: CreateSimulation = params::parse("create_simulation", &args)?;
+        let gravity = p.gravity.map_or([0.0, 0.0, -9.81], |g| g.0);
+        let gui = p.gui.is_some_and(|g| g.0);
         let simulation_id = uuid::Uuid::new_v4().to_string();
         let root = Command::CreateSimulation {
             simulation_id,
@@ -48,7 +47,8 @@ impl PhysicsServer {
         let out = tokio::task::spawn_blocking(move || reg.create(root, &args))
             .await
             .map_err(|_| "Internal error: the simulation was not created".to_string())??;
-        let mut created: Created = serde_json::from_value(out).map_err(|e| format!("Internal error: {e}"))?;
+        let mut created = Created::try_from(out)
+            .map_err(|_| "Internal error: create_simulation gave a result of an unexpected kind".to_string())?;
         created.viewer_url = self.viewer_url(&created.simulation_id);
         self.simulations_changed(Ok(Json(created)))
     }
@@ -58,7 +58,8 @@ impl PhysicsServer {
         input_schema = schema_for_type::<params::NoParams>(),
         annotations(read_only_hint = true)
     )]
-    async fn list_simulations(&self, _args: JsonObject) -> Result<Json<SimulationList>, String> {
+    async fn list_simulations(&self, args: JsonObject) -> Result<Json<SimulationList>, String> {
+        let _: NoParams = params::parse("list_simulations", &args)?;
         let reg = self.reg.clone();
         tokio::task::spawn_blocking(move || reg.list())
             .await
@@ -72,7 +73,7 @@ impl PhysicsServer {
         annotations(destructive_hint = true)
     )]
     async fn destroy_simulation(&self, args: JsonObject) -> Result<Json<Message>, String> {
-        let id = value::string(&args, "sim_id")?;
+        let id = params::parse::<SimRef>("destroy_simulation", &args)?.sim_id.0;
         let reg = self.reg.clone();
         let out = tokio::task::spawn_blocking(move || reg.destroy(&id))
             .await
@@ -92,7 +93,8 @@ impl PhysicsServer {
         peer: Peer<RoleServer>,
         ct: CancellationToken,
     ) -> Result<Json<Stepped>, String> {
-        let total = value::integer_or(&args, "steps", 1).unwrap_or(1).max(1) as u64;
+        // For progress only: a refusal of the arguments is the step's own (below).
+        let total = params::parse::<Step>("step_simulation", &args).map_or(1, |p| int_or(p.steps, 1).max(1) as u64);
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<u64>();
         let forward = meta.get_progress_token().map(|token| {
             tokio::spawn(async move {
@@ -133,9 +135,7 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn get_simulation_info(&self, args: JsonObject) -> Result<Json<SimulationInfo>, String> {
-        self.read("get_simulation_info", args, |sim, a| {
-            reads::simulation_info(&sim.read_context(), a)
-        })
+        self.read("get_simulation_info", args, |sim, _: SimRef| reads::simulation_info(&sim.read_context()))
         .await
     }
 }

@@ -5,26 +5,25 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer};
+use super::lenient::{int_or, Int};
+use super::params::{self, Count, Fork, HistoryPage, SimRef};
+use super::PhysicsServer;
 use crate::outputs::{Forked, History, Redone, Undone, Verified};
 use crate::timeline::HISTORY_MAX_LIMIT;
-use crate::value::{self, arg, Args, Refusal};
+use crate::value::Refusal;
 
 /// `count` for undo/redo: an integer ≥ 1 (range against what is available is the sim's check).
-fn count(a: &Args) -> Result<u64, Refusal> {
-    let n = value::integer_or(a, "count", 1)?;
+fn count(p: Count) -> Result<u64, Refusal> {
+    let n = int_or(p.count, 1);
     u64::try_from(n)
         .ok()
         .filter(|n| *n >= 1)
         .ok_or_else(|| format!("count must be an integer >= 1; got {n}"))
 }
 
-fn seq(a: &Args, name: &str) -> Result<Option<u64>, Refusal> {
-    arg(a, name)
-        .map(|v| {
-            let n = value::integer(name, v)?;
-            u64::try_from(n).map_err(|_| format!("{name} must be an event seq (integer >= 0); got {n}"))
-        })
+/// An event seq parameter: an integer ≥ 0.
+fn seq(name: &str, v: Option<Int<u64>>) -> Result<Option<u64>, Refusal> {
+    v.map(|n| u64::try_from(n.get()).map_err(|_| format!("{name} must be an event seq (integer >= 0); got {}", n.get())))
         .transpose()
 }
 
@@ -35,7 +34,7 @@ impl PhysicsServer {
     /// it until a new state-changing call starts a new branch.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn undo(&self, args: JsonObject) -> Result<Json<Undone>, String> {
-        self.with_sim(args, |sim, a, _| match count(a) {
+        self.with_sim(args, |sim, a, _| match params::parse("undo", a).and_then(count) {
             Ok(n) => sim.undo(a, n),
             Err(why) => Err(sim.refuse("undo", a, why)),
         })
@@ -46,7 +45,7 @@ impl PhysicsServer {
     /// Redo the `count` most recently undone calls (default 1), bit for bit.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn redo(&self, args: JsonObject) -> Result<Json<Redone>, String> {
-        self.with_sim(args, |sim, a, _| match count(a) {
+        self.with_sim(args, |sim, a, _| match params::parse("redo", a).and_then(count) {
             Ok(n) => sim.redo(a, n),
             Err(why) => Err(sim.refuse("redo", a, why)),
         })
@@ -61,9 +60,9 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn get_history(&self, args: JsonObject) -> Result<Json<History>, String> {
-        self.read_blocking("get_history", args, |sim, a| {
-            let since = seq(a, "since_seq")?.unwrap_or(0);
-            let limit = value::integer_or(a, "limit", 50)?;
+        self.read_blocking("get_history", args, |sim, p: HistoryPage| {
+            let since = seq("since_seq", p.since_seq)?.unwrap_or(0);
+            let limit = int_or(p.limit, 50);
             if !(1..=HISTORY_MAX_LIMIT as i64).contains(&limit) {
                 return Err(format!("limit must be an integer from 1 to {HISTORY_MAX_LIMIT}; got {limit}"));
             }
@@ -76,8 +75,8 @@ impl PhysicsServer {
     /// independent simulation that inherits its history and evolves bit for bit alike.
     #[tool(input_schema = schema_for_type::<params::Fork>())]
     async fn fork_simulation(&self, args: JsonObject) -> Result<Json<Forked>, String> {
-        let parent = value::string(&args, "sim_id")?;
-        let at = seq(&args, "at_seq")?;
+        let p: Fork = params::parse("fork_simulation", &args)?;
+        let (parent, at) = (p.sim_id.0, seq("at_seq", p.at_seq)?);
         let new_id = uuid::Uuid::new_v4().to_string();
         let reg = self.reg.clone();
         let out = tokio::task::spawn_blocking(move || reg.fork(&parent, at, new_id, &args))
@@ -97,6 +96,6 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn verify_simulation(&self, args: JsonObject) -> Result<Json<Verified>, String> {
-        self.read_blocking("verify_simulation", args, |sim, _| sim.verify()).await
+        self.read_blocking("verify_simulation", args, |sim, _: SimRef| sim.verify()).await
     }
 }

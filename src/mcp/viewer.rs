@@ -7,25 +7,25 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::{params, PhysicsServer};
+use super::params::{self, DebugVisualization, SetCamera};
+use super::PhysicsServer;
 use crate::command::Command;
 use crate::outputs::Message;
-use crate::value::{self, Args, Refusal};
+use crate::value::Refusal;
 
-fn decide_debug(a: &Args) -> Result<Command, Refusal> {
+fn decide_debug(p: DebugVisualization) -> Result<Command, Refusal> {
     Ok(Command::SetDebugVisualization {
-        show_contacts: value::bool_or(a, "show_contacts", true)?,
-        show_frames: value::bool_or(a, "show_frames", false)?,
+        show_contacts: p.show_contacts.is_none_or(|b| b.0),
+        show_frames: p.show_frames.is_some_and(|b| b.0),
     })
 }
 
-fn decide_camera(a: &Args) -> Result<Command, Refusal> {
-    let number = |name: &str| value::number(name, value::required(a, name, "a finite number")?);
+fn decide_camera(p: SetCamera) -> Result<Command, Refusal> {
     Ok(Command::SetCamera {
-        distance: value::positive("distance", value::required(a, "distance", "a finite number > 0")?)?,
-        yaw: number("yaw")?,
-        pitch: number("pitch")?,
-        target: value::req_vec3(a, "target")?,
+        distance: p.distance.0,
+        yaw: p.yaw.0,
+        pitch: p.pitch.0,
+        target: p.target.0,
     })
 }
 

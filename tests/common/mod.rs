@@ -252,7 +252,7 @@ pub fn load_fixture(
         fixed_base,
         continuous_limits_from_file: true,
     };
-    w.apply(&cmd, &mut |_| true)["object_id"].as_u64().unwrap() as u32
+    w.apply(&cmd, &mut |_| true).to_value()["object_id"].as_u64().unwrap() as u32
 }
 
 /// An empty in-process world with PyBullet's gravity.

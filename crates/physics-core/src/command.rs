@@ -539,10 +539,14 @@ impl Command {
     /// way took fewer steps than asked, and that is what folding the log must repeat. Logs
     /// written before event version 2 recorded the steps asked; their result says the truth.
     pub fn as_done(self, result: &serde_json::Value) -> Command {
+        self.as_taken(result.get("steps_taken").and_then(serde_json::Value::as_u64))
+    }
+
+    /// `as_done` given the steps a step_simulation took (None: not a step result).
+    pub fn as_taken(self, steps_taken: Option<u64>) -> Command {
         match self {
             Command::StepSimulation { steps } => {
-                let taken = result.get("steps_taken").and_then(serde_json::Value::as_u64);
-                Command::StepSimulation { steps: taken.filter(|t| *t < steps).unwrap_or(steps) }
+                Command::StepSimulation { steps: steps_taken.filter(|t| *t < steps).unwrap_or(steps) }
             }
             other => other,
         }

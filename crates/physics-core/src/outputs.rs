@@ -520,3 +520,64 @@ pub struct CameraImage {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub segmentation: Option<Vec<i64>>,
 }
+
+/// What `World::create` and `World::apply` return: the result of a state-changing command,
+/// typed. It serialises as the inner result (untagged), so the JSON recorded in the log and
+/// hashed is exactly that result's; adapters take the inner type back with `TryFrom`.
+#[derive(Serialize, Debug, Clone)]
+#[serde(untagged)]
+pub enum Outcome {
+    /// create_simulation.
+    Created(Created),
+    /// step_simulation.
+    Stepped(Stepped),
+    /// set_timestep.
+    TimestepSet(TimestepSet),
+    /// add_* tools.
+    ObjectAdded(ObjectAdded),
+    /// change_dynamics.
+    DynamicsChanged(DynamicsChanged),
+    /// load_urdf.
+    UrdfLoaded(UrdfLoaded),
+    /// create_constraint.
+    ConstraintCreated(ConstraintCreated),
+    /// Every command whose result is a confirmation sentence.
+    Message(Message),
+}
+
+impl Outcome {
+    /// The result as the JSON value that is recorded and hashed (`to_string` of it is the
+    /// logged text, as it always was).
+    pub fn to_value(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// The steps a step_simulation took (None for other results).
+    pub fn steps_taken(&self) -> Option<u64> {
+        match self {
+            Outcome::Stepped(s) => Some(s.steps_taken),
+            _ => None,
+        }
+    }
+}
+
+/// `Outcome` from and back to each result type it holds.
+macro_rules! outcome_variants {
+    ($($variant:ident),*) => {$(
+        impl From<$variant> for Outcome {
+            fn from(v: $variant) -> Outcome {
+                Outcome::$variant(v)
+            }
+        }
+        impl TryFrom<Outcome> for $variant {
+            type Error = Outcome;
+            fn try_from(o: Outcome) -> Result<$variant, Outcome> {
+                match o {
+                    Outcome::$variant(v) => Ok(v),
+                    other => Err(other),
+                }
+            }
+        }
+    )*};
+}
+outcome_variants!(Created, Stepped, TimestepSet, ObjectAdded, DynamicsChanged, UrdfLoaded, ConstraintCreated, Message);

@@ -1,9 +1,12 @@
 //! Input parsing for tool arguments: strict about meaning, lenient about encoding.
 //!
-//! MCP clients send vectors as JSON arrays or as JSON strings holding an array, and numbers as
-//! integers or floats. Every helper here accepts those encodings, rejects everything else with
-//! one sentence that names the parameter, the expected shape and what was received, and turns
-//! the value into the f32 the physics engine uses. Nothing here touches the world.
+//! MCP clients send vectors as JSON arrays or as JSON strings holding an array, numbers as
+//! integers or floats, and scalars as strings holding their token (`"false"`, `"10"`). Every
+//! rule here accepts those encodings, rejects everything else with one sentence that names the
+//! parameter, the expected shape and what was received, and turns the value into the f32 the
+//! physics engine uses. The tools' parameter types (`physics_mcp::mcp::lenient`) read every
+//! value through these rules, as do saved files of the old server. Nothing here touches the
+//! world.
 
 use serde_json::Value;
 
@@ -45,6 +48,22 @@ fn to_f32(x: f64) -> Option<f32> {
     y.is_finite().then_some(y)
 }
 
+/// Some clients (the MCP Inspector CLI) send every scalar as a string: `"true"`, `"10"`, `"0.5"`.
+/// A string that is, as a whole, one JSON number or boolean token is read as that token;
+/// anything else (`" 1"`, `"NaN"`, `"abc"`, `"[1]"`) stays a string, which a scalar refuses.
+/// Only top-level scalars: numeric strings inside a vector stay refused.
+pub fn scalar(v: &Value) -> std::borrow::Cow<'_, Value> {
+    if let Value::String(s) = v {
+        let token = !s.is_empty() && s.trim() == s;
+        if let Some(inner) = token.then(|| serde_json::from_str::<Value>(s).ok()).flatten() {
+            if inner.is_number() || inner.is_boolean() {
+                return std::borrow::Cow::Owned(inner);
+            }
+        }
+    }
+    std::borrow::Cow::Borrowed(v)
+}
+
 /// Some clients send arrays as JSON strings (`"[0, 0, 1]"`): decode those, pass others through.
 /// None when a string does not hold JSON.
 fn decode_string(v: &Value) -> Option<std::borrow::Cow<'_, Value>> {
@@ -74,16 +93,6 @@ pub fn vec3(name: &str, v: &Value) -> Result<[f32; 3], Refusal> {
     Ok([a[0], a[1], a[2]])
 }
 
-/// Reads a required `[x, y, z]` argument.
-pub fn req_vec3(args: &Args, name: &str) -> Result<[f32; 3], Refusal> {
-    vec3(name, required(args, name, "3 finite numbers [x, y, z]")?)
-}
-
-/// Reads an optional `[x, y, z]` argument.
-pub fn opt_vec3(args: &Args, name: &str) -> Result<Option<[f32; 3]>, Refusal> {
-    arg(args, name).map(|v| vec3(name, v)).transpose()
-}
-
 /// Reads a quaternion `[x, y, z, w]` and normalises it; a zero-length quaternion is refused.
 pub fn quat(name: &str, v: &Value) -> Result<[f32; 4], Refusal> {
     let a = fixed_array(name, v, 4, "4 finite numbers [x, y, z, w] (a quaternion)")?;
@@ -100,13 +109,6 @@ pub fn quat(name: &str, v: &Value) -> Result<[f32; 4], Refusal> {
         (a[2] as f64 / norm) as f32,
         (a[3] as f64 / norm) as f32,
     ])
-}
-
-/// Reads an optional quaternion, defaulting to the identity `[0, 0, 0, 1]`.
-pub fn quat_or_identity(args: &Args, name: &str) -> Result<[f32; 4], Refusal> {
-    arg(args, name)
-        .map(|v| quat(name, v))
-        .unwrap_or(Ok([0.0, 0.0, 0.0, 1.0]))
 }
 
 /// Reads an RGB or RGBA color with components in [0, 1]; RGB gets alpha 1.
@@ -131,7 +133,7 @@ pub fn gravity(name: &str, v: &Value) -> Result<[f32; 3], Refusal> {
             show(v)
         )
     };
-    if let Some(g) = finite(v) {
+    if let Some(g) = finite(&scalar(v)) {
         return Ok([0.0, 0.0, to_f32(g).ok_or_else(fail)?]);
     }
     let inner = decode_string(v).ok_or_else(fail)?;
@@ -147,7 +149,7 @@ pub fn gravity(name: &str, v: &Value) -> Result<[f32; 3], Refusal> {
 
 /// Reads a finite number, refusing strings, booleans and out-of-range values.
 pub fn number(name: &str, v: &Value) -> Result<f32, Refusal> {
-    finite(v)
+    finite(&scalar(v))
         .and_then(to_f32)
         .ok_or_else(|| format!("{name} must be a finite number; got {}", show(v)))
 }
@@ -166,7 +168,7 @@ pub fn positive(name: &str, v: &Value) -> Result<f32, Refusal> {
 /// reported time is computed from the given value, as PyBullet does.
 pub fn positive_given(name: &str, v: &Value) -> Result<(f32, f64), Refusal> {
     let x = positive(name, v)?;
-    Ok((x, finite(v).unwrap_or(x as f64)))
+    Ok((x, finite(&scalar(v)).unwrap_or(x as f64)))
 }
 
 /// Reads a number that must be finite and ≥ 0 (mass, friction, damping).
@@ -177,21 +179,6 @@ pub fn non_negative(name: &str, v: &Value) -> Result<f32, Refusal> {
     } else {
         Err(format!("{name} must be a finite number >= 0; got {}", show(v)))
     }
-}
-
-/// Reads an optional number ≥ 0 with a default.
-pub fn non_negative_or(args: &Args, name: &str, default: f32) -> Result<f32, Refusal> {
-    arg(args, name).map(|v| non_negative(name, v)).unwrap_or(Ok(default))
-}
-
-/// Reads an optional number > 0 with a default.
-pub fn positive_or(args: &Args, name: &str, default: f32) -> Result<f32, Refusal> {
-    arg(args, name).map(|v| positive(name, v)).unwrap_or(Ok(default))
-}
-
-/// Reads an optional finite number with a default.
-pub fn number_or(args: &Args, name: &str, default: f32) -> Result<f32, Refusal> {
-    arg(args, name).map(|v| number(name, v)).unwrap_or(Ok(default))
 }
 
 /// Reads a list of finite numbers (any length; a JSON string holding one is accepted), as
@@ -205,7 +192,7 @@ pub fn number_list(name: &str, v: &Value) -> Result<Vec<f64>, Refusal> {
 
 /// Reads a finite number at full precision (camera matrices are computed in f64).
 pub fn number64(name: &str, v: &Value) -> Result<f64, Refusal> {
-    finite(v).ok_or_else(|| format!("{name} must be a finite number; got {}", show(v)))
+    finite(&scalar(v)).ok_or_else(|| format!("{name} must be a finite number; got {}", show(v)))
 }
 
 /// Reads exactly `n` finite numbers at full precision (`shape` describes them for the error).
@@ -213,11 +200,6 @@ pub fn numbers64<const N: usize>(name: &str, v: &Value, shape: &str) -> Result<[
     let fail = || format!("{name} must be {shape}; got {}", show(v));
     let list = number_list(name, v).map_err(|_| fail())?;
     list.try_into().map_err(|_| fail())
-}
-
-/// Reads a required `[x, y, z]` at full precision.
-pub fn req_vec3_64(args: &Args, name: &str) -> Result<[f64; 3], Refusal> {
-    numbers64(name, required(args, name, "3 finite numbers [x, y, z]")?, "3 finite numbers [x, y, z]")
 }
 
 /// Reads a list of `[x, y, z]` vectors (a JSON string holding the list is accepted too).
@@ -232,40 +214,22 @@ pub fn vec3_list(name: &str, v: &Value) -> Result<Vec<[f32; 3]>, Refusal> {
         .collect()
 }
 
-/// Reads an optional list of exactly `n` finite numbers (one per movable joint).
-pub fn opt_list_of(args: &Args, name: &str, n: usize) -> Result<Option<Vec<f64>>, Refusal> {
-    let Some(v) = arg(args, name) else { return Ok(None) };
-    let list = number_list(name, v)?;
-    if list.len() != n {
-        return Err(format!("{name} must have one value per movable joint ({n}); got {}", list.len()));
-    }
-    Ok(Some(list))
-}
-
 /// Reads an integer; integral floats (`10.0`) are accepted, `10.5` and strings are not.
 pub fn integer(name: &str, v: &Value) -> Result<i64, Refusal> {
     let fail = || format!("{name} must be an integer; got {}", show(v));
-    if let Some(i) = v.as_i64() {
+    let s = scalar(v);
+    if let Some(i) = s.as_i64() {
         return Ok(i);
     }
-    match finite(v) {
+    match finite(&s) {
         Some(x) if x.fract() == 0.0 && x.abs() < 9.0e15 => Ok(x as i64),
         _ => Err(fail()),
     }
 }
 
-/// Reads an optional integer with a default.
-pub fn integer_or(args: &Args, name: &str, default: i64) -> Result<i64, Refusal> {
-    arg(args, name).map(|v| integer(name, v)).unwrap_or(Ok(default))
-}
-
-/// Reads an optional boolean with a default.
-pub fn bool_or(args: &Args, name: &str, default: bool) -> Result<bool, Refusal> {
-    match arg(args, name) {
-        None => Ok(default),
-        Some(Value::Bool(b)) => Ok(*b),
-        Some(v) => Err(format!("{name} must be true or false; got {}", show(v))),
-    }
+/// Reads a boolean (`"true"` / `"false"` strings too, see `scalar`).
+pub fn boolean(name: &str, v: &Value) -> Result<bool, Refusal> {
+    scalar(v).as_bool().ok_or_else(|| format!("{name} must be true or false; got {}", show(v)))
 }
 
 /// Reads a required string argument.
@@ -274,19 +238,6 @@ pub fn string(args: &Args, name: &str) -> Result<String, Refusal> {
         Value::String(s) => Ok(s.clone()),
         v => Err(format!("{name} must be a string; got {}", show(v))),
     }
-}
-
-/// Reads `link_index`: −1 (the base, the default) or a link index; the world checks range.
-pub fn link_index(args: &Args) -> Result<i32, Refusal> {
-    let i = integer_or(args, "link_index", -1)?;
-    i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
-}
-
-/// Reads an object id: a non-negative integer. Whether it exists is the world's question.
-pub fn object_id(args: &Args, name: &str) -> Result<u32, Refusal> {
-    let v = required(args, name, "an object id (integer >= 0)")?;
-    let i = integer(name, v)?;
-    u32::try_from(i).map_err(|_| format!("{name} must be an object id (integer >= 0); got {}", show(v)))
 }
 
 /// Reports an f32 as the f64 with the same shortest decimal form, so results read `0.1`, not
@@ -335,6 +286,8 @@ mod tests {
         assert_eq!(gravity("g", &json!(-9.81)).unwrap(), [0.0, 0.0, -9.81]);
         assert_eq!(gravity("g", &json!([-9.81])).unwrap(), [0.0, 0.0, -9.81]);
         assert_eq!(gravity("g", &json!([0, -9.81, 0])).unwrap(), [0.0, -9.81, 0.0]);
+        assert_eq!(gravity("g", &json!("-9.81")).unwrap(), [0.0, 0.0, -9.81]);
+        assert_eq!(gravity("g", &json!("[-9.81]")).unwrap(), [0.0, 0.0, -9.81]);
         assert!(gravity("g", &json!([1, 2])).is_err());
     }
 
@@ -349,7 +302,21 @@ mod tests {
     fn integers_accept_integral_floats() {
         assert_eq!(integer("n", &json!(10.0)).unwrap(), 10);
         assert!(integer("n", &json!(10.5)).is_err());
-        assert!(integer("n", &json!("10")).is_err());
+        assert!(integer("n", &json!(" 10")).is_err());
+        assert!(integer("n", &json!("abc")).is_err());
+    }
+
+    #[test]
+    fn scalars_in_strings_are_read_as_their_token() {
+        assert_eq!(integer("n", &json!("240")).unwrap(), 240);
+        assert_eq!(integer("n", &json!("10.0")).unwrap(), 10);
+        assert_eq!(number("x", &json!("0.5")).unwrap(), 0.5);
+        assert!(boolean("b", &json!("false")).is_ok_and(|b| !b));
+        for bad in ["NaN", "inf", "1e39", " 1", "", "[1]", "\"1\""] {
+            assert!(number("x", &json!(bad)).is_err(), "{bad:?}");
+        }
+        assert!(boolean("b", &json!("yes")).is_err());
+        assert!(vec3("p", &json!(["1", "2", "3"])).is_err(), "only top-level scalars");
     }
 
     #[test]

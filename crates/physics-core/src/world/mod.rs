@@ -17,10 +17,9 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
-use serde_json::Value;
 
 use crate::command::{Command, Shape};
-use crate::outputs::{Created, Message, Stepped, TimestepSet};
+use crate::outputs::{Created, Message, Outcome, Stepped, TimestepSet};
 use crate::value::r32s;
 
 pub use hash::STATE_HASH_VERSION;
@@ -267,7 +266,7 @@ pub type StepControl<'a> = &'a mut dyn FnMut(u64) -> bool;
 
 impl World {
     /// Builds the world a root `CreateSimulation` command describes.
-    pub fn create(cmd: &Command) -> Option<(World, Value)> {
+    pub fn create(cmd: &Command) -> Option<(World, Outcome)> {
         let Command::CreateSimulation {
             simulation_id,
             gravity,
@@ -293,7 +292,7 @@ impl World {
             gui_enabled: *gui,
             viewer_url: None,
         };
-        Some((world, to_value(&out)))
+        Some((world, Outcome::Created(out)))
     }
 
     /// The same state under another identity (a fork's root in replay).
@@ -344,16 +343,16 @@ impl World {
 
     /// Applies an accepted command and returns its result. Cannot fail for a command that
     /// passed `Command::validate`; `control` may stop a long step early (the steps done stay).
-    pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Value {
+    pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Outcome {
         match cmd {
             Command::CreateSimulation { .. }
             | Command::ForkSimulation { .. }
             | Command::LoadSimulation { .. } => {
-                to_value(&Message::new("a root event changes nothing in an existing world"))
+                Outcome::Message(Message::new("a root event changes nothing in an existing world"))
             }
             Command::StepSimulation { steps } => {
                 let taken = self.step(*steps, control);
-                to_value(&Stepped {
+                Outcome::Stepped(Stepped {
                     simulation_id: self.simulation_id.clone(),
                     steps_taken: taken,
                     current_time: self.current_time(),
@@ -365,7 +364,7 @@ impl World {
                 let g = &mut self.tables.as_given;
                 (g.timestep_s, g.time_at_timestep_s, g.steps_at_timestep) = (given, now, steps);
                 self.physics.integration_parameters.dt = *timestep;
-                to_value(&TimestepSet {
+                Outcome::TimestepSet(TimestepSet {
                     message: format!("Timestep set to {given} s"),
                     timestep: given,
                 })
@@ -385,19 +384,19 @@ impl World {
                             Vector::from_array(*position),
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
-                        to_value(&self.insert_robot(model, file_path, (urdf, meshes), pose, *fixed_base))
+                        self.insert_robot(model, file_path, (urdf, meshes), pose, *fixed_base).into()
                     }
-                    Err(why) => to_value(&Message::new(why)),
+                    Err(why) => Outcome::Message(Message::new(why)),
                 }
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
-                to_value(&Message::new(self.set_motor(*object_id, *joint_index, motor)))
+                Outcome::Message(Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
-            Command::CreateConstraint { spec } => to_value(&self.insert_constraint(spec)),
+            Command::CreateConstraint { spec } => self.insert_constraint(spec).into(),
             Command::SetDebugVisualization { show_contacts, show_frames } => {
                 self.tables.viewer.show_contacts = *show_contacts;
                 self.tables.viewer.show_frames = *show_frames;
-                to_value(&Message::new(format!(
+                Outcome::Message(Message::new(format!(
                     "Debug visualization: contacts {}, frames {}",
                     if *show_contacts { "shown" } else { "hidden" },
                     if *show_frames { "shown" } else { "hidden" }
@@ -406,16 +405,16 @@ impl World {
             Command::SetCamera { distance, yaw, pitch, target } => {
                 let v = &mut self.tables.viewer;
                 (v.distance, v.yaw, v.pitch, v.target) = (*distance, *yaw, *pitch, *target);
-                to_value(&Message::new(format!(
+                Outcome::Message(Message::new(format!(
                     "Camera set: distance {distance} m, yaw {yaw}°, pitch {pitch}°, target {:?}",
                     crate::value::r32s(*target)
                 )))
             }
             Command::RemoveConstraint { constraint_id } => {
                 self.remove_constraint(*constraint_id);
-                to_value(&Message::new(format!("Constraint {constraint_id} removed")))
+                Outcome::Message(Message::new(format!("Constraint {constraint_id} removed")))
             }
-            other => to_value(&self.apply_body_command(other)),
+            other => self.apply_body_command(other).into(),
         }
     }
 
@@ -499,7 +498,12 @@ impl World {
 /// 1 and 2 still restore).
 pub const SNAPSHOT_VERSION: u32 = 3;
 
-/// Serialises a result struct; our result types always serialise.
-fn to_value<T: Serialize>(v: &T) -> Value {
-    serde_json::to_value(v).unwrap_or(Value::Null)
+impl From<bodies::BodyOutcome> for Outcome {
+    fn from(o: bodies::BodyOutcome) -> Outcome {
+        match o {
+            bodies::BodyOutcome::Added(v) => v.into(),
+            bodies::BodyOutcome::Changed(v) => v.into(),
+            bodies::BodyOutcome::Message(v) => v.into(),
+        }
+    }
 }

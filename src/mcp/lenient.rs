@@ -1,0 +1,188 @@
+//! The value types of tool parameters: strict about meaning, lenient about encoding (SPEC
+//! "Conventions"). Each type deserializes the encodings clients really send — a vector as a
+//! JSON string holding the array (`"[0, 0, 1]"`), a scalar as a string holding its token
+//! (`"false"`, `"240"`, `"0.5"`: the MCP Inspector CLI sends every argument so), an integral
+//! float for an integer, gravity as `g`, `[g]` or `[gx, gy, gz]` — through the rules in
+//! `value.rs` (ranges, f32 overflow, quaternion normalisation). Each one's JSON Schema is the
+//! plain canonical type (`[f64; 3]`, `bool`, `u32`…), never the string forms, so tool schemas
+//! stay what a model should send.
+//!
+//! An error names the parameter by `FIELD`, which `params::parse` replaces with the path of
+//! the field that failed.
+
+use std::borrow::Cow;
+use std::marker::PhantomData;
+
+use schemars::{JsonSchema, Schema, SchemaGenerator};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer};
+use serde_json::Value;
+
+use crate::value::{self, Refusal};
+
+/// Stands for the parameter's name in an error until `params::parse` knows which field failed.
+pub(crate) const FIELD: &str = "\u{1}";
+
+/// Deserializes a JSON value and reads it with `read`, naming the parameter `FIELD`.
+fn read<'de, D: Deserializer<'de>, T>(d: D, read: impl FnOnce(&Value) -> Result<T, Refusal>) -> Result<T, D::Error> {
+    let v = Value::deserialize(d)?;
+    read(&v).map_err(D::Error::custom)
+}
+
+/// Declares a lenient parameter type: `Name(inner)` read by `$read` (a `value.rs` rule given
+/// the parameter's name and value), with the JSON Schema of `$schema`.
+macro_rules! lenient {
+    ($(#[$doc:meta])* $name:ident($inner:ty) as $schema:ty, $read:expr) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, PartialEq)]
+        pub struct $name(pub $inner);
+
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let rule: fn(&str, &Value) -> Result<$inner, Refusal> = $read;
+                read(d, |v| rule(FIELD, v)).map($name)
+            }
+        }
+
+        impl JsonSchema for $name {
+            fn inline_schema() -> bool {
+                true
+            }
+            fn schema_name() -> Cow<'static, str> {
+                <$schema>::schema_name()
+            }
+            fn json_schema(generator: &mut SchemaGenerator) -> Schema {
+                <$schema>::json_schema(generator)
+            }
+        }
+    };
+}
+
+lenient!(
+    /// A vector `[x, y, z]` of finite numbers that fit f32.
+    Vec3([f32; 3]) as [f64; 3],
+    value::vec3
+);
+lenient!(
+    /// A vector `[x, y, z]` at full precision (camera matrices are computed in f64).
+    Vec3d([f64; 3]) as [f64; 3],
+    |name, v| value::numbers64(name, v, "3 finite numbers [x, y, z]")
+);
+lenient!(
+    /// A quaternion `[x, y, z, w]`, normalised; zero length is refused.
+    Quat([f32; 4]) as [f64; 4],
+    value::quat
+);
+lenient!(
+    /// An RGB (alpha 1) or RGBA color, components in [0, 1].
+    Color([f32; 4]) as Vec<f64>,
+    value::color
+);
+lenient!(
+    /// Gravity `[gx, gy, gz]`; a single number g or `[g]` means `[0, 0, g]`.
+    Gravity([f32; 3]) as [f64; 3],
+    value::gravity
+);
+lenient!(
+    /// A finite number that fits f32.
+    Num(f32) as f64,
+    value::number
+);
+lenient!(
+    /// A finite number > 0 (dimensions, radii, distances).
+    Positive(f32) as f64,
+    value::positive
+);
+lenient!(
+    /// A finite number > 0 as the engine uses it (f32) and as the client gave it (f64):
+    /// reported time is computed from the given value, as PyBullet does.
+    PositiveGiven((f32, f64)) as f64,
+    value::positive_given
+);
+lenient!(
+    /// A finite number ≥ 0 (mass, friction, damping, gains).
+    NonNegative(f32) as f64,
+    value::non_negative
+);
+lenient!(
+    /// A finite number at full precision.
+    Num64(f64) as f64,
+    value::number64
+);
+lenient!(
+    /// A list of finite numbers, any length.
+    NumList(Vec<f64>) as Vec<f64>,
+    value::number_list
+);
+lenient!(
+    /// A list of `[x, y, z]` vectors.
+    Vec3List(Vec<[f32; 3]>) as Vec<[f64; 3]>,
+    value::vec3_list
+);
+lenient!(
+    /// A 4×4 matrix: 16 finite numbers, column-major.
+    Matrix([f64; 16]) as Vec<f64>,
+    |name, v| value::numbers64(name, v, "16 finite numbers (a 4x4 matrix, column-major)")
+);
+lenient!(
+    /// true or false.
+    Bool(bool) as bool,
+    value::boolean
+);
+lenient!(
+    /// A string (no other type is turned into one).
+    Text(String) as String,
+    |name, v| match v {
+        Value::String(s) => Ok(s.clone()),
+        other => Err(format!("{name} must be a string; got {}", value::show(other))),
+    }
+);
+lenient!(
+    /// An object id: an integer ≥ 0 (whether it exists is the world's question).
+    ObjectId(u32) as u32,
+    |name, v| {
+        let i = value::integer(name, v)?;
+        u32::try_from(i).map_err(|_| format!("{name} must be an object id (integer >= 0); got {}", value::show(v)))
+    }
+);
+
+/// An integer (integral floats and integer strings too), described as the integer type `S`;
+/// the range a tool needs is checked where the value is used, with its own sentence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Int<S>(pub i64, PhantomData<S>);
+
+impl<S> Int<S> {
+    /// The integer.
+    pub fn get(self) -> i64 {
+        self.0
+    }
+}
+
+impl<'de, S> Deserialize<'de> for Int<S> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        read(d, |v| value::integer(FIELD, v)).map(|i| Int(i, PhantomData))
+    }
+}
+
+impl<S: JsonSchema> JsonSchema for Int<S> {
+    fn inline_schema() -> bool {
+        true
+    }
+    fn schema_name() -> Cow<'static, str> {
+        S::schema_name()
+    }
+    fn json_schema(generator: &mut SchemaGenerator) -> Schema {
+        S::json_schema(generator)
+    }
+}
+
+/// An optional integer with a default.
+pub fn int_or<S>(v: Option<Int<S>>, default: i64) -> i64 {
+    v.map_or(default, Int::get)
+}
+
+/// `link_index`: −1 (the base, the default) or a link index; the world checks the range.
+pub fn link_index(v: Option<Int<i64>>) -> Result<i32, Refusal> {
+    let i = int_or(v, -1);
+    i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
+}
