@@ -26,7 +26,10 @@ impl Sim {
     }
 
     fn write_save(&self, args: &Args, reg: &Registry) -> Result<Saved, Refusal> {
-        let user = params::parse::<params::Save>("save_simulation", args)?.file_path.0;
+        // The simulation saved is this one: a caller in-process may leave sim_id out.
+        let mut args = args.clone();
+        args.entry("sim_id").or_insert_with(|| self.id().into());
+        let user = params::parse::<params::Save>("save_simulation", &args)?.file_path.0;
         let target = reg.sandbox().writable(&user)?;
         let head = self.log.head_seq();
         let chain = self.log.chain_to(head).map_err(store_err)?;

@@ -133,8 +133,9 @@ async fn the_viewer_follows_a_gui_simulation_without_changing_it() {
     let (status, why) = get(&base, &format!("/viewer/{sim}/frame?w=100000&h=100000"), None).await;
     assert_eq!(status, 400, "{why}");
 
-    // Fork and load with gui carry a viewer too.
-    let fork = c.call("fork_simulation", json!({"sim_id": sim, "gui": true})).await;
+    // A fork of a gui simulation, and a load with gui, carry a viewer too (fork_simulation has
+    // no gui parameter: the fork is shown when its parent is; an unknown parameter is refused).
+    let fork = c.call("fork_simulation", json!({"sim_id": sim})).await;
     let fork_id = fork["simulation_id"].as_str().unwrap();
     assert_eq!(fork["viewer_url"], format!("{base}/viewer/{fork_id}"), "{fork}");
     c.call("save_simulation", json!({"sim_id": sim, "file_path": "v.json"})).await;
