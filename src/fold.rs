@@ -407,7 +407,7 @@ impl Cadence {
     /// One step was taken: whether this is a sample.
     pub fn step(&mut self) -> bool {
         self.steps += 1;
-        self.dirty = self.steps % self.every != 0;
+        self.dirty = !self.steps.is_multiple_of(self.every);
         !self.dirty
     }
 

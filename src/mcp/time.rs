@@ -38,6 +38,12 @@ pub struct GetTrajectory {
     pub output_path: Option<String>,
 }
 
+/// The interval a call asks for: (from_seq, to_seq), each None for its default.
+pub(crate) type Asked = (Option<u64>, Option<u64>);
+
+/// step_simulation's sampling: (sample_every, sample_objects).
+pub(crate) type StepSampling = (Option<u64>, Option<Vec<u32>>);
+
 /// An optional non-negative integer argument.
 fn opt_u64(a: &Args, name: &str) -> Result<Option<u64>, Refusal> {
     value::arg(a, name)
@@ -73,7 +79,7 @@ pub(crate) fn opt_ids(a: &Args, name: &str) -> Result<Option<Vec<u32>>, Refusal>
 }
 
 /// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path.
-fn trajectory_args(a: &Args) -> Result<((Option<u64>, Option<u64>), (Request, Option<String>)), Refusal> {
+fn trajectory_args(a: &Args) -> Result<(Asked, (Request, Option<String>)), Refusal> {
     let interval = (opt_u64(a, "from_seq")?, opt_u64(a, "to_seq")?);
     let req = Request {
         every: opt_every(a, "every")?,
@@ -130,7 +136,7 @@ impl PhysicsServer {
         &self,
         tool: &'static str,
         args: Args,
-        parsed: Result<((Option<u64>, Option<u64>), P), Refusal>,
+        parsed: Result<(Asked, P), Refusal>,
         f: impl FnOnce(P, &Lent) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         let id = value::string(&args, "sim_id")?;
@@ -177,7 +183,7 @@ impl PhysicsServer {
 
 /// step_simulation's sampling arguments: (sample_every, sample_objects), None when neither
 /// is given (a plain step).
-pub(crate) fn step_sampling(a: &Args) -> Result<Option<(Option<u64>, Option<Vec<u32>>)>, Refusal> {
+pub(crate) fn step_sampling(a: &Args) -> Result<Option<StepSampling>, Refusal> {
     let every = opt_every(a, "sample_every")?;
     let ids = opt_ids(a, "sample_objects")?;
     Ok((every.is_some() || ids.is_some()).then_some((every, ids)))
