@@ -25,6 +25,7 @@
 //! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
 //!   writing generate_revolute_joint's URDFs.
 //! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
+//! - `trajectory` — the pose sampler over the re-simulation core (get_trajectory, CSV/JSONL).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
 
@@ -41,6 +42,7 @@ pub mod workspace;
 pub mod sim;
 pub mod store;
 pub mod timeline;
+pub mod trajectory;
 pub mod urdf_files;
 pub mod mcp;
 pub mod viewer;

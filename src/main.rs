@@ -66,6 +66,12 @@ enum Cmd {
         /// Print the summary (or the divergence) as JSON.
         #[arg(long)]
         json: bool,
+        /// Also write the interval's samples (poses, velocities, joints) to this .csv or .jsonl.
+        #[arg(long)]
+        trajectory: Option<PathBuf>,
+        /// The interval and sampling for --trajectory.
+        #[command(flatten)]
+        interval: physics_mcp::cli::IntervalArgs,
     },
     /// Print a log's events as a table.
     History {
@@ -191,9 +197,17 @@ fn main() {
                         serve_http(reg, HttpOptions { bind, token, allow_origin }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
-                    Cmd::Replay { file, until, json } => {
+                    Cmd::Replay { file, until, json, trajectory, interval } => {
                         if !run_replay(&file, until, json)? {
                             std::process::exit(1);
+                        }
+                        if let Some(out) = trajectory {
+                            let t = physics_mcp::replay::write_trajectory(&file, &out, &interval)
+                                .map_err(|e| anyhow::anyhow!("--trajectory: {e}"))?;
+                            eprintln!(
+                                "trajectory: {} samples of {} objects (seq {} to {}, every {} steps) written to {}",
+                                t.samples, t.objects.len(), t.from_seq, t.to_seq, t.every, out.display()
+                            );
                         }
                         Ok(())
                     }

@@ -14,7 +14,7 @@ use crate::sensing::camera::{self, Mat4};
 use crate::sensing::scene::Indexed;
 use crate::sensing::{contacts, rays, render};
 use crate::mcp::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
-use crate::mcp::params::{Fork, HistoryPage, Save};
+use crate::mcp::params::{Fork, GetTrajectory, HistoryPage, Save};
 use crate::value::{r32, r32s, Args, Refusal};
 use crate::world::World;
 
@@ -169,6 +169,8 @@ pub enum Read {
     Save(Save),
     /// fork_simulation (the parent's event): its result names a fresh simulation.
     Fork(Fork),
+    /// get_trajectory: its result is re-simulated from the log, not read off the world.
+    Trajectory(GetTrajectory),
 }
 
 impl Read {
@@ -195,6 +197,7 @@ impl Read {
             "verify_simulation" => Read::Verify(p(tool, a)?),
             "save_simulation" => Read::Save(p(tool, a)?),
             "fork_simulation" => Read::Fork(p(tool, a)?),
+            "get_trajectory" => Read::Trajectory(p(tool, a)?),
             other => return Err(format!("{other} is not a read this server knows")),
         })
     }
@@ -219,7 +222,7 @@ impl Read {
             Read::AllCollisions(_) => json(all_collisions(cx)),
             Read::CollisionsForPair(p) => json(collisions_for_pair(cx, p)),
             Read::CameraImage(p) => json(camera_image(cx, p, usize::MAX)),
-            Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) => return None,
+            Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) => return None,
         })
     }
 }

@@ -140,6 +140,10 @@ pub struct Step {
     pub sim_id: Text,
     /// Number of fixed timesteps to take (default 1, at most --max-steps).
     pub steps: Option<Int<u64>>,
+    /// Also return `trajectory`: poses sampled every this many steps (get_trajectory's form).
+    pub sample_every: Option<Int<u64>>,
+    /// Objects to sample (default all).
+    pub sample_objects: Option<Vec<ObjectId>>,
 }
 
 /// set_timestep parameters.
@@ -646,4 +650,25 @@ pub struct SetCamera {
     pub pitch: Num,
     /// The point looked at [x, y, z].
     pub target: Vec3,
+}
+
+/// get_trajectory parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct GetTrajectory {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// State-changing event whose resulting state starts the interval (default: the state
+    /// just before the last step_simulation).
+    pub from_seq: Option<Int<u64>>,
+    /// State-changing event that ends the interval (default: the head).
+    pub to_seq: Option<Int<u64>>,
+    /// Steps between samples (default: about 100 samples).
+    pub every: Option<Int<u64>>,
+    /// Objects to sample (default: all).
+    pub object_ids: Option<Vec<ObjectId>>,
+    /// Also sample velocities (default false).
+    pub include_velocities: Option<Bool>,
+    /// Write the whole table to this .csv or .jsonl file in the workspace; reply a summary.
+    pub output_path: Option<Text>,
 }

@@ -14,7 +14,7 @@ use crate::outputs::{Created, Message, SimulationInfo, SimulationList, Stepped, 
 use crate::reads;
 use crate::value::Refusal;
 
-fn decide_step(p: Step) -> Result<Command, Refusal> {
+pub(super) fn decide_step(p: &Step) -> Result<Command, Refusal> {
     let steps = int_or(p.steps, 1);
     let steps = u64::try_from(steps)
         .ok()
@@ -107,15 +107,18 @@ impl PhysicsServer {
         });
         let every = (total / 100).max(1);
         let mut last_sent = 0;
-        let out = self
-            .change_with("step_simulation", args, decide_step, move |done| {
-                if done - last_sent >= every {
-                    last_sent = done;
-                    let _ = tx.send(done);
-                }
-                !ct.is_cancelled()
-            })
-            .await;
+        let control = move |done| {
+            if done - last_sent >= every {
+                last_sent = done;
+                let _ = tx.send(done);
+            }
+            !ct.is_cancelled()
+        };
+        let sampling = params::parse::<Step>("step_simulation", &args).map(|p| super::time::step_sampling(&p));
+        let out = match sampling {
+            Ok(Ok(None)) => self.change_with("step_simulation", args, |p: Step| decide_step(&p), control).await,
+            _ => self.sampled_step(args, control).await,
+        };
         if let Some(f) = forward {
             let _ = f.await;
         }

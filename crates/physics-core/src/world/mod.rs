@@ -264,6 +264,11 @@ pub struct World {
 /// Hook called during long steps with the steps done so far; returning false stops early.
 pub type StepControl<'a> = &'a mut dyn FnMut(u64) -> bool;
 
+/// Hook that sees the world after every simulated step of a step command (re-simulation
+/// samples, live viewer progress). It gets a shared borrow, so it cannot change the state:
+/// results and state hashes are the same with or without it.
+pub type StepObserver<'a> = &'a mut dyn FnMut(&World);
+
 impl World {
     /// Builds the world a root `CreateSimulation` command describes.
     pub fn create(cmd: &Command) -> Option<(World, Outcome)> {
@@ -344,6 +349,12 @@ impl World {
     /// Applies an accepted command and returns its result. Cannot fail for a command that
     /// passed `Command::validate`; `control` may stop a long step early (the steps done stay).
     pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Outcome {
+        self.apply_observed(cmd, control, &mut |_| {})
+    }
+
+    /// `apply` with `observe` called after every step a step command takes (read-only; the
+    /// result and the state are exactly those of `apply`).
+    pub fn apply_observed(&mut self, cmd: &Command, control: StepControl, observe: StepObserver) -> Outcome {
         match cmd {
             Command::CreateSimulation { .. }
             | Command::ForkSimulation { .. }
@@ -351,11 +362,12 @@ impl World {
                 Outcome::Message(Message::new("a root event changes nothing in an existing world"))
             }
             Command::StepSimulation { steps } => {
-                let taken = self.step(*steps, control);
+                let taken = self.step(*steps, control, observe);
                 Outcome::Stepped(Stepped {
                     simulation_id: self.simulation_id.clone(),
                     steps_taken: taken,
                     current_time: self.current_time(),
+                    trajectory: None,
                 })
             }
             Command::SetTimestep { timestep, timestep_given } => {
@@ -419,7 +431,7 @@ impl World {
     }
 
     /// Advances `n` steps, clearing one-step forces after the first. Returns the steps taken.
-    fn step(&mut self, n: u64, control: StepControl) -> u64 {
+    fn step(&mut self, n: u64, control: StepControl, observe: StepObserver) -> u64 {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
         while taken < n {
@@ -432,6 +444,7 @@ impl World {
             self.tables.time_s += self.physics.integration_parameters.dt as f64;
             self.tables.steps += 1;
             taken += 1;
+            observe(self);
             if taken % CHECK_EVERY == 0 && taken < n && !control(taken) {
                 break;
             }
