@@ -10,7 +10,6 @@ use crate::outputs::{
     ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
 use crate::sensing::camera::{self, Mat4};
-use crate::sensing::scene::Indexed;
 use crate::sensing::{contacts, rays, render};
 use crate::value::{self, r32, r32s, Args, Refusal};
 use crate::world::World;
@@ -116,10 +115,10 @@ pub fn simulation_info(cx: &ReadContext, _a: &Args) -> Result<SimulationInfo, Re
     let w = cx.world;
     Ok(SimulationInfo {
         simulation_id: w.simulation_id().to_string(),
-        gravity: r32s(w.physics.gravity.to_array()),
+        gravity: r32s(w.gravity()),
         timestep: w.timestep_given(),
         current_time: w.current_time(),
-        steps: w.tables.steps,
+        steps: w.steps(),
         gui_enabled: w.gui(),
         objects: w.object_summaries(),
         constraints: w.constraint_summaries(),
@@ -157,7 +156,7 @@ pub fn replay_read(tool: &str, cx: &ReadContext, a: &Args) -> Option<Result<Valu
 pub fn ray_test(cx: &ReadContext, a: &Args) -> Result<RayHit, Refusal> {
     let from = value::req_vec3(a, "ray_from")?;
     let to = value::req_vec3(a, "ray_to")?;
-    Ok(rays::cast(&Indexed::new(cx.world), from, to))
+    Ok(rays::ray_test(cx.world, from, to))
 }
 
 /// ray_test_batch (at most `max_rays` rays).
@@ -178,7 +177,7 @@ pub fn ray_test_batch(cx: &ReadContext, a: &Args, max_rays: usize) -> Result<Ray
         return Err(format!("Too many rays: {} in one batch (at most {max_rays}, --max-rays)", from.len()));
     }
     let rays: Vec<_> = from.into_iter().zip(to).collect();
-    Ok(RayBatch { results: rays::cast_batch(&Indexed::new(cx.world), &rays) })
+    Ok(RayBatch { results: rays::cast_batch(cx.world.scene(), &rays) })
 }
 
 /// get_all_collisions.
@@ -235,7 +234,7 @@ pub fn camera_image(cx: &ReadContext, a: &Args, max_px: usize) -> Result<Rendere
             "Image too large: {width}x{height} = {px} pixels (at most {max_px}, --max-image-px)"
         ));
     }
-    let cam = &w.tables.viewer;
+    let cam = w.viewer();
     let view = matrix(a, "view_matrix", || {
         let t = cam.target.map(f64::from);
         camera::view_matrix_from_yaw_pitch(t, cam.distance.into(), cam.yaw.into(), cam.pitch.into(), 2)

@@ -73,6 +73,7 @@ pub fn decide_load_urdf(sandbox: &Sandbox, a: &value::Args) -> Result<Command, R
         orientation,
         fixed_base,
         continuous_limits_from_file: true,
+        revolute_prismatic_limits_from_file: true,
     })
 }
 
