@@ -126,7 +126,7 @@ fn bench_rays(c: &mut Criterion) {
     println!(
         "REPORT rays: single ray_test over the collapsed 1000-box pile, unchanged world: {cached:.1} µs per call with the world's index, {fresh:.1} µs with a fresh index per call (index build {build:.0} µs; medians of 30 runs of 100 calls)"
     );
-    let hits = rays::cast_batch(&Indexed::new(&w), &rays).iter().filter(|h| h.hit).count();
+    let hits = rays::cast_batch(w.scene(), &rays).iter().filter(|h| h.hit).count();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("REPORT rays: 10000-ray batch over the collapsed 1000-box pile: {all:.2} ms on {threads} threads, {one:.2} ms on one ({hits} hits)");
 }
