@@ -34,11 +34,11 @@ fn step(w: &mut World, n: u64) {
 fn bench_pile_steps(c: &mut Criterion) {
     let mut g = c.benchmark_group("pile_1000_boxes");
     g.sample_size(10).measurement_time(Duration::from_secs(20));
-    for sleeping in [true, false] {
-        let mut w = pile_world(sleeping);
+    {
+        let mut w = pile_world();
         step(&mut w, 100);
         let snap = w.snapshot();
-        let name = if sleeping { "steps_100_to_400_sleeping_on" } else { "steps_100_to_400_sleeping_off" };
+        let name = "steps_100_to_400";
         g.bench_function(name, |b| {
             b.iter_batched(
                 || World::restore("pile", false, &snap).unwrap(),
@@ -82,7 +82,7 @@ fn pile_sim(dir: &std::path::Path, name: &str, sync: SyncMode) -> Sim {
 
 fn bench_snapshot_restore(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
-    let mut w = pile_world(true);
+    let mut w = pile_world();
     step(&mut w, 300);
     let snap = w.snapshot();
     let hash = physics_mcp::digest::content_hash(&snap);

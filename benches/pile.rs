@@ -60,16 +60,11 @@ pub fn root(id: &str) -> Command {
     Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false }
 }
 
-pub fn pile_world(sleeping: bool) -> World {
+/// The pile, built through `World::create` and `World::apply` as the server builds it.
+pub fn pile_world() -> World {
     let (mut w, _) = World::create(&root("pile")).unwrap();
     for c in pile_commands() {
         w.apply(&c, &mut |_| true);
-    }
-    if !sleeping {
-        for (_, b) in w.physics.bodies.iter_mut() {
-            b.activation_mut().normalized_linear_threshold = -1.0;
-            b.activation_mut().angular_threshold = -1.0;
-        }
     }
     w
 }

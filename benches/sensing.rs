@@ -14,7 +14,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::reads::{self, ReadContext};
 use physics_mcp::sensing::rays;
-use physics_mcp::sensing::scene::Indexed;
+use physics_mcp::world::scene::Scene;
 use physics_mcp::world::World;
 use rand::{Rng, SeedableRng};
 use serde_json::json;
@@ -31,7 +31,7 @@ fn pile_rays() -> Vec<([f32; 3], [f32; 3])> {
 }
 
 fn collapsed_pile() -> World {
-    let mut w = pile::pile_world(true);
+    let mut w = pile::pile_world();
     w.apply(&Command::StepSimulation { steps: 400 }, &mut |_| true);
     w
 }
@@ -98,24 +98,40 @@ fn bench_rays(c: &mut Criterion) {
     let mut g = c.benchmark_group("rays");
     g.sample_size(20);
     g.bench_function("batch_10000_all_cores", |b| {
-        b.iter(|| rays::cast_batch(&Indexed::new(&w), &rays))
+        b.iter(|| rays::cast_batch(&Scene::new(&w), &rays))
     });
     g.bench_function("batch_10000_one_thread", |b| {
         b.iter(|| {
-            let scene = Indexed::new(&w);
+            let scene = Scene::new(&w);
             rays.iter().map(|(f, t)| rays::cast(&scene, *f, *t)).collect::<Vec<_>>()
         })
     });
+    g.bench_function("single_ray_test_x100_fresh_index_each", |b| {
+        b.iter(|| rays.iter().take(100).map(|(f, t)| rays::cast(&Scene::new(&w), *f, *t)).collect::<Vec<_>>())
+    });
+    g.bench_function("single_ray_test_x100_unchanged_world", |b| {
+        b.iter(|| rays.iter().take(100).map(|(f, t)| rays::ray_test(&w, *f, *t)).collect::<Vec<_>>())
+    });
     g.finish();
-    let all = median_ms(|| drop(rays::cast_batch(&Indexed::new(&w), &rays)), 30);
+    let all = median_ms(|| drop(rays::cast_batch(&Scene::new(&w), &rays)), 30);
     let one = median_ms(
         || {
-            let scene = Indexed::new(&w);
+            let scene = Scene::new(&w);
             drop(rays.iter().map(|(f, t)| rays::cast(&scene, *f, *t)).collect::<Vec<_>>())
         },
         30,
     );
-    let hits = rays::cast_batch(&Indexed::new(&w), &rays).iter().filter(|h| h.hit).count();
+    // Single ray_test calls on an unchanged world (an agent probing a scene ray by ray): the
+    // tool's path (the world's scene index, built once per state) against an index built for
+    // every call (what each ray_test did before), and the build alone.
+    let per_call = |f: &dyn Fn(&([f32; 3], [f32; 3]))| median_ms(|| rays.iter().take(100).for_each(f), 30) * 10.0;
+    let fresh = per_call(&|(f, t)| drop(rays::cast(&Scene::new(&w), *f, *t)));
+    let cached = per_call(&|(f, t)| drop(rays::ray_test(&w, *f, *t)));
+    let build = median_ms(|| drop(Scene::new(&w)), 30) * 1e3;
+    println!(
+        "REPORT rays: single ray_test over the collapsed 1000-box pile, unchanged world: {cached:.1} µs per call with the world's index, {fresh:.1} µs with a fresh index per call (index build {build:.0} µs; medians of 30 runs of 100 calls)"
+    );
+    let hits = rays::cast_batch(w.scene(), &rays).iter().filter(|h| h.hit).count();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("REPORT rays: 10000-ray batch over the collapsed 1000-box pile: {all:.2} ms on {threads} threads, {one:.2} ms on one ({hits} hits)");
 }

@@ -11,7 +11,6 @@ use crate::outputs::{
     ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
 use crate::sensing::camera::{self, Mat4};
-use crate::sensing::scene::Indexed;
 use crate::sensing::{contacts, rays, render};
 use crate::mcp::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
 use crate::mcp::params::{Fork, GetTrajectory, HistoryPage, Save};
@@ -120,10 +119,10 @@ pub fn simulation_info(cx: &ReadContext) -> Result<SimulationInfo, Refusal> {
     let w = cx.world;
     Ok(SimulationInfo {
         simulation_id: w.simulation_id().to_string(),
-        gravity: r32s(w.physics.gravity.to_array()),
+        gravity: r32s(w.gravity()),
         timestep: w.timestep_given(),
         current_time: w.current_time(),
-        steps: w.tables.steps,
+        steps: w.steps(),
         gui_enabled: w.gui(),
         objects: w.object_summaries(),
         constraints: w.constraint_summaries(),
@@ -229,7 +228,7 @@ impl Read {
 
 /// ray_test.
 pub fn ray_test(cx: &ReadContext, p: &RayTest) -> Result<RayHit, Refusal> {
-    Ok(rays::cast(&Indexed::new(cx.world), p.ray_from.0, p.ray_to.0))
+    Ok(rays::ray_test(cx.world, p.ray_from.0, p.ray_to.0))
 }
 
 /// ray_test_batch (at most `max_rays` rays).
@@ -249,7 +248,7 @@ pub fn ray_test_batch(cx: &ReadContext, p: &RayTestBatch, max_rays: usize) -> Re
         return Err(format!("Too many rays: {} in one batch (at most {max_rays}, --max-rays)", from.len()));
     }
     let rays: Vec<_> = from.iter().copied().zip(to.iter().copied()).collect();
-    Ok(RayBatch { results: rays::cast_batch(&Indexed::new(cx.world), &rays) })
+    Ok(RayBatch { results: rays::cast_batch(cx.world.scene(), &rays) })
 }
 
 /// get_all_collisions.
@@ -297,7 +296,7 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
             "Image too large: {width}x{height} = {px} pixels (at most {max_px}, --max-image-px)"
         ));
     }
-    let cam = &w.tables.viewer;
+    let cam = w.viewer();
     let view: Mat4 = match &p.view_matrix {
         Some(m) => m.0,
         None => {

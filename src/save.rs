@@ -130,12 +130,10 @@ fn snapshot_mac_matches(key: &[u8; 32], s: &SavedSnapshot, state_hash: &str) -> 
 /// The readable fields of a world, as saved (and as compared on load).
 pub fn readable(world: &World) -> Readable {
     let objects = world
-        .tables
-        .objects
-        .iter()
+        .objects()
         .filter_map(|(id, obj)| {
-            let st = world.object_state(*id)?;
-            let is_static = world.body(*id).is_some_and(|b| b.is_fixed());
+            let st = world.object_state(id)?;
+            let is_static = world.body(id).is_some_and(|b| b.is_fixed());
             let mut o = match &obj.kind {
                 ObjectKind::Primitive { shape } => json!({
                     "object_id": id,
@@ -153,7 +151,7 @@ pub fn readable(world: &World) -> Readable {
                     "use_fixed_base": robot.fixed_base,
                     "num_joints": robot.links.len(),
                     "joint_positions": (0..robot.links.len())
-                        .filter_map(|i| world.joint_state(*id, i).map(|j| j.joint_position))
+                        .filter_map(|i| world.joint_state(id, i).map(|j| j.joint_position))
                         .collect::<Vec<_>>(),
                 }),
             };
@@ -172,7 +170,7 @@ pub fn readable(world: &World) -> Readable {
         })
         .collect();
     Readable {
-        gravity: Some(json!(r32s(world.physics.gravity.to_array()))),
+        gravity: Some(json!(r32s(world.gravity()))),
         timestep: Some(json!(world.timestep_given())),
         simulation_time: Some(json!(world.current_time())),
         objects,
@@ -203,7 +201,7 @@ impl Readable {
 pub fn disagreeing_fields(file: &Readable, world: &World) -> Option<String> {
     let actual = readable(world);
     let legacy_timestep = Some(json!(r32(world.timestep())));
-    let legacy_time = Some(json!(world.tables.time_s));
+    let legacy_time = Some(json!(world.engine_time()));
     let mut bad = Vec::new();
     if file.gravity != actual.gravity {
         bad.push("gravity".to_string());

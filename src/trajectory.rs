@@ -124,7 +124,7 @@ impl Sampler {
         let i = self.out.samples;
         let ids: Vec<u32> = match &self.ids {
             Some(ids) => ids.clone(),
-            None => w.tables.objects.keys().copied().collect(),
+            None => w.objects().map(|(id, _)| id).collect(),
         };
         for id in ids {
             let velocities = self.velocities;
@@ -171,7 +171,7 @@ impl Sampler {
         }
         self.out.samples += 1;
         self.out.times.push(w.current_time());
-        self.out.steps.push(w.tables.steps);
+        self.out.steps.push(w.steps());
         self.out.seqs.push(seq);
         self.cells += self.tracks.len() as u64;
         self.overflow = self.cells > MAX_CELLS;

@@ -80,6 +80,7 @@ pub fn load_urdf_command(sandbox: &Sandbox, p: &params::LoadUrdf) -> Result<Comm
         orientation,
         fixed_base,
         continuous_limits_from_file: true,
+        revolute_prismatic_limits_from_file: true,
     })
 }
 

@@ -17,13 +17,14 @@ fn iiwa_world() -> (World, u32) {
 
 /// Drives the robot's movable joints to `q` inside rapier (its multibody's own joint
 /// coordinates and forward kinematics, which share no code with the solver's `ik::link_pose`)
-/// and returns link `link`'s body pose as rapier then places it.
-fn rapier_link_pose(w: &mut World, id: u32, link: usize, q: &[f64]) -> (DVec3, DQuat) {
+/// and returns link `link`'s body pose as rapier then places it. Works on copies of the
+/// world's rapier sets: the world itself changes only through `World::apply`.
+fn rapier_link_pose(w: &World, id: u32, link: usize, q: &[f64]) -> (DVec3, DQuat) {
     let robot = w.robot(id).unwrap().clone();
-    let bodies: Vec<_> = robot.movable().iter().map(|i| robot.links[*i].body).collect();
-    let mbs = &mut w.physics.multibody_joints;
+    let movable: Vec<_> = robot.movable().iter().map(|i| robot.links[*i].body).collect();
+    let (mut bodies, mut mbs) = (w.physics().bodies.clone(), w.physics().multibody_joints.clone());
     let mut multibody = None;
-    for (body, target) in bodies.iter().zip(q) {
+    for (body, target) in movable.iter().zip(q) {
         let at = *mbs.rigid_body_link(*body).expect("a robot link is a multibody link");
         multibody = Some(at.multibody);
         let link = mbs.get_multibody_mut(at.multibody).unwrap().link_mut(at.id).unwrap();
@@ -33,9 +34,9 @@ fn rapier_link_pose(w: &mut World, id: u32, link: usize, q: &[f64]) -> (DVec3, D
     }
     let mb = mbs.get_multibody_mut(multibody.unwrap()).unwrap();
     // The root's pose comes from the base body, where load_urdf placed the robot.
-    mb.forward_kinematics(&w.physics.bodies, true);
-    mb.update_rigid_bodies(&mut w.physics.bodies, false);
-    let pose = w.physics.bodies[robot.links[link].body].position();
+    mb.forward_kinematics(&bodies, true);
+    mb.update_rigid_bodies(&mut bodies, false);
+    let pose = bodies[robot.links[link].body].position();
     let (t, r) = (pose.translation, pose.rotation);
     (DVec3::new(t.x as f64, t.y as f64, t.z as f64), DQuat::from_xyzw(r.x as f64, r.y as f64, r.z as f64, r.w as f64))
 }
@@ -50,7 +51,6 @@ fn seed() -> u64 {
 #[test]
 fn ik_reaches_random_reachable_targets_within_limits() {
     let (w, id) = iiwa_world();
-    let (mut fk, _) = iiwa_world();
     let robot = w.robot(id).unwrap().clone();
     let joints: Vec<_> = robot.links.iter().map(|l| l.joint.clone()).collect();
     let movable = robot.movable();
@@ -82,7 +82,7 @@ fn ik_reaches_random_reachable_targets_within_limits() {
         assert!(((p1 - target_p).length() - sol.position_error).abs() < 1e-9);
         // Checked independently: rapier places the flange where the solver says when the
         // joints are driven to the answer (f32 poses: agreement to a few µm).
-        let (p2, r2) = rapier_link_pose(&mut fk, id, ee, &sol.joint_positions);
+        let (p2, r2) = rapier_link_pose(&w, id, ee, &sol.joint_positions);
         let pos_err = (p2 - target_p).length();
         assert!((pos_err - sol.position_error).abs() < 1e-5, "rapier's flange is {pos_err} m from the target, the solver says {}", sol.position_error);
         if with_orientation {

@@ -100,8 +100,8 @@ fn disturb(w: &mut World, k: u32) {
 
 fn body_bits(w: &World) -> Vec<u32> {
     let mut out = Vec::new();
-    for id in w.tables.objects.keys() {
-        let b = w.body(*id).unwrap();
+    for (id, _) in w.objects() {
+        let b = w.body(id).unwrap();
         let p = b.position();
         for x in p.translation.to_array().iter().chain(p.rotation.to_array().iter())
             .chain(b.linvel().to_array().iter()).chain(b.angvel().to_array().iter())

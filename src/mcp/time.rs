@@ -174,7 +174,7 @@ pub(crate) fn sampled_step(
             _ => 0,
         };
         let w = sim.world();
-        let listed: Vec<u32> = ids.clone().unwrap_or_else(|| w.tables.objects.keys().copied().collect());
+        let listed: Vec<u32> = ids.clone().unwrap_or_else(|| w.objects().map(|(id, _)| id).collect());
         if let Some(id) = listed.iter().find(|id| !w.has_object(**id)) {
             return Err(format!("sample_objects: object {id} does not exist in simulation {}", w.simulation_id()));
         }

@@ -6,7 +6,6 @@ use std::collections::HashMap;
 
 use rapier3d::prelude::*;
 
-use super::scene;
 use crate::outputs::Contact;
 use crate::value::{r32, r32s};
 use crate::world::World;
@@ -16,14 +15,15 @@ use crate::world::World;
 /// first of the pair.
 pub fn contacts(w: &World, pair: Option<(u32, u32)>) -> Vec<Contact> {
     let owner: HashMap<ColliderHandle, (u32, i64)> =
-        scene::parts(w).iter().map(|p| (p.collider, (p.object_id, p.link_index))).collect();
-    let dt = w.physics.integration_parameters.dt;
+        w.scene().parts.iter().map(|p| (p.collider, (p.object_id, p.link_index))).collect();
+    let physics = w.physics();
+    let dt = physics.integration_parameters.dt;
     let mut out = Vec::new();
-    for cp in w.physics.contact_pairs() {
+    for cp in physics.contact_pairs() {
         let (Some(&o1), Some(&o2)) = (owner.get(&cp.collider1), owner.get(&cp.collider2)) else {
             continue;
         };
-        let (Some(c1), Some(c2)) = (w.physics.colliders.get(cp.collider1), w.physics.colliders.get(cp.collider2)) else {
+        let (Some(c1), Some(c2)) = (physics.colliders.get(cp.collider1), physics.colliders.get(cp.collider2)) else {
             continue;
         };
         // A is collider 1 unless the order asked for (or id order) says otherwise.
@@ -43,7 +43,7 @@ pub fn contacts(w: &World, pair: Option<(u32, u32)>) -> Vec<Contact> {
         // creep (spatial coherence), so a box that slid 16 mm after landing still reported the
         // ground's anchors of the landing. The points are reported where the shapes touch now:
         // a fresh manifold for the current poses, matched to rapier's points by feature.
-        let fresh = fresh_manifolds(c1, c2, w.physics.integration_parameters.prediction_distance());
+        let fresh = fresh_manifolds(c1, c2, physics.integration_parameters.prediction_distance());
         for m in cp.manifolds() {
             // The same sub-shapes' fresh manifold (feature ids are per sub-shape).
             let now_m = fresh.iter().find(|f| (f.subshape1, f.subshape2) == (m.subshape1, m.subshape2));

@@ -7,9 +7,10 @@
 use rapier3d::prelude::*;
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 
-use super::scene::Indexed;
+use crate::world::scene::Scene;
 use crate::outputs::RayHit;
 use crate::value::{r32, r32s};
+use crate::world::World;
 
 /// Rays below which a batch, or a piece of one, is not split (a thread hop costs more).
 const RAYS_PER_THREAD: usize = 512;
@@ -27,7 +28,7 @@ fn miss() -> RayHit {
 }
 
 /// The first hit of the ray `from → to`.
-pub fn cast(scene: &Indexed, from: [f32; 3], to: [f32; 3]) -> RayHit {
+pub fn cast(scene: &Scene, from: [f32; 3], to: [f32; 3]) -> RayHit {
     let origin = Vector::from_array(from);
     let dir = Vector::from_array(to) - origin;
     if dir.length_squared() == 0.0 {
@@ -56,10 +57,17 @@ pub fn cast(scene: &Indexed, from: [f32; 3], to: [f32; 3]) -> RayHit {
     }
 }
 
-/// Many rays against one scene built once for the call, results in the order given; large
+/// ray_test: one ray against the world as it is now (the tool's whole computation once its
+/// parameters are read; the bench times this). The world's scene index is shared by every
+/// read until the next change, so consecutive single rays do not rebuild it.
+pub fn ray_test(w: &World, from: [f32; 3], to: [f32; 3]) -> RayHit {
+    cast(w.scene(), from, to)
+}
+
+/// Many rays against one scene index (the world's, see `World::scene`), results in the order given; large
 /// batches run on rayon's pool (each ray is independent, so results do not depend on how
 /// they are split).
-pub fn cast_batch(scene: &Indexed, rays: &[([f32; 3], [f32; 3])]) -> Vec<RayHit> {
+pub fn cast_batch(scene: &Scene, rays: &[([f32; 3], [f32; 3])]) -> Vec<RayHit> {
     if rays.len() <= RAYS_PER_THREAD {
         return rays.iter().map(|(f, t)| cast(scene, *f, *t)).collect();
     }

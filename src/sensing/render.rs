@@ -12,7 +12,7 @@ use rapier3d::parry::shape::{Shape, TypedShape};
 use rapier3d::prelude::Vector;
 
 use super::camera::Mat4;
-use super::scene::{self, Part};
+use crate::world::scene::Part;
 use crate::world::World;
 
 /// Background colour (PyBullet's TinyRenderer clears to white).
@@ -193,7 +193,7 @@ impl Frame {
 
     /// Draws one collider.
     fn draw(&mut self, part: &Part, view: &[f32; 16], proj: &[f32; 16], eye: Option<Vector>) {
-        let (local, tris) = triangulate(part.shape);
+        let (local, tris) = triangulate(&*part.shape);
         if local.is_empty() {
             return;
         }
@@ -251,8 +251,8 @@ pub fn render(w: &World, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> F
     let (view, proj) = (to_f32(view), to_f32(proj));
     // Back faces are culled from the eye's position for perspective projections.
     let eye = (proj[11] == -1.0 && proj[15] == 0.0).then(|| eye_position(&view));
-    for part in scene::parts(w) {
-        frame.draw(&part, &view, &proj, eye);
+    for part in &w.scene().parts {
+        frame.draw(part, &view, &proj, eye);
     }
     frame
 }

@@ -19,7 +19,7 @@ use base64::Engine;
 use serde::{Deserialize, Serialize};
 
 use crate::sensing::camera::{self, Mat4};
-use crate::sensing::{contacts, render, scene};
+use crate::sensing::{contacts, render};
 use crate::sim::Registry;
 use crate::value::{r32, r32s};
 use crate::world::World;
@@ -120,7 +120,7 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
     if width == 0 || height == 0 || width as u64 * height as u64 > max_px as u64 {
         return Err(format!("frame size {width}x{height} must be at least 1x1 and at most {max_px} pixels"));
     }
-    let cam = &w.tables.viewer;
+    let cam = w.viewer();
     let recorded = CameraJson {
         distance: r32(cam.distance),
         yaw: r32(cam.yaw),
@@ -154,8 +154,8 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
         projection_matrix: proj.to_vec(),
         camera: recorded,
         time: w.current_time(),
-        steps: w.tables.steps,
-        objects: w.tables.objects.len(),
+        steps: w.steps(),
+        objects: w.object_count(),
         state_hash: state_hash.to_string(),
         show_contacts: cam.show_contacts,
         show_frames: cam.show_frames,
@@ -167,9 +167,9 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
 /// One frame per body (each primitive, each robot base and link), at the body's origin.
 fn body_frames(w: &World) -> Vec<BodyFrame> {
     let mut out: Vec<BodyFrame> = Vec::new();
-    for part in scene::parts(w) {
-        let Some(body) = w.physics.colliders.get(part.collider).and_then(|c| c.parent()) else { continue };
-        let Some(b) = w.physics.bodies.get(body) else { continue };
+    for part in &w.scene().parts {
+        let Some(body) = w.physics().colliders.get(part.collider).and_then(|c| c.parent()) else { continue };
+        let Some(b) = w.physics().bodies.get(body) else { continue };
         let size = f64::from(part.shape.compute_local_aabb().half_extents().max_element());
         let axis_length = (size * 1.5).clamp(0.05, 2.0);
         if let Some(last) = out.last_mut() {

@@ -251,6 +251,7 @@ pub fn load_fixture(
         orientation: [0.0, 0.0, 0.0, 1.0],
         fixed_base,
         continuous_limits_from_file: true,
+        revolute_prismatic_limits_from_file: true,
     };
     w.apply(&cmd, &mut |_| true).to_value()["object_id"].as_u64().unwrap() as u32
 }

@@ -359,6 +359,13 @@ pub enum Command {
         /// Omitted when false, so such events re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         continuous_limits_from_file: bool,
+        /// Revolute and prismatic joints read `lower`/`upper` from the `<limit>` attributes
+        /// present, a missing one as PyBullet's 0 / −1 (so effort/velocity alone means no
+        /// limit). Set by every load_urdf since; older events decode as false and fold to the
+        /// robot they always did (a missing attribute read as 0), so their hashes still match.
+        /// Omitted when false, so such events re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        revolute_prismatic_limits_from_file: bool,
     },
     /// Set (or replace) a joint motor; it acts on every later step.
     SetJointMotor {
@@ -686,9 +693,13 @@ impl Command {
             Command::SetTimestep { .. }
             | Command::SetDebugVisualization { .. }
             | Command::SetCamera { .. } => Ok(()),
-            Command::LoadUrdf { urdf, meshes, continuous_limits_from_file, .. } => {
+            Command::LoadUrdf { urdf, meshes, continuous_limits_from_file, revolute_prismatic_limits_from_file, .. } => {
                 room_for_object(world, limits)?;
-                crate::world::urdf_model(urdf, meshes, *continuous_limits_from_file).map(|_| ())
+                let rules = crate::world::urdf::LimitsFromFile {
+                    continuous: *continuous_limits_from_file,
+                    revolute_prismatic: *revolute_prismatic_limits_from_file,
+                };
+                crate::world::urdf_model(urdf, meshes, rules).map(|_| ())
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 exists(*object_id)?;
@@ -705,7 +716,7 @@ impl Command {
                         ));
                     }
                 }
-                if world.tables.constraints.len() >= limits.max_constraints {
+                if world.constraint_count() >= limits.max_constraints {
                     return Err(format!(
                         "Constraint limit reached: {} constraints in simulation {} (--max-constraints)",
                         limits.max_constraints,
@@ -715,7 +726,7 @@ impl Command {
                 Ok(())
             }
             Command::RemoveConstraint { constraint_id } => {
-                if world.tables.constraints.contains_key(constraint_id) {
+                if world.has_constraint(*constraint_id) {
                     Ok(())
                 } else {
                     Err(constraint_not_found(*constraint_id, world.simulation_id()))

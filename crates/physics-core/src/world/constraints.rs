@@ -124,6 +124,16 @@ impl World {
         }
     }
 
+    /// Whether a constraint with this id exists (validation refuses removing an unknown one).
+    pub fn has_constraint(&self, id: u32) -> bool {
+        self.tables.constraints.contains_key(&id)
+    }
+
+    /// Number of constraints (validation enforces the constraint limit before creating one).
+    pub fn constraint_count(&self) -> usize {
+        self.tables.constraints.len()
+    }
+
     /// Every constraint, described, in id order.
     pub fn constraint_summaries(&self) -> Vec<Value> {
         self.tables.constraints.iter().map(|(id, c)| c.describe(*id)).collect()

@@ -11,9 +11,11 @@ pub mod constraints;
 mod hash;
 pub mod ik;
 mod robot;
+pub mod scene;
 pub mod urdf;
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::OnceLock;
 
 use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -26,11 +28,11 @@ pub use hash::STATE_HASH_VERSION;
 pub use robot::{Robot, RobotLink, DEFAULT_MOTOR_FORCE};
 
 /// The robot model a LoadUrdf command's blobs describe (the check and the fold share it);
-/// `continuous_limits_from_file` is the event's own flag (see `urdf::build`).
+/// `rules` come from the event's own flags (see `urdf::LimitsFromFile`).
 pub fn urdf_model(
     urdf: &crate::command::Blob,
     meshes: &std::collections::BTreeMap<String, crate::command::Blob>,
-    continuous_limits_from_file: bool,
+    rules: urdf::LimitsFromFile,
 ) -> Result<urdf::RobotModel, crate::value::Refusal> {
     if !urdf.is_loaded() || meshes.values().any(|m| !m.is_loaded()) {
         return Err("the URDF or one of its meshes is missing from the event".into());
@@ -38,7 +40,7 @@ pub fn urdf_model(
     let text = std::str::from_utf8(&urdf.bytes).map_err(|_| "file_path is not a valid URDF: it is not UTF-8 text".to_string())?;
     let bytes: std::collections::BTreeMap<String, Vec<u8>> =
         meshes.iter().map(|(k, b)| (k.clone(), b.bytes.to_vec())).collect();
-    urdf::build(text, &bytes, continuous_limits_from_file)
+    urdf::build(text, &bytes, rules)
 }
 
 /// PyBullet's default timestep.
@@ -252,13 +254,19 @@ impl From<TablesV1> for TablesV2 {
 
 /// A simulation's state: rapier's world plus our tables. Identity (`simulation_id`) and the
 /// `gui` flag live beside it and are neither hashed nor snapshotted.
+///
+/// The fields are private: everything that changes the state goes through `apply` (so it is
+/// in the log), and readers get read-only views (`physics`, `objects`, …) or the query
+/// methods below.
 pub struct World {
     simulation_id: String,
     gui: bool,
-    /// The rapier world (public for benchmarks and tests that inspect bodies directly).
-    pub physics: PhysicsWorld,
-    /// Our tables.
-    pub tables: Tables,
+    physics: PhysicsWorld,
+    tables: Tables,
+    /// The scene index of the current state, built on first use and dropped by every `apply`.
+    /// A pure function of `physics` and `tables`, neither hashed nor snapshotted: a restored
+    /// world builds the same index from the same state when first asked.
+    scene: OnceLock<scene::Scene>,
 }
 
 /// Hook called during long steps with the steps done so far; returning false stops early.
@@ -290,6 +298,7 @@ impl World {
             gui: *gui,
             physics,
             tables: Tables::default(),
+            scene: OnceLock::new(),
         };
         let out = Created {
             simulation_id: simulation_id.clone(),
@@ -346,6 +355,47 @@ impl World {
         g.time_at_timestep_s + self.tables.steps.saturating_sub(g.steps_at_timestep) as f64 * g.timestep_s
     }
 
+    /// The rapier world, read-only: sensing reads its colliders, contact pairs and integration
+    /// parameters (contacts, frames); changes go through `apply`, so they are logged.
+    pub fn physics(&self) -> &PhysicsWorld {
+        &self.physics
+    }
+
+    /// Gravity (m/s²) as the engine holds it (get_simulation_info and saved files report it).
+    pub fn gravity(&self) -> [f32; 3] {
+        self.physics.gravity.to_array()
+    }
+
+    /// Steps taken since creation (simulation info and the viewer report it).
+    pub fn steps(&self) -> u64 {
+        self.tables.steps
+    }
+
+    /// The engine's clock: the sum of the f32 timesteps taken, which the state hash covers
+    /// (files saved before event version 2 wrote it as their time; `current_time` is what
+    /// results report).
+    pub fn engine_time(&self) -> f64 {
+        self.tables.time_s
+    }
+
+    /// Viewer settings (camera and debug drawing), for the viewer and get_camera_image's
+    /// default camera.
+    pub fn viewer(&self) -> &Viewer {
+        &self.tables.viewer
+    }
+
+    /// Every object with its id, in id order (saved files list them).
+    pub fn objects(&self) -> impl Iterator<Item = (u32, &Object)> {
+        self.tables.objects.iter().map(|(id, o)| (*id, o))
+    }
+
+    /// Every collider where it is now, with a tree over them (rays, camera, contacts' owners).
+    /// Built at most once per state — consecutive reads of an unchanged world share it — and
+    /// exactly as a fresh build would be, so results never depend on whether it was cached.
+    pub fn scene(&self) -> &scene::Scene {
+        self.scene.get_or_init(|| scene::Scene::new(self))
+    }
+
     /// Applies an accepted command and returns its result. Cannot fail for a command that
     /// passed `Command::validate`; `control` may stop a long step early (the steps done stay).
     pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Outcome {
@@ -355,6 +405,8 @@ impl World {
     /// `apply` with `observe` called after every step a step command takes (read-only; the
     /// result and the state are exactly those of `apply`).
     pub fn apply_observed(&mut self, cmd: &Command, control: StepControl, observe: StepObserver) -> Outcome {
+        // Any command may move, add or remove colliders: the scene index is rebuilt on demand.
+        self.scene.take();
         match cmd {
             Command::CreateSimulation { .. }
             | Command::ForkSimulation { .. }
@@ -389,8 +441,13 @@ impl World {
                 orientation,
                 fixed_base,
                 continuous_limits_from_file,
+                revolute_prismatic_limits_from_file,
             } => {
-                match urdf_model(urdf, meshes, *continuous_limits_from_file) {
+                let rules = urdf::LimitsFromFile {
+                    continuous: *continuous_limits_from_file,
+                    revolute_prismatic: *revolute_prismatic_limits_from_file,
+                };
+                match urdf_model(urdf, meshes, rules) {
                     Ok(model) => {
                         let pose = Pose::from_parts(
                             Vector::from_array(*position),
@@ -491,6 +548,7 @@ impl World {
             gui,
             physics,
             tables,
+            scene: OnceLock::new(),
         })
     }
 

@@ -67,8 +67,8 @@ pub struct JointSpec {
     /// Unit axis in the joint frame.
     pub axis: [f64; 3],
     /// Lower limit (rad or m). PyBullet's "none" is lower 0 with upper −1: fixed joints, and
-    /// continuous joints whose `<limit>` lacks the attribute (or, for robots loaded by an old
-    /// event, always — see `build`'s `continuous_limits_from_file`).
+    /// joints whose `<limit>` lacks the attribute (for robots loaded by an old event, the rule
+    /// of its era — see `LimitsFromFile`).
     pub lower: f64,
     /// Upper limit.
     pub upper: f64,
@@ -177,18 +177,25 @@ fn parse(urdf: &str) -> Result<urdf_rs::Robot, Refusal> {
     })
 }
 
+/// Which joints read `lower`/`upper` attribute by attribute from their `<limit>`, as PyBullet's
+/// parser does: each on its own, a missing lower as 0 and a missing upper as −1 — so a limit
+/// with only effort/velocity, or only a lower above −1, leaves lower > upper: no limit,
+/// reported as such and not enforced. Each flag is the load_urdf event's own: events recorded
+/// before a flag existed fold with it false, to the robot they always did (limits are hashed
+/// state): continuous joints at 0 / −1 always, revolute and prismatic joints at urdf-rs's
+/// reading, which takes a missing attribute as 0 (so effort/velocity alone locked the joint).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LimitsFromFile {
+    /// Continuous joints (their limits are reported, never enforced).
+    pub continuous: bool,
+    /// Revolute and prismatic joints (enforced when lower ≤ upper).
+    pub revolute_prismatic: bool,
+}
+
 /// Builds the model: checks the tree (one root, known links, no loops, supported joint types),
-/// numbers it as PyBullet does, and turns every mesh into a hull from its bytes.
-///
-/// `continuous_limits_from_file`: a continuous joint reports the `lower`/`upper` its `<limit>`
-/// gives, each attribute on its own, else PyBullet's 0 / −1 (as PyBullet's parser does). False
-/// keeps the first releases' 0 / −1 always: load_urdf events recorded by them must fold to the
-/// same robot, whose limits are hashed state.
-pub fn build(
-    urdf: &str,
-    meshes: &BTreeMap<String, Vec<u8>>,
-    continuous_limits_from_file: bool,
-) -> Result<RobotModel, Refusal> {
+/// numbers it as PyBullet does, and turns every mesh into a hull from its bytes. `rules`: how
+/// joint limits are read (see `LimitsFromFile`).
+pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>, rules: LimitsFromFile) -> Result<RobotModel, Refusal> {
     let robot = parse(urdf)?;
     if robot.links.is_empty() {
         return Err("file_path is not a valid URDF: it has no links".into());
@@ -240,11 +247,12 @@ pub fn build(
     let mut links = vec![link_model(root_link, None, &materials, meshes, true, inertials.contains_key(&root_link.name))?];
     for (j, parent) in order {
         let joint = &robot.joints[j];
-        let given = if continuous_limits_from_file {
-            limit_attributes.get(&joint.name).unwrap_or(&no_attributes)
-        } else {
-            &no_attributes
+        let by_attribute = match joint.joint_type {
+            urdf_rs::JointType::Continuous => rules.continuous,
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Prismatic => rules.revolute_prismatic,
+            _ => false,
         };
+        let given = by_attribute.then(|| limit_attributes.get(&joint.name).unwrap_or(&no_attributes));
         let spec = joint_spec(joint, parent, given)?;
         let child = &robot.links[index[joint.child.link.as_str()]];
         links.push(link_model(child, Some(spec), &materials, meshes, false, inertials.contains_key(&child.name))?);
@@ -252,9 +260,10 @@ pub fn build(
     Ok(RobotModel { name: robot.name, links })
 }
 
-/// `limit_given`: the attributes the joint's `<limit>` element writes (urdf-rs reads a missing
-/// `lower`/`upper` as 0, which a continuous joint must not report).
-fn joint_spec(joint: &urdf_rs::Joint, parent: i32, limit_given: &BTreeSet<String>) -> Result<JointSpec, Refusal> {
+/// `limit_given`: the attributes the joint's `<limit>` element writes, when its limits are read
+/// attribute by attribute (urdf-rs reads a missing `lower`/`upper` as 0, PyBullet as 0 / −1);
+/// None keeps the rule of old events (see `LimitsFromFile`).
+fn joint_spec(joint: &urdf_rs::Joint, parent: i32, limit_given: Option<&BTreeSet<String>>) -> Result<JointSpec, Refusal> {
     use urdf_rs::JointType as T;
     let kind = match joint.joint_type {
         T::Revolute => JointKind::Revolute,
@@ -273,11 +282,13 @@ fn joint_spec(joint: &urdf_rs::Joint, parent: i32, limit_given: &BTreeSet<String
         return Err(format!("joint {} has a zero or invalid axis", joint.name));
     }
     let axis = if kind.movable() { axis.normalize() } else { DVec3::ZERO };
-    let given = |attribute: &str, value: f64, none: f64| if limit_given.contains(attribute) { value } else { none };
-    let (lower, upper) = match kind {
-        JointKind::Continuous => (given("lower", joint.limit.lower, 0.0), given("upper", joint.limit.upper, -1.0)),
-        JointKind::Fixed => (0.0, -1.0),
-        _ => (joint.limit.lower, joint.limit.upper),
+    let from_file = |attribute: &str, value: f64, none: f64| match limit_given {
+        Some(given) if !given.contains(attribute) => none,
+        _ => value,
+    };
+    let (lower, upper) = match (kind, limit_given) {
+        (JointKind::Fixed, _) | (JointKind::Continuous, None) => (0.0, -1.0),
+        _ => (from_file("lower", joint.limit.lower, 0.0), from_file("upper", joint.limit.upper, -1.0)),
     };
     let all = [lower, upper, joint.limit.effort, joint.limit.velocity]
         .into_iter()
