@@ -25,11 +25,13 @@
 //! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
 //!   writing generate_revolute_joint's URDFs.
 //! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
+//! - `animation` — frames of re-simulated intervals → looping GIFs (palette, encoder).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
 
 pub use physics_core::{command, digest, limits, outputs, value, world};
 
+pub mod animation;
 pub mod cli;
 pub mod fold;
 pub mod persistence;

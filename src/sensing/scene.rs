@@ -57,6 +57,41 @@ pub fn parts(w: &World) -> Vec<Part<'_>> {
     out
 }
 
+/// One collider as it was when captured, owning (a shared handle to) its shape.
+pub struct Posed {
+    /// The object it belongs to.
+    pub object_id: u32,
+    /// Its shape (shared with the world it came from; shapes are never changed in place).
+    pub shape: SharedShape,
+    /// Its world pose when captured.
+    pub pose: Pose,
+    /// RGBA from the object or the URDF material, if any.
+    pub color: Option<[f32; 4]>,
+}
+
+/// What the camera would draw of a world at one moment, detached from it so frames can be
+/// rendered on other threads while the world moves on (animations, viewer progress).
+pub struct Scene {
+    /// Every collider, in `parts` order.
+    pub parts: Vec<Posed>,
+    /// The recorded viewer camera (set_camera) at that moment.
+    pub camera: crate::world::Viewer,
+}
+
+impl Scene {
+    /// Captures the world as it is now (cheap: poses and shape handles, no meshes).
+    pub fn capture(w: &World) -> Scene {
+        let parts = parts(w)
+            .into_iter()
+            .filter_map(|p| {
+                let shape = w.physics.colliders.get(p.collider)?.shared_shape().clone();
+                Some(Posed { object_id: p.object_id, shape, pose: p.pose, color: p.color })
+            })
+            .collect();
+        Scene { parts, camera: w.tables.viewer.clone() }
+    }
+}
+
 /// The parts with a bounding-volume tree over their current bounding boxes (leaf i = part i).
 pub struct Indexed<'a> {
     /// The parts.
