@@ -25,6 +25,7 @@
 //! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
 //!   writing generate_revolute_joint's URDFs.
 //! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
+//! - `report`  — a recorded session as a self-contained HTML page; `replay --render`.
 //! - `animation` — frames of re-simulated intervals → looping GIFs (palette, encoder).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
@@ -37,6 +38,7 @@ pub mod fold;
 pub mod persistence;
 pub mod reads;
 pub mod replay;
+pub mod report;
 pub mod save;
 pub mod sensing;
 pub mod workspace;

@@ -11,6 +11,7 @@
 //! silently drop the tool's `outputSchema`. Both schemas of every tool are then made plain
 //! JSON Schema 2020-12 by `schema::plain` (see `tools`).
 
+mod animation;
 mod constraints;
 mod objects;
 mod params;
@@ -81,7 +82,8 @@ impl PhysicsServer {
                 + PhysicsServer::robot_router()
                 + PhysicsServer::constraint_router()
                 + PhysicsServer::sensing_router()
-                + PhysicsServer::viewer_router();
+                + PhysicsServer::viewer_router()
+                + PhysicsServer::animation_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::plain(&tool.input_schema));
