@@ -3,11 +3,13 @@
 //! foreign saved file and `replay` all fold through here, so they cannot disagree about what an
 //! event means (a cancelled step, #16) or let an unchecked command into `World::apply`.
 
+use std::collections::BTreeSet;
+
 use serde_json::Value;
 
 use crate::command::{BlobSource, Command};
 use crate::limits::Limits;
-use crate::store::{Event, StoreError};
+use crate::store::{Event, Kind, Log, StoreError};
 use crate::world::World;
 
 /// Why a fold stopped at an event.
@@ -156,6 +158,21 @@ pub fn fold_event(
     verify: bool,
 ) -> Result<(Command, Value), FoldError> {
     let cmd = decode(e, blobs)?.ok_or_else(|| FoldError::Undecodable { seq: e.seq, why: "it has no command".into() })?;
+    fold_decoded(world, e, cmd, limits, verify, &mut |_| true, &mut |_| {})
+}
+
+/// `fold_event` for an already decoded command, with the step hooks of `World::apply_observed`
+/// (`control` may stop a step early; `observe` sees the world after every step). The one
+/// place an event's command reaches `World::apply`.
+pub fn fold_decoded(
+    world: &mut World,
+    e: &Event,
+    cmd: Command,
+    limits: &Limits,
+    verify: bool,
+    control: crate::world::StepControl,
+    observe: crate::world::StepObserver,
+) -> Result<(Command, Value), FoldError> {
     let result = match &cmd {
         Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => Value::Null,
         Command::CreateSimulation { .. } => {
@@ -163,7 +180,7 @@ pub fn fold_event(
         }
         _ => {
             cmd.validate(world, limits).map_err(|why| FoldError::Refused { seq: e.seq, why })?;
-            world.apply(&cmd, &mut |_| true)
+            world.apply_observed(&cmd, control, observe)
         }
     };
     if verify {
@@ -213,5 +230,325 @@ pub fn root_gui(cmd: &Command) -> Option<bool> {
         | Command::ForkSimulation { gui, .. }
         | Command::LoadSimulation { gui, .. } => Some(*gui),
         _ => None,
+    }
+}
+
+// ---- Looking back: the one re-simulation core (DESIGN.md "Looking back") ----
+
+/// The chain from the nearest snapshot a fold may start from at or before `before` up to
+/// `target` (oldest first), with that snapshot's bytes (hash checked; None: the chain starts
+/// at create_simulation — a loaded file's inherited chain, or a log from before snapshot
+/// version 3). Walks back only as far as it must; undo, fork, recovery and re-simulation
+/// all start here.
+pub fn chain_from_snapshot(log: &Log, target: u64, before: u64) -> Result<(Vec<Event>, Option<Vec<u8>>), StoreError> {
+    let snapshots: BTreeSet<u64> = log.snapshot_seqs()?.into_iter().collect();
+    let mut chain = Vec::new();
+    let mut from = Some(target);
+    while let Some(seq) = from {
+        let part = log.chain_back(seq, |e| e.seq <= before && snapshots.contains(&e.seq))?;
+        let oldest = part.last().ok_or_else(|| StoreError::Corrupt(format!("event {seq} is missing")))?;
+        let (at, parent) = (oldest.seq, oldest.parent);
+        from = parent;
+        let snapshot = if at <= before && snapshots.contains(&at) { log.snapshot_at(at)? } else { None };
+        chain.extend(part);
+        if let Some((bytes, hash)) = snapshot {
+            if crate::digest::content_hash(&bytes) != hash {
+                return Err(StoreError::Corrupt(format!("snapshot at seq {at} does not match its hash")));
+            }
+            // Older-version snapshots are walked past: their hashes still prove the chain.
+            if World::foldable_snapshot(&bytes) {
+                chain.reverse();
+                return Ok((chain, Some(bytes)));
+            }
+        }
+    }
+    chain.reverse();
+    Ok((chain, None))
+}
+
+/// A stretch of a chain: from the state after event `from_seq` to the state after `to_seq`
+/// (both state-changing events of the chain that leads to `to_seq`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Interval {
+    /// The event whose resulting state is the interval's first.
+    pub from_seq: u64,
+    /// The event whose resulting state is the interval's last.
+    pub to_seq: u64,
+}
+
+/// What a log lends a re-simulation, copied while the simulation is locked (fast: no
+/// physics): the snapshot to start from and the decoded chain after it. Re-simulating it
+/// (`resimulate`) needs neither the log nor the lock.
+#[derive(Clone)]
+pub struct Lent {
+    /// The simulation's id (the scratch world's identity; not hashed).
+    pub id: String,
+    /// Snapshot bytes at `chain[0]` (None: `chain[0]` is create_simulation).
+    pub start: Option<Vec<u8>>,
+    /// The chain from the start to `interval.to_seq`, oldest first, commands decoded.
+    pub chain: Vec<(Event, Command)>,
+    /// The stretch to observe.
+    pub interval: Interval,
+}
+
+impl std::fmt::Debug for Lent {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Lent({} {:?}, {} events, snapshot: {})", self.id, self.interval, self.chain.len(), self.start.is_some())
+    }
+}
+
+impl Lent {
+    /// Steps the interval's step events take (every recorded step is as taken, see `upcast`).
+    pub fn interval_steps(&self) -> u64 {
+        self.chain
+            .iter()
+            .filter(|(e, _)| e.seq > self.interval.from_seq)
+            .map(|(_, c)| match c {
+                Command::StepSimulation { steps } => *steps,
+                _ => 0,
+            })
+            .sum()
+    }
+}
+
+fn is_step(e: &Event) -> bool {
+    e.command.as_deref().is_some_and(|c| matches!(serde_json::from_str::<Command>(c), Ok(Command::StepSimulation { .. })))
+}
+
+/// SPEC's default `from_seq` for an interval ending at `to`: the state just before the most
+/// recent step_simulation on the chain (the root's when there is none).
+pub fn default_from(log: &Log, to: u64) -> Result<u64, StoreError> {
+    let back = log.chain_back(to, |e| e.kind == Kind::Root || is_step(e))?;
+    let last = back.last().ok_or_else(|| StoreError::Corrupt(format!("event {to} is missing")))?;
+    Ok(match (last.kind, last.parent) {
+        (Kind::Root, _) | (_, None) => last.seq,
+        (_, Some(parent)) => parent,
+    })
+}
+
+/// Copies what re-simulating `from..to` of simulation `id` needs out of `log` (defaults:
+/// `to` = the head, `from` = `default_from`). Refuses, naming the parameter, an end that
+/// is not a state-changing event on the chain or a start after the end.
+pub fn lend(log: &Log, id: &str, from: Option<u64>, to: Option<u64>) -> Result<Lent, String> {
+    let read = |e: StoreError| format!("The simulation's log could not be read: {e}");
+    let to = to.unwrap_or(log.head_seq());
+    if !log.event(to).map_err(read)?.is_some_and(|e| e.kind.is_state_changing()) {
+        return Err(format!("to_seq {to} is not a state-changing event of simulation {id}"));
+    }
+    let from = match from {
+        Some(f) => f,
+        None => default_from(log, to).map_err(read)?,
+    };
+    if from > to {
+        return Err(format!("from_seq {from} is after to_seq {to}; give a from_seq at or before to_seq"));
+    }
+    let (chain, start) = chain_from_snapshot(log, to, from).map_err(read)?;
+    if !chain.iter().any(|e| e.seq == from) {
+        return Err(format!("from_seq {from} is not a state-changing event on the chain to to_seq {to} of simulation {id}"));
+    }
+    let chain = chain
+        .into_iter()
+        .map(|e| {
+            let cmd = decode(&e, log).map_err(|err| read(err.into()))?;
+            let cmd = cmd.ok_or_else(|| read(StoreError::Corrupt(format!("event {} has no command", e.seq))))?;
+            Ok((e, cmd))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    Ok(Lent { id: id.to_string(), start, chain, interval: Interval { from_seq: from, to_seq: to } })
+}
+
+/// Where an observer is called during a re-simulation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum At {
+    /// The interval's first state (after `from_seq`).
+    Start,
+    /// Inside a step event, after every `every`-th step counted from the interval's start.
+    Step,
+    /// After an event of the interval (after `from_seq`) has been applied and its hash checked.
+    Boundary,
+}
+
+/// What an observer is told with the world it sees.
+#[derive(Clone, Copy, Debug)]
+pub struct Moment {
+    /// Which kind of point this is.
+    pub at: At,
+    /// The event the world is at (Start: `from_seq`; Step: the step event in progress).
+    pub seq: u64,
+    /// Steps simulated since the interval's start.
+    pub steps: u64,
+    /// Steps taken so far inside event `seq` (0 at Start and for events that are not steps).
+    pub step_in_event: u64,
+    /// Whether this is one of SPEC's samples: the first state, every `every`-th step, and the
+    /// last state when anything changed since the previous sample.
+    pub sample: bool,
+    /// Whether this is the interval's last point (the Boundary of `to_seq`, or Start when
+    /// `from_seq == to_seq`).
+    pub last: bool,
+}
+
+/// Sees a re-simulation: the world (read-only) and where it is; returning false stops the
+/// re-simulation there (the world returned is then wherever it stopped, unchecked).
+pub type Observer<'a> = &'a mut dyn FnMut(&World, &Moment) -> bool;
+
+/// The one re-simulation: restores `lent`'s snapshot into a scratch world, folds its chain
+/// through `fold_decoded` checking every recorded state hash (a mismatch names the seq), and
+/// calls `observer` at the interval's start, every `every` steps (≥ 1) inside step events,
+/// and after every event of the interval. Returns the world at the interval's end. Nothing
+/// live is touched: a `Lent` is a copy.
+pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, FoldError> {
+    let every = every.max(1);
+    let (first, _) = lent.chain.first().ok_or(FoldError::Undecodable { seq: lent.interval.to_seq, why: "the chain is empty".into() })?;
+    let mut world = match &lent.start {
+        Some(bytes) => World::restore(&lent.id, false, bytes).map_err(|why| FoldError::Undecodable { seq: first.seq, why })?,
+        None => create_root(first, &crate::command::NoBlobs)?.0.with_identity(&lent.id, false),
+    };
+    check_hash(&world, first)?;
+    let Interval { from_seq, to_seq } = lent.interval;
+    let start = |world: &World, observer: &mut dyn FnMut(&World, &Moment) -> bool| {
+        let m = Moment { at: At::Start, seq: from_seq, steps: 0, step_in_event: 0, sample: true, last: from_seq == to_seq };
+        observer(world, &m) && from_seq != to_seq
+    };
+    let mut started = first.seq == from_seq;
+    if started && !start(&world, observer) {
+        return Ok(world);
+    }
+    let (mut steps, mut dirty) = (0u64, false);
+    let limits = Limits::unbounded();
+    for (e, cmd) in &lent.chain[1..] {
+        let stop = std::cell::Cell::new(false);
+        let mut in_event = 0u64;
+        {
+            let mut on_step = |w: &World| {
+                if !started || stop.get() {
+                    return;
+                }
+                steps += 1;
+                in_event += 1;
+                dirty = steps % every != 0;
+                if !dirty {
+                    let m = Moment { at: At::Step, seq: e.seq, steps, step_in_event: in_event, sample: true, last: false };
+                    stop.set(!observer(w, &m));
+                }
+            };
+            let mut control = |_: u64| !stop.get();
+            fold_decoded(&mut world, e, cmd.clone(), &limits, false, &mut control, &mut on_step)?;
+        }
+        if stop.get() {
+            return Ok(world);
+        }
+        check_hash(&world, e)?;
+        if !started {
+            started = e.seq == from_seq;
+            if started && !start(&world, observer) {
+                return Ok(world);
+            }
+            continue;
+        }
+        dirty |= !matches!(cmd, Command::StepSimulation { .. });
+        let last = e.seq == to_seq;
+        let m = Moment { at: At::Boundary, seq: e.seq, steps, step_in_event: in_event, sample: last && dirty, last };
+        if !observer(&world, &m) || last {
+            break;
+        }
+    }
+    Ok(world)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::command::Shape;
+    use crate::sim::{lock_sim, Config, Registry};
+    use crate::store::SyncMode;
+    use crate::value::Args;
+
+    fn body(z: f32, mass: f32) -> Command {
+        Command::AddBody {
+            shape: Shape::Box { half_extents: [0.5, 0.5, 0.5] },
+            position: [0.0, 0.0, z],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            mass,
+            color: None,
+        }
+    }
+
+    /// Positions of object 1 after each of `n` single steps on a fresh fold of `cmds`.
+    fn stepwise(cmds: &[Command]) -> Vec<[f64; 3]> {
+        let mut w = World::create(&Command::CreateSimulation { simulation_id: "r".into(), gravity: [0.0, 0.0, -9.81], gui: false }).unwrap().0;
+        let mut out = vec![];
+        for c in cmds {
+            match c {
+                Command::StepSimulation { steps } => {
+                    for _ in 0..*steps {
+                        w.apply(&Command::StepSimulation { steps: 1 }, &mut |_| true);
+                        out.push(w.object_state(1).unwrap().position);
+                    }
+                }
+                c => {
+                    w.apply(c, &mut |_| true);
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn resimulated_samples_equal_single_steps_and_hashes_hold() {
+        let dir = tempfile::tempdir().unwrap();
+        let reg = Registry::open(Config {
+            data_dir: dir.path().join("data"),
+            workspace: dir.path().join("ws"),
+            limits: Limits::default(),
+            sync: SyncMode::Normal,
+        })
+        .unwrap();
+        reg.create(Command::CreateSimulation { simulation_id: "s".into(), gravity: [0.0, 0.0, -9.81], gui: false }, &Args::new()).unwrap();
+        let cmds = vec![
+            body(-0.5, 0.0),
+            body(2.0, 1.0),
+            Command::StepSimulation { steps: 30 },
+            Command::SetObjectPose { object_id: 1, position: [0.0, 0.0, 3.0], orientation: [0.0, 0.0, 0.0, 1.0] },
+            Command::StepSimulation { steps: 45 },
+        ];
+        let s = reg.get("s").unwrap();
+        let mut sim = lock_sim(&s);
+        for c in &cmds {
+            sim.change("t", &Args::new(), Ok(c.clone()), &Limits::default(), &mut |_| true).unwrap();
+        }
+        let reference = stepwise(&cmds);
+        let head = sim.log().head_seq();
+        // Default interval: the last step only.
+        let lent = lend(sim.log(), sim.id(), None, None).unwrap();
+        assert_eq!(lent.interval, Interval { from_seq: head - 1, to_seq: head });
+        assert_eq!(lent.interval_steps(), 45);
+        // From the first body to the head, every 7 steps.
+        let lent = lend(sim.log(), sim.id(), Some(2), None).unwrap();
+        let mut seen = vec![];
+        let end = resimulate(&lent, 7, &mut |w, m| {
+            if m.sample {
+                seen.push((m.at, m.steps, w.object_state(1).map(|s| s.position)));
+            }
+            true
+        })
+        .unwrap();
+        assert_eq!(end.state_hash(), sim.state_hash());
+        assert_eq!(seen[0], (At::Start, 0, None));
+        let steps: Vec<u64> = seen.iter().map(|s| s.1).collect();
+        assert_eq!(steps, [0, 7, 14, 21, 28, 35, 42, 49, 56, 63, 70, 75]);
+        for (_, k, p) in &seen[1..] {
+            assert_eq!(p.unwrap(), reference[*k as usize - 1], "step {k}");
+        }
+        // Refusals.
+        assert!(lend(sim.log(), sim.id(), Some(head), Some(2)).unwrap_err().contains("from_seq"));
+        assert!(lend(sim.log(), sim.id(), None, Some(999)).unwrap_err().contains("to_seq 999"));
+        // Stopping early: the observer's false ends it.
+        let mut n = 0;
+        resimulate(&lent, 1, &mut |_, _| {
+            n += 1;
+            n < 5
+        })
+        .unwrap();
+        assert_eq!(n, 5);
     }
 }

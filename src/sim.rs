@@ -22,7 +22,7 @@ use crate::reads::ReadContext;
 use crate::store::{Event, Kind, Log, StoreError, SyncMode};
 use crate::value::{Args, Refusal};
 use crate::workspace::Sandbox;
-use crate::world::{StepControl, World};
+use crate::world::{StepControl, StepObserver, World};
 
 /// A snapshot is taken once this much simulation work (steps × bodies) has been done since
 /// the last one — about half a second for a 1000-body pile — so rebuilding any recent state
@@ -248,6 +248,21 @@ impl Sim {
         limits: &Limits,
         control: StepControl,
     ) -> Result<Value, Refusal> {
+        self.change_observed(tool, args, decided, limits, control, &mut |_| {})
+    }
+
+    /// `change` with `observe` seeing the world after every step the command takes (step
+    /// samples, live viewer progress). It cannot change the state: the event, its recorded
+    /// result and its hash are exactly those of `change`.
+    pub fn change_observed(
+        &mut self,
+        tool: &str,
+        args: &Args,
+        decided: Result<Command, Refusal>,
+        limits: &Limits,
+        control: StepControl,
+        observe: StepObserver,
+    ) -> Result<Value, Refusal> {
         self.ensure_live()?;
         let cmd = match decided.and_then(|c| c.validate(&self.world, limits).map(|()| c)) {
             Ok(c) => c,
@@ -258,7 +273,7 @@ impl Sim {
                 return Err(self.refuse(tool, args, format!("The call's files could not be recorded: {err}")));
             }
         }
-        let result = self.world.apply(&cmd, control);
+        let result = self.world.apply_observed(&cmd, control, observe);
         // Logged as carried out: a cancelled step records the steps it took, so every fold
         // of the log repeats exactly what the world did.
         let cmd = cmd.as_done(&result);
@@ -391,31 +406,7 @@ pub(crate) fn rebuild_at(
     target: u64,
     verify_each: bool,
 ) -> Result<Rebuilt, StoreError> {
-    let snapshots: std::collections::BTreeSet<u64> = log.snapshot_seqs()?.into_iter().collect();
-    // Walk back to the nearest snapshot a fold may start from; past older-version ones (their
-    // hashes still prove the chain), and to create_simulation when there is none (a loaded
-    // file's inherited chain, or a log written before snapshot version 3).
-    let mut chain = Vec::new();
-    let mut start = None;
-    let mut from = Some(target);
-    while let Some(seq) = from {
-        let part = log.chain_back(seq, |e| snapshots.contains(&e.seq))?;
-        let oldest = part.last().ok_or_else(|| StoreError::Corrupt(format!("event {seq} is missing")))?;
-        let (at, parent) = (oldest.seq, oldest.parent);
-        from = parent;
-        let snapshot = if snapshots.contains(&at) { log.snapshot_at(at)? } else { None };
-        chain.extend(part);
-        if let Some((bytes, hash)) = snapshot {
-            if crate::digest::content_hash(&bytes) != hash {
-                return Err(StoreError::Corrupt(format!("snapshot at seq {at} does not match its hash")));
-            }
-            if World::foldable_snapshot(&bytes) {
-                start = Some(bytes);
-                break;
-            }
-        }
-    }
-    chain.reverse();
+    let (chain, start) = fold::chain_from_snapshot(log, target, target)?;
     let first = chain.first().ok_or_else(|| StoreError::Corrupt("the chain is empty".into()))?;
     // The gui flag is this simulation's own root's (the latest root of the chain otherwise).
     let own_root = match log.own_root_command()? {

@@ -265,6 +265,11 @@ pub struct World {
 /// Hook called during long steps with the steps done so far; returning false stops early.
 pub type StepControl<'a> = &'a mut dyn FnMut(u64) -> bool;
 
+/// Hook that sees the world after every simulated step of a step command (re-simulation
+/// samples, live viewer progress). It gets a shared borrow, so it cannot change the state:
+/// results and state hashes are the same with or without it.
+pub type StepObserver<'a> = &'a mut dyn FnMut(&World);
+
 impl World {
     /// Builds the world a root `CreateSimulation` command describes.
     pub fn create(cmd: &Command) -> Option<(World, Value)> {
@@ -345,6 +350,12 @@ impl World {
     /// Applies an accepted command and returns its result. Cannot fail for a command that
     /// passed `Command::validate`; `control` may stop a long step early (the steps done stay).
     pub fn apply(&mut self, cmd: &Command, control: StepControl) -> Value {
+        self.apply_observed(cmd, control, &mut |_| {})
+    }
+
+    /// `apply` with `observe` called after every step a step command takes (read-only; the
+    /// result and the state are exactly those of `apply`).
+    pub fn apply_observed(&mut self, cmd: &Command, control: StepControl, observe: StepObserver) -> Value {
         match cmd {
             Command::CreateSimulation { .. }
             | Command::ForkSimulation { .. }
@@ -352,7 +363,7 @@ impl World {
                 to_value(&Message::new("a root event changes nothing in an existing world"))
             }
             Command::StepSimulation { steps } => {
-                let taken = self.step(*steps, control);
+                let taken = self.step(*steps, control, observe);
                 to_value(&Stepped {
                     simulation_id: self.simulation_id.clone(),
                     steps_taken: taken,
@@ -420,7 +431,7 @@ impl World {
     }
 
     /// Advances `n` steps, clearing one-step forces after the first. Returns the steps taken.
-    fn step(&mut self, n: u64, control: StepControl) -> u64 {
+    fn step(&mut self, n: u64, control: StepControl, observe: StepObserver) -> u64 {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
         while taken < n {
@@ -433,6 +444,7 @@ impl World {
             self.tables.time_s += self.physics.integration_parameters.dt as f64;
             self.tables.steps += 1;
             taken += 1;
+            observe(self);
             if taken % CHECK_EVERY == 0 && taken < n && !control(taken) {
                 break;
             }
