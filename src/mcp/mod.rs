@@ -151,7 +151,15 @@ impl PhysicsServer {
             .with_sim(args, move |sim, a, limits| {
                 let ctl: StepControl = &mut control;
                 let started = std::time::Instant::now();
-                let out = sim.change(tool, a, decide(a), limits, ctl);
+                let decided = decide(a);
+                // A running step shows its progress in the viewer (read-only copies of the
+                // poses about every 100 ms; results and hashes are untouched).
+                let total = match &decided {
+                    Ok(Command::StepSimulation { steps }) => *steps,
+                    _ => 0,
+                };
+                let mut live = crate::viewer::live::Publisher::new(sim.id(), total);
+                let out = sim.change_observed(tool, a, decided, limits, ctl, &mut |w| live.observe(w));
                 // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).
                 tracing::debug!(target: "physics_mcp::timing", tool, sim_change_ms = started.elapsed().as_secs_f64() * 1e3);
                 out
