@@ -76,7 +76,7 @@ fn render_refuses_what_it_cannot_draw() {
     let out = dir.path().join("x.gif");
     for (extra, word) in [(vec!["--size", "0x10"], "--size"), (vec!["--every", "1", "--from", "999999"], "999999")] {
         let mut args: Vec<&std::ffi::OsStr> = vec!["replay".as_ref(), copy.as_os_str(), "--render".as_ref(), out.as_os_str()];
-        args.extend(extra.iter().map(|s| s.as_ref()));
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
         let (ok, _, stderr) = run(&args);
         assert!(!ok, "{extra:?} must fail");
         assert!(stderr.contains(word), "{extra:?}: {stderr}");

@@ -163,12 +163,10 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<Story, 
     let frames = animation::gif::Frames { width: MOVIE.0, height: MOVIE.1, rgb: &rgb, delay_cs: animation::gif::delay_for_fps(20) };
     let (gif, _) = animation::gif::encode(&frames)?;
     let thumbnails = thumbnails(&thumbs)?;
-    // Objects that move, lowest ids first.
-    let courses = courses
-        .into_values()
-        .filter(|c| c.speed.iter().any(|(_, v)| *v > 1e-9) || c.height.windows(2).any(|w| w[0].1 != w[1].1))
-        .take(MAX_PLOTTED)
-        .collect();
+    // Objects that move, lowest ids first (else the first objects, still as they are).
+    let moves = |c: &Course| c.speed.iter().any(|(_, v)| *v > 1e-9) || c.height.windows(2).any(|w| w[0].1 != w[1].1);
+    let (moving, still): (Vec<Course>, Vec<Course>) = courses.into_values().partition(moves);
+    let courses = if moving.is_empty() { still } else { moving }.into_iter().take(MAX_PLOTTED).collect();
     Ok(Story {
         simulation_id: lent.id.clone(),
         events,
