@@ -62,3 +62,18 @@ mod tests {
         assert_eq!(l.max_rays, DEFAULT.max_rays);
     }
 }
+
+/// Which interval of a log's head chain `replay --trajectory` (and `--render`) looks at:
+/// the whole chain unless told otherwise (SPEC "Seeing time").
+#[derive(Args, Clone, Debug, Default)]
+pub struct IntervalArgs {
+    /// Steps between samples (default: about 100 samples).
+    #[arg(long)]
+    pub every: Option<u64>,
+    /// Start after this state-changing event (default: the chain's first).
+    #[arg(long)]
+    pub from: Option<u64>,
+    /// End at this state-changing event (default: the head).
+    #[arg(long)]
+    pub to: Option<u64>,
+}

@@ -387,6 +387,41 @@ pub struct Moment {
     pub last: bool,
 }
 
+/// SPEC's sampling rule, shared by re-simulation and live stepping (step_simulation's
+/// `sample_every`): sample the first state, after every `every`-th step counted from it, and
+/// the last state when anything changed since the previous sample.
+#[derive(Clone, Copy, Debug)]
+pub struct Cadence {
+    every: u64,
+    /// Steps counted since the start.
+    pub steps: u64,
+    dirty: bool,
+}
+
+impl Cadence {
+    /// Counting from the first state (which is always a sample).
+    pub fn new(every: u64) -> Cadence {
+        Cadence { every: every.max(1), steps: 0, dirty: false }
+    }
+
+    /// One step was taken: whether this is a sample.
+    pub fn step(&mut self) -> bool {
+        self.steps += 1;
+        self.dirty = !self.steps.is_multiple_of(self.every);
+        !self.dirty
+    }
+
+    /// Something other than a step changed the world.
+    pub fn changed(&mut self) {
+        self.dirty = true;
+    }
+
+    /// At the last state: whether it is a sample (something changed since the last one).
+    pub fn end(&mut self) -> bool {
+        std::mem::take(&mut self.dirty)
+    }
+}
+
 /// Sees a re-simulation: the world (read-only) and where it is; returning false stops the
 /// re-simulation there (the world returned is then wherever it stopped, unchecked).
 pub type Observer<'a> = &'a mut dyn FnMut(&World, &Moment) -> bool;
@@ -413,7 +448,7 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
     if started && !start(&world, observer) {
         return Ok(world);
     }
-    let (mut steps, mut dirty) = (0u64, false);
+    let mut cadence = Cadence::new(every);
     let limits = Limits::unbounded();
     for (e, cmd) in &lent.chain[1..] {
         let stop = std::cell::Cell::new(false);
@@ -423,11 +458,9 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
                 if !started || stop.get() {
                     return;
                 }
-                steps += 1;
                 in_event += 1;
-                dirty = steps % every != 0;
-                if !dirty {
-                    let m = Moment { at: At::Step, seq: e.seq, steps, step_in_event: in_event, sample: true, last: false };
+                if cadence.step() {
+                    let m = Moment { at: At::Step, seq: e.seq, steps: cadence.steps, step_in_event: in_event, sample: true, last: false };
                     stop.set(!observer(w, &m));
                 }
             };
@@ -445,9 +478,12 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
             }
             continue;
         }
-        dirty |= !matches!(cmd, Command::StepSimulation { .. });
+        if !matches!(cmd, Command::StepSimulation { .. }) {
+            cadence.changed();
+        }
         let last = e.seq == to_seq;
-        let m = Moment { at: At::Boundary, seq: e.seq, steps, step_in_event: in_event, sample: last && dirty, last };
+        let sample = last && cadence.end();
+        let m = Moment { at: At::Boundary, seq: e.seq, steps: cadence.steps, step_in_event: in_event, sample, last };
         if !observer(&world, &m) || last {
             break;
         }

@@ -27,6 +27,7 @@
 //! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
 //! - `report`  — a recorded session as a self-contained HTML page; `replay --render`.
 //! - `animation` — frames of re-simulated intervals → looping GIFs (palette, encoder).
+//! - `trajectory` — the pose sampler over the re-simulation core (get_trajectory, CSV/JSONL).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
 
@@ -45,6 +46,7 @@ pub mod workspace;
 pub mod sim;
 pub mod store;
 pub mod timeline;
+pub mod trajectory;
 pub mod urdf_files;
 pub mod mcp;
 pub mod viewer;

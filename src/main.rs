@@ -66,18 +66,15 @@ enum Cmd {
         /// Print the summary (or the divergence) as JSON.
         #[arg(long)]
         json: bool,
+        /// Also write the interval's samples (poses, velocities, joints) to this .csv or .jsonl.
+        #[arg(long)]
+        trajectory: Option<PathBuf>,
         /// Instead of checking, write the head's chain (or --from..--to) as a looping GIF.
         #[arg(long, value_name = "OUT.gif")]
         render: Option<PathBuf>,
-        /// Steps between frames (default: about 100 frames).
-        #[arg(long)]
-        every: Option<u64>,
-        /// First event of the interval (default: the chain's root).
-        #[arg(long)]
-        from: Option<u64>,
-        /// Last event of the interval (default: the head).
-        #[arg(long)]
-        to: Option<u64>,
+        /// The interval and sampling for --trajectory and --render.
+        #[command(flatten)]
+        interval: physics_mcp::cli::IntervalArgs,
         /// Frame size for --render, WxH.
         #[arg(long, default_value = "320x240", value_parser = parse_size)]
         size: (u32, u32),
@@ -274,13 +271,22 @@ fn main() {
                         serve_http(reg, HttpOptions { bind, token, allow_origin }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
-                    Cmd::Replay { file, render: Some(out), every, from, to, size, .. } => {
-                        run_render(&file, &out, physics_mcp::report::Span { from, to }, every, size)
+                    Cmd::Replay { file, render: Some(out), interval, size, .. } => {
+                        let span = physics_mcp::report::Span { from: interval.from, to: interval.to };
+                        run_render(&file, &out, span, interval.every, size)
                     }
                     Cmd::Report { file, out } => run_report(&file, &out),
-                    Cmd::Replay { file, until, json, .. } => {
+                    Cmd::Replay { file, until, json, trajectory, interval, .. } => {
                         if !run_replay(&file, until, json)? {
                             std::process::exit(1);
+                        }
+                        if let Some(out) = trajectory {
+                            let t = physics_mcp::replay::write_trajectory(&file, &out, &interval)
+                                .map_err(|e| anyhow::anyhow!("--trajectory: {e}"))?;
+                            eprintln!(
+                                "trajectory: {} samples of {} objects (seq {} to {}, every {} steps) written to {}",
+                                t.samples, t.objects.len(), t.from_seq, t.to_seq, t.every, out.display()
+                            );
                         }
                         Ok(())
                     }

@@ -336,3 +336,32 @@ pub fn diff(a: &Path, b: &Path) -> Result<Option<String>, StoreError> {
     }
     Ok(None)
 }
+
+/// The interval `replay --trajectory/--render` looks at, lent from the log at `path`: the
+/// whole chain of the head (from its first event) unless `from`/`to` say otherwise.
+pub fn lend_interval(path: &Path, from: Option<u64>, to: Option<u64>) -> Result<fold::Lent, String> {
+    let log = Log::open_read_only(path).map_err(|e| e.to_string())?;
+    let id = log.simulation_id().map_err(|e| e.to_string())?;
+    let to = to.unwrap_or(log.head_seq());
+    let from = match from {
+        Some(f) => f,
+        None => log.chain_back(to, |_| false).map_err(|e| e.to_string())?.last().map_or(to, |e| e.seq),
+    };
+    fold::lend(&log, &id, Some(from), Some(to))
+}
+
+/// `replay FILE --trajectory OUT`: every object's poses and velocities over the interval,
+/// sampled by the one re-simulation core (recorded hashes checked), written as .csv or .jsonl.
+pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs) -> Result<crate::outputs::Trajectory, String> {
+    let shown = out.display().to_string();
+    crate::trajectory::is_jsonl(&shown, "--trajectory")?;
+    let lent = lend_interval(path, args.from, args.to)?;
+    let req = crate::trajectory::Request { every: args.every.filter(|e| *e > 0), object_ids: None, include_velocities: true };
+    if args.every == Some(0) {
+        return Err("--every must be at least 1".into());
+    }
+    let t = crate::trajectory::sample_interval(&lent, &req)?;
+    let bytes = crate::trajectory::file_bytes(&t, &shown, "--trajectory")?;
+    std::fs::write(out, bytes).map_err(|e| format!("could not write {shown}: {e}"))?;
+    Ok(t)
+}

@@ -22,6 +22,7 @@ mod robots;
 mod schema;
 mod sensing;
 mod simulations;
+mod time;
 mod timeline;
 mod viewer;
 pub mod transport;
@@ -83,7 +84,8 @@ impl PhysicsServer {
                 + PhysicsServer::constraint_router()
                 + PhysicsServer::sensing_router()
                 + PhysicsServer::viewer_router()
-                + PhysicsServer::animation_router();
+                + PhysicsServer::animation_router()
+                + PhysicsServer::time_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::plain(&tool.input_schema));

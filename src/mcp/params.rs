@@ -34,6 +34,10 @@ pub struct Step {
     pub sim_id: String,
     /// Number of fixed timesteps to take (default 1, at most --max-steps).
     pub steps: Option<u64>,
+    /// Also return `trajectory`: poses sampled every this many steps (get_trajectory's form).
+    pub sample_every: Option<u64>,
+    /// Objects to sample (default all).
+    pub sample_objects: Option<Vec<u32>>,
 }
 
 /// set_timestep parameters.

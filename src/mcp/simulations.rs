@@ -12,7 +12,7 @@ use crate::outputs::{Created, Message, SimulationInfo, SimulationList, Stepped, 
 use crate::reads;
 use crate::value::{self, arg, Args, Refusal};
 
-fn decide_step(a: &Args) -> Result<Command, Refusal> {
+pub(super) fn decide_step(a: &Args) -> Result<Command, Refusal> {
     let steps = value::integer_or(a, "steps", 1)?;
     let steps = u64::try_from(steps)
         .ok()
@@ -105,15 +105,17 @@ impl PhysicsServer {
         });
         let every = (total / 100).max(1);
         let mut last_sent = 0;
-        let out = self
-            .change_with("step_simulation", args, decide_step, move |done| {
-                if done - last_sent >= every {
-                    last_sent = done;
-                    let _ = tx.send(done);
-                }
-                !ct.is_cancelled()
-            })
-            .await;
+        let control = move |done| {
+            if done - last_sent >= every {
+                last_sent = done;
+                let _ = tx.send(done);
+            }
+            !ct.is_cancelled()
+        };
+        let out = match super::time::step_sampling(&args) {
+            Ok(None) => self.change_with("step_simulation", args, decide_step, control).await,
+            _ => self.sampled_step(args, control).await,
+        };
         if let Some(f) = forward {
             let _ = f.await;
         }

@@ -63,6 +63,63 @@ pub struct Stepped {
     pub steps_taken: u64,
     /// Simulated time after the steps, in seconds.
     pub current_time: f64,
+    /// Samples taken during this call (with sample_every). Output only: never part of the
+    /// recorded result or its hash, so the step event is exactly a plain step's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<Trajectory>,
+}
+
+/// Result of get_trajectory (and step_simulation's `trajectory`): samples of an interval of
+/// the chain, columnar (one array per quantity, one entry per sample) so a long run costs few
+/// tokens; each value is bit for bit what get_object_state / get_joint_state said then.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct Trajectory {
+    /// The event whose resulting state is the first sample.
+    pub from_seq: u64,
+    /// The event whose resulting state is the last sample.
+    pub to_seq: u64,
+    /// Steps between samples.
+    pub every: u64,
+    /// Number of samples.
+    pub samples: usize,
+    /// Simulated time of each sample (s).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub times: Vec<f64>,
+    /// The simulation's step count at each sample.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub steps: Vec<u64>,
+    /// The event each sample is in (the step event in progress, or the event just applied).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub seqs: Vec<u64>,
+    /// One track per object (absent when the table went to `output_path`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub objects: Vec<ObjectTrack>,
+    /// The file the whole table was written to (then the result is this summary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_path: Option<String>,
+}
+
+/// One object's samples; null where the object does not exist at a sample.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct ObjectTrack {
+    /// The object.
+    pub object_id: u32,
+    /// Base positions (n × 3).
+    pub positions: Vec<Option<[f64; 3]>>,
+    /// Base orientations [x, y, z, w] (n × 4).
+    pub orientations: Vec<Option<[f64; 4]>>,
+    /// Linear velocities (n × 3, with include_velocities).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_velocities: Option<Vec<Option<[f64; 3]>>>,
+    /// Angular velocities (n × 3, with include_velocities).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular_velocities: Option<Vec<Option<[f64; 3]>>>,
+    /// Joint positions (n × joints, robots; PyBullet joint order).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_positions: Option<Vec<Option<Vec<f64>>>>,
+    /// Joint velocities (n × joints, robots with include_velocities).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_velocities: Option<Vec<Option<Vec<f64>>>>,
 }
 
 /// Result of set_timestep.

@@ -368,6 +368,7 @@ impl World {
                     simulation_id: self.simulation_id.clone(),
                     steps_taken: taken,
                     current_time: self.current_time(),
+                    trajectory: None,
                 })
             }
             Command::SetTimestep { timestep, timestep_given } => {

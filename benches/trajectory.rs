@@ -1,0 +1,97 @@
+//! Issue 11 benchmark (`cargo bench --bench trajectory`): get_trajectory's core (lend the
+//! chain from the log, re-simulate from the snapshot at the interval's start, sample every
+//! 10 steps) over 1000 steps of the 1000-box collapsing pile, side by side with stepping
+//! those 1000 steps on a world already restored. SPEC target: ≤ 1.10 × stepping + 5 ms.
+//! Prints a `REPORT` line with the ratio of the medians.
+
+// A benchmark reads the clock and its files; the bans in clippy.toml are for the world.
+#![allow(clippy::disallowed_methods)]
+
+#[path = "pile.rs"]
+mod pile;
+
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use physics_mcp::command::Command;
+use physics_mcp::fold;
+use physics_mcp::limits::Limits;
+use physics_mcp::sim::{lock_sim, Config, Registry};
+use physics_mcp::store::SyncMode;
+use physics_mcp::trajectory::{self, Request};
+use physics_mcp::value::Args;
+use physics_mcp::world::World;
+use pile::{pile_commands, root};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn bench_trajectory(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let reg = Registry::open(Config {
+        data_dir: dir.path().join("data"),
+        workspace: dir.path().join("ws"),
+        limits: Limits::default(),
+        sync: SyncMode::Normal,
+    })
+    .unwrap();
+    reg.create(root("pile"), &Args::new()).unwrap();
+    let s = reg.get("pile").unwrap();
+    let (from, to) = {
+        let mut sim = lock_sim(&s);
+        let (a, l) = (Args::new(), Limits::default());
+        for cmd in pile_commands() {
+            sim.change("add_box", &a, Ok(cmd), &l, &mut |_| true).unwrap();
+        }
+        // 100 steps × 1001 bodies is a snapshot's worth of work: the interval starts at one.
+        sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 100 }), &l, &mut |_| true).unwrap();
+        let from = sim.log().head_seq();
+        assert!(sim.log().snapshot_at(from).unwrap().is_some(), "a snapshot at the interval's start");
+        sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 1000 }), &l, &mut |_| true).unwrap();
+        (from, sim.log().head_seq())
+    };
+    let snapshot = lock_sim(&s).log().snapshot_at(from).unwrap().unwrap().0;
+    let req = Request { every: Some(10), object_ids: None, include_velocities: false };
+    let mut g = c.benchmark_group("trajectory_pile_1000_steps");
+    g.sample_size(10).measurement_time(Duration::from_secs(60));
+    let (mut stepped, mut sampled) = (vec![], vec![]);
+    g.bench_function("step_1000", |b| {
+        b.iter_batched(
+            || World::restore("pile", false, &snapshot).unwrap(),
+            |mut w| {
+                let t = Instant::now();
+                w.apply(&Command::StepSimulation { steps: 1000 }, &mut |_| true);
+                stepped.push(t.elapsed().as_secs_f64());
+                w
+            },
+            BatchSize::PerIteration,
+        )
+    });
+    g.bench_function("get_trajectory_every_10", |b| {
+        b.iter(|| {
+            let t = Instant::now();
+            let lent = {
+                let sim = lock_sim(&s);
+                fold::lend(sim.log(), sim.id(), Some(from), Some(to)).unwrap()
+            };
+            let traj = trajectory::sample_interval(&lent, &req).unwrap();
+            sampled.push(t.elapsed().as_secs_f64());
+            assert_eq!(traj.samples, 101);
+            traj
+        })
+    });
+    g.finish();
+    let (st, tr) = (median(stepped), median(sampled));
+    println!(
+        "REPORT trajectory: stepping 1000 steps {:.1} ms, get_trajectory every=10 {:.1} ms, ratio {:.3} (target ≤ 1.10 × stepping + 5 ms = {:.1} ms)",
+        st * 1e3,
+        tr * 1e3,
+        tr / st,
+        (1.10 * st + 0.005) * 1e3
+    );
+}
+
+criterion_group!(benches, bench_trajectory);
+criterion_main!(benches);
