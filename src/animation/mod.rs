@@ -91,7 +91,7 @@ pub fn sample_count(lent: &Lent, every: u64) -> u64 {
         .iter()
         .filter(|(e, c)| e.seq > lent.interval.from_seq && !matches!(c, Command::StepSimulation { .. }))
         .count();
-    1 + steps / every + u64::from(steps % every != 0 || others > 0)
+    1 + steps / every + u64::from(!steps.is_multiple_of(every) || others > 0)
 }
 
 /// Checks an animation's size before any work: at most `MAX_FRAMES` frames, `max_px` pixels a

@@ -126,10 +126,10 @@ pub fn html(story: &Story) -> Result<String, String> {
             (false, true) => "event inherited",
             _ => "event",
         };
-        w(write!(
+        w(writeln!(
             p,
             "<tr class=\"{class}\" data-seq=\"{seq}\"><td class=\"seq mono\">{seq}</td><td>{tool}</td><td class=\"args mono\">{args}</td>\
-             <td class=\"outcome\">{outcome}</td><td class=\"mono\">{time}</td><td class=\"mono\">{hash}</td><td>{thumb}</td></tr>\n",
+             <td class=\"outcome\">{outcome}</td><td class=\"mono\">{time}</td><td class=\"mono\">{hash}</td><td>{thumb}</td></tr>",
             seq = e.seq,
             tool = esc(&e.tool),
             args = esc(&short_args(e)),

@@ -76,7 +76,10 @@ pub struct Past {
 
 type Key = (String, u64, Option<u64>);
 
-static CACHE: LazyLock<Mutex<VecDeque<(Key, Arc<Past>)>>> = LazyLock::new(Default::default);
+/// Recently re-simulated states, oldest first.
+type Cache = VecDeque<(Key, Arc<Past>)>;
+
+static CACHE: LazyLock<Mutex<Cache>> = LazyLock::new(Default::default);
 
 fn cached(key: &Key) -> Option<Arc<Past>> {
     let cache = CACHE.lock().unwrap_or_else(|p| p.into_inner());
