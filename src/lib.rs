@@ -25,17 +25,21 @@
 //! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
 //!   writing generate_revolute_joint's URDFs.
 //! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
+//! - `report`  — a recorded session as a self-contained HTML page; `replay --render`.
+//! - `animation` — frames of re-simulated intervals → looping GIFs (palette, encoder).
 //! - `trajectory` — the pose sampler over the re-simulation core (get_trajectory, CSV/JSONL).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
 
 pub use physics_core::{command, digest, limits, outputs, value, world};
 
+pub mod animation;
 pub mod cli;
 pub mod fold;
 pub mod persistence;
 pub mod reads;
 pub mod replay;
+pub mod report;
 pub mod save;
 pub mod sensing;
 pub mod workspace;

@@ -1,4 +1,4 @@
-//! The `physics-mcp` command line: `serve` (HTTP), `stdio`, `replay`, `history`, `diff`.
+//! The `physics-mcp` command line: `serve` (HTTP), `stdio`, `replay`, `report`, `history`, `diff`.
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -69,9 +69,24 @@ enum Cmd {
         /// Also write the interval's samples (poses, velocities, joints) to this .csv or .jsonl.
         #[arg(long)]
         trajectory: Option<PathBuf>,
-        /// The interval and sampling for --trajectory.
+        /// Instead of checking, write the head's chain (or --from..--to) as a looping GIF.
+        #[arg(long, value_name = "OUT.gif")]
+        render: Option<PathBuf>,
+        /// The interval and sampling for --trajectory and --render.
         #[command(flatten)]
         interval: physics_mcp::cli::IntervalArgs,
+        /// Frame size for --render, WxH.
+        #[arg(long, default_value = "320x240", value_parser = parse_size)]
+        size: (u32, u32),
+    },
+    /// Write a recorded session as one self-contained, offline HTML page: header, timeline of
+    /// every event with thumbnails, the run as an animation, height and speed plots.
+    Report {
+        /// A simulation's SQLite log.
+        file: PathBuf,
+        /// The page to write.
+        #[arg(short = 'o', long = "output", value_name = "OUT.html")]
+        out: PathBuf,
     },
     /// Print a log's events as a table.
     History {
@@ -85,6 +100,65 @@ enum Cmd {
         /// Second log.
         b: PathBuf,
     },
+}
+
+/// `WxH` → (W, H).
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("--size must be WxH, e.g. 320x240; got {s}"))?;
+    let side = |v: &str| v.trim().parse::<u32>().ok().filter(|n| *n >= 1).ok_or_else(|| format!("--size must be WxH with sides >= 1; got {s}"));
+    Ok((side(w)?, side(h)?))
+}
+
+/// A progress bar on a terminal (hidden otherwise), for long re-simulations and renders.
+fn progress_bar(what: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(0);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} steps ({eta})") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(what.to_string());
+    bar
+}
+
+/// `replay FILE --render OUT.gif`.
+fn run_render(file: &Path, out: &Path, span: physics_mcp::report::Span, every: Option<u64>, size: (u32, u32)) -> anyhow::Result<()> {
+    let bar = progress_bar("rendering");
+    let started = std::time::Instant::now();
+    let anim = physics_mcp::report::render_gif(file, span, every, size, |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    });
+    bar.finish_and_clear();
+    let anim = anim.map_err(anyhow::Error::msg)?;
+    std::fs::write(out, &anim.gif).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    println!(
+        "wrote {}: {} frames {}x{}, {} bytes, {:.2} s",
+        out.display(),
+        anim.frames,
+        size.0,
+        size.1,
+        anim.gif.len(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// `report FILE -o OUT.html`.
+fn run_report(file: &Path, out: &Path) -> anyhow::Result<()> {
+    let bar = progress_bar("re-simulating");
+    let started = std::time::Instant::now();
+    let story = physics_mcp::report::gather(file, |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    });
+    bar.finish_and_clear();
+    let page = physics_mcp::report::html(&story.map_err(anyhow::Error::msg)?).map_err(anyhow::Error::msg)?;
+    std::fs::write(out, &page).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    println!("wrote {}: {} bytes, {:.2} s", out.display(), page.len(), started.elapsed().as_secs_f64());
+    Ok(())
 }
 
 fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<bool> {
@@ -197,7 +271,12 @@ fn main() {
                         serve_http(reg, HttpOptions { bind, token, allow_origin }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
-                    Cmd::Replay { file, until, json, trajectory, interval } => {
+                    Cmd::Replay { file, render: Some(out), interval, size, .. } => {
+                        let span = physics_mcp::report::Span { from: interval.from, to: interval.to };
+                        run_render(&file, &out, span, interval.every, size)
+                    }
+                    Cmd::Report { file, out } => run_report(&file, &out),
+                    Cmd::Replay { file, until, json, trajectory, interval, .. } => {
                         if !run_replay(&file, until, json)? {
                             std::process::exit(1);
                         }

@@ -13,7 +13,7 @@ use crate::outputs::{
 use crate::sensing::camera::{self, Mat4};
 use crate::sensing::{contacts, rays, render};
 use crate::mcp::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
-use crate::mcp::params::{Fork, GetTrajectory, HistoryPage, Save};
+use crate::mcp::params::{Fork, GetTrajectory, HistoryPage, RenderAnimation, Save};
 use crate::value::{r32, r32s, Args, Refusal};
 use crate::world::World;
 
@@ -170,6 +170,8 @@ pub enum Read {
     Fork(Fork),
     /// get_trajectory: its result is re-simulated from the log, not read off the world.
     Trajectory(GetTrajectory),
+    /// render_animation: its result is re-simulated from the log, not read off the world.
+    Animation(RenderAnimation),
 }
 
 impl Read {
@@ -197,6 +199,7 @@ impl Read {
             "save_simulation" => Read::Save(p(tool, a)?),
             "fork_simulation" => Read::Fork(p(tool, a)?),
             "get_trajectory" => Read::Trajectory(p(tool, a)?),
+            "render_animation" => Read::Animation(p(tool, a)?),
             other => return Err(format!("{other} is not a read this server knows")),
         })
     }
@@ -221,7 +224,7 @@ impl Read {
             Read::AllCollisions(_) => json(all_collisions(cx)),
             Read::CollisionsForPair(p) => json(collisions_for_pair(cx, p)),
             Read::CameraImage(p) => json(camera_image(cx, p, usize::MAX)),
-            Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) => return None,
+            Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) | Read::Animation(_) => return None,
         })
     }
 }

@@ -12,6 +12,7 @@
 //! silently drop the tool's `outputSchema`. Both schemas of every tool are then made plain
 //! JSON Schema 2020-12 by `schema::plain` (see `tools`).
 
+mod animation;
 mod constraints;
 pub mod lenient;
 mod objects;
@@ -91,6 +92,7 @@ impl PhysicsServer {
                 + PhysicsServer::constraint_router()
                 + PhysicsServer::sensing_router()
                 + PhysicsServer::viewer_router()
+                + PhysicsServer::animation_router()
                 + PhysicsServer::time_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
@@ -162,7 +164,14 @@ impl PhysicsServer {
                 let ctl: StepControl = &mut control;
                 let started = std::time::Instant::now();
                 let decided = params::parse::<P>(tool, a).and_then(decide);
-                let out = sim.change(tool, a, decided, limits, ctl);
+                // A running step shows its progress in the viewer (read-only copies of the
+                // poses about every 100 ms; results and hashes are untouched).
+                let total = match &decided {
+                    Ok(Command::StepSimulation { steps }) => *steps,
+                    _ => 0,
+                };
+                let mut live = crate::viewer::live::Publisher::new(sim.id(), total);
+                let out = sim.change_observed(tool, a, decided, limits, ctl, &mut |w| live.observe(w));
                 // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).
                 tracing::debug!(target: "physics_mcp::timing", tool, sim_change_ms = started.elapsed().as_secs_f64() * 1e3);
                 out

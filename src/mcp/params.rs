@@ -672,3 +672,30 @@ pub struct GetTrajectory {
     /// Write the whole table to this .csv or .jsonl file in the workspace; reply a summary.
     pub output_path: Option<Text>,
 }
+
+/// render_animation parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RenderAnimation {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// The interval starts at the state after this state-changing event of the chain
+    /// (default: just before the most recent step_simulation).
+    pub from_seq: Option<Int<u64>>,
+    /// The interval ends at the state after this state-changing event (default: the head).
+    pub to_seq: Option<Int<u64>>,
+    /// Steps between frames (default: about 100 frames over the interval).
+    pub every: Option<Int<u64>>,
+    /// Frame width in pixels (default 320; width x height at most --max-image-px).
+    pub width: Option<Int<u32>>,
+    /// Frame height in pixels (default 240).
+    pub height: Option<Int<u32>>,
+    /// Frames per second when played, 1 to 50 (default 30).
+    pub fps: Option<Int<u32>>,
+    /// 16 floats, column-major; default: the viewer camera (set_camera) at each frame.
+    pub view_matrix: Option<Matrix>,
+    /// 16 floats, column-major; default: fov 60, the frames' aspect, near 0.01, far 100.
+    pub projection_matrix: Option<Matrix>,
+    /// Write the GIF to this .gif file in the workspace instead of returning it inline.
+    pub output_path: Option<Text>,
+}

@@ -10,3 +10,4 @@ pub mod camera;
 pub mod contacts;
 pub mod rays;
 pub mod render;
+pub mod capture;

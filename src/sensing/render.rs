@@ -12,7 +12,7 @@ use rapier3d::parry::shape::{Shape, TypedShape};
 use rapier3d::prelude::Vector;
 
 use super::camera::Mat4;
-use crate::world::scene::Part;
+use super::capture::Scene;
 use crate::world::World;
 
 /// Background colour (PyBullet's TinyRenderer clears to white).
@@ -192,8 +192,8 @@ impl Frame {
     }
 
     /// Draws one collider.
-    fn draw(&mut self, part: &Part, view: &[f32; 16], proj: &[f32; 16], eye: Option<Vector>) {
-        let (local, tris) = triangulate(&*part.shape);
+    fn draw(&mut self, part: Drawable, view: &[f32; 16], proj: &[f32; 16], eye: Option<Vector>) {
+        let (local, tris) = triangulate(part.shape);
         if local.is_empty() {
             return;
         }
@@ -238,8 +238,28 @@ impl Frame {
     }
 }
 
+/// One collider to draw: the fields of `world::scene::Part` and `capture::Posed` the renderer reads.
+struct Drawable<'a> {
+    object_id: u32,
+    shape: &'a dyn Shape,
+    pose: rapier3d::prelude::Pose,
+    color: Option<[f32; 4]>,
+}
+
 /// Renders the world as it is now.
 pub fn render(w: &World, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
+    let parts = w.scene().parts.iter();
+    render_parts(parts.map(|p| Drawable { object_id: p.object_id, shape: &*p.shape, pose: p.pose, color: p.color }), width, height, view, proj)
+}
+
+/// Renders a scene captured earlier (`Scene::capture`), e.g. on another thread while the
+/// world it came from moves on. Gives the same pixels as `render` on that world.
+pub fn render_scene(s: &Scene, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
+    let parts = s.parts.iter().map(|p| Drawable { object_id: p.object_id, shape: p.shape.as_ref(), pose: p.pose, color: p.color });
+    render_parts(parts, width, height, view, proj)
+}
+
+fn render_parts<'a>(parts: impl Iterator<Item = Drawable<'a>>, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
     let n = width as usize * height as usize;
     let mut frame = Frame {
         width,
@@ -251,7 +271,7 @@ pub fn render(w: &World, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> F
     let (view, proj) = (to_f32(view), to_f32(proj));
     // Back faces are culled from the eye's position for perspective projections.
     let eye = (proj[11] == -1.0 && proj[15] == 0.0).then(|| eye_position(&view));
-    for part in &w.scene().parts {
+    for part in parts {
         frame.draw(part, &view, &proj, eye);
     }
     frame

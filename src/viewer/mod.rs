@@ -3,6 +3,11 @@
 //! the same CPU rasteriser as get_camera_image plus what the page draws over it (contact points,
 //! body frames) and the matrices to place them.
 //!
+//! The timeline (`past.rs`): `GET /viewer/{sim_id}/timeline` lists the head's chain, and
+//! `/frame?seq=S` (`&step=K` inside a step event) shows a past state, re-simulated from the
+//! log by the one core. While a long step runs, `/frame` shows the latest moment the stepping
+//! loop published (`live.rs`) instead of waiting for it.
+//!
 //! The page never changes the simulation: its mouse camera is its own (query parameters), and
 //! the recorded viewer settings (set_camera, enable_debug_visualization) are only read. Frames
 //! are rendered without waiting for a call in flight: while a long step runs the page says so
@@ -19,10 +24,14 @@ use base64::Engine;
 use serde::{Deserialize, Serialize};
 
 use crate::sensing::camera::{self, Mat4};
+use crate::sensing::capture::Scene;
 use crate::sensing::{contacts, render};
 use crate::sim::Registry;
 use crate::value::{r32, r32s};
-use crate::world::World;
+use crate::world::{Viewer as RecordedCamera, World};
+
+pub mod live;
+pub mod past;
 
 /// The page (one self-contained HTML file: no scripts from elsewhere).
 const PAGE: &str = include_str!("page.html");
@@ -49,6 +58,10 @@ pub struct FrameQuery {
     pub ty: Option<f64>,
     /// Target z.
     pub tz: Option<f64>,
+    /// A past state: after this state-changing event of the head's chain.
+    pub seq: Option<u64>,
+    /// With `seq` a step event: after this many of its steps.
+    pub step: Option<u64>,
 }
 
 /// One body frame to draw: where a body is and how it is turned.
@@ -112,15 +125,27 @@ pub struct FrameJson {
     pub contacts: Vec<[f64; 3]>,
     /// Body frames when shown.
     pub frames: Vec<BodyFrame>,
+    /// The past event shown (None: the present).
+    pub seq: Option<u64>,
+    /// Steps into event `seq` shown.
+    pub step: Option<u64>,
+    /// A running step's progress, [steps done, steps asked], when this frame is one of its
+    /// published moments.
+    pub progress: Option<[u64; 2]>,
 }
 
-/// Renders one frame of `w` as the page asked; `state_hash` is the simulation's.
-pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
+/// The size the page asked for, checked against --max-image-px.
+fn size(q: &FrameQuery, max_px: usize) -> Result<(u32, u32), String> {
     let (width, height) = (q.w.unwrap_or(DEFAULT_SIZE.0), q.h.unwrap_or(DEFAULT_SIZE.1));
     if width == 0 || height == 0 || width as u64 * height as u64 > max_px as u64 {
         return Err(format!("frame size {width}x{height} must be at least 1x1 and at most {max_px} pixels"));
     }
-    let cam = w.viewer();
+    Ok((width, height))
+}
+
+/// The recorded camera as the page sees it, and the matrices for this frame: the page's own
+/// camera when it sent one, else the recorded one.
+fn matrices(cam: &RecordedCamera, q: &FrameQuery, width: u32, height: u32) -> (CameraJson, Mat4, Mat4) {
     let recorded = CameraJson {
         distance: r32(cam.distance),
         yaw: r32(cam.yaw),
@@ -138,6 +163,62 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
     };
     let view: Mat4 = camera::view_matrix_from_yaw_pitch(target, distance, yaw, pitch, 2);
     let proj: Mat4 = camera::default_projection(width, height);
+    (recorded, view, proj)
+}
+
+/// What a frame of a captured scene (a past state, a running step's moment) says about it.
+pub struct SceneInfo<'a> {
+    /// Simulation id.
+    pub simulation_id: &'a str,
+    /// Steps since creation.
+    pub steps: u64,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Objects.
+    pub objects: usize,
+    /// State hash ("" while a step runs: it is only computed at the end).
+    pub state_hash: &'a str,
+    /// The past event shown.
+    pub seq: Option<u64>,
+    /// Steps into it.
+    pub step: Option<u64>,
+    /// [done, asked] of a running step.
+    pub progress: Option<[u64; 2]>,
+}
+
+/// Renders a captured scene as the page asked (no overlays: contacts and body frames are
+/// drawn for the present only).
+pub fn scene_frame(s: &Scene, info: SceneInfo, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
+    let (width, height) = size(q, max_px)?;
+    let (recorded, view, proj) = matrices(&s.camera, q, width, height);
+    let image = render::render_scene(s, width, height, &view, &proj);
+    Ok(FrameJson {
+        simulation_id: info.simulation_id.to_string(),
+        width,
+        height,
+        png: base64::engine::general_purpose::STANDARD.encode(image.png()?),
+        view_matrix: view.to_vec(),
+        projection_matrix: proj.to_vec(),
+        camera: recorded,
+        time: info.time,
+        steps: info.steps,
+        objects: info.objects,
+        state_hash: info.state_hash.to_string(),
+        show_contacts: false,
+        show_frames: false,
+        contacts: Vec::new(),
+        frames: Vec::new(),
+        seq: info.seq,
+        step: info.step,
+        progress: info.progress,
+    })
+}
+
+/// Renders one frame of `w` as the page asked; `state_hash` is the simulation's.
+pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
+    let (width, height) = size(q, max_px)?;
+    let cam = w.viewer();
+    let (recorded, view, proj) = matrices(cam, q, width, height);
     let image = render::render(w, width, height, &view, &proj);
     let contacts = if cam.show_contacts {
         contacts::contacts(w, None).into_iter().map(|c| c.position_on_a).collect()
@@ -161,6 +242,9 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
         show_frames: cam.show_frames,
         contacts,
         frames,
+        seq: None,
+        step: None,
+        progress: None,
     })
 }
 
@@ -201,6 +285,7 @@ pub fn router(reg: Arc<Registry>) -> Router {
     Router::new()
         .route("/viewer/{sim_id}", get(page))
         .route("/viewer/{sim_id}/frame", get(frame_route))
+        .route("/viewer/{sim_id}/timeline", get(timeline_route))
         .with_state(Viewer { reg })
 }
 
@@ -222,14 +307,65 @@ async fn frame_route(State(v): State<Viewer>, Path(sim_id): Path<String>, Query(
     };
     let max_px = v.reg.limits().max_image_px;
     let out = tokio::task::spawn_blocking(move || {
-        // Never wait behind a long call: the page keeps its last frame and asks again.
-        let Ok(guard) = sim.try_lock() else { return Err((StatusCode::SERVICE_UNAVAILABLE, "busy: a call is running".to_string())) };
-        frame(guard.world(), guard.state_hash(), &q, max_px).map_err(|e| (StatusCode::BAD_REQUEST, e))
+        let busy = || (StatusCode::SERVICE_UNAVAILABLE, "busy: a call is running".to_string());
+        let bad = |e: String| (StatusCode::BAD_REQUEST, e);
+        if let Some(seq) = q.seq {
+            // A past state: lend under the lock (no physics), re-simulate without it.
+            let req = {
+                let Ok(guard) = sim.try_lock() else { return Err(busy()) };
+                past::request(&guard, seq, q.step).map_err(bad)?
+            };
+            let p = past::resolve(req).map_err(bad)?;
+            let info = SceneInfo {
+                simulation_id: &sim_id,
+                steps: p.steps,
+                time: p.time,
+                objects: p.objects,
+                state_hash: &p.state_hash,
+                seq: Some(seq),
+                step: q.step,
+                progress: None,
+            };
+            return scene_frame(&p.scene, info, &q, max_px).map_err(bad);
+        }
+        // Never wait behind a long call: show what its stepping last published, if anything.
+        let Ok(guard) = sim.try_lock() else {
+            let Some(p) = live::latest(&sim_id) else { return Err(busy()) };
+            let info = SceneInfo {
+                simulation_id: &sim_id,
+                steps: p.steps,
+                time: p.time,
+                objects: p.objects,
+                state_hash: "",
+                seq: None,
+                step: None,
+                progress: Some([p.done, p.total]),
+            };
+            return scene_frame(&p.scene, info, &q, max_px).map_err(bad);
+        };
+        frame(guard.world(), guard.state_hash(), &q, max_px).map_err(bad)
     })
     .await;
     match out {
         Ok(Ok(json)) => ([(header::CACHE_CONTROL, "no-store")], axum::Json(json)).into_response(),
         Ok(Err((code, why))) => (code, why).into_response(),
         Err(_) => (StatusCode::INTERNAL_SERVER_ERROR, "the frame could not be rendered").into_response(),
+    }
+}
+
+async fn timeline_route(State(v): State<Viewer>, Path(sim_id): Path<String>) -> Response {
+    let sim = match v.reg.get(&sim_id) {
+        Ok(s) => s,
+        Err(why) => return (StatusCode::NOT_FOUND, why).into_response(),
+    };
+    let out = tokio::task::spawn_blocking(move || {
+        let Ok(guard) = sim.try_lock() else { return Err((StatusCode::SERVICE_UNAVAILABLE, "busy: a call is running".to_string())) };
+        past::timeline(&guard).map_err(|e| (StatusCode::INTERNAL_SERVER_ERROR, e))
+    })
+    .await;
+    match out {
+        Ok(Ok(json)) => ([(header::CACHE_CONTROL, "no-store")], axum::Json(json)).into_response(),
+        Ok(Err((code, why))) => (code, why).into_response(),
+        Err(_) => (StatusCode::INTERNAL_SERVER_ERROR, "the timeline could not be read").into_response(),
     }
 }

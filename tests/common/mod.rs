@@ -2,6 +2,8 @@
 //! client over streamable HTTP — no mocks.
 #![allow(dead_code)]
 
+pub mod pictures;
+
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

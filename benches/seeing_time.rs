@@ -1,0 +1,135 @@
+//! Issue 11 benchmarks (`cargo bench --bench seeing_time`): render_animation's work — 120
+//! frames at 320×240 of 100 objects dropped on a ground, every=4 — against the physics of the
+//! same interval alone (the core re-simulating with no observer work), and `report` on the
+//! recorded session in `replays/` with the most events. `REPORT` lines carry the figures.
+
+#[path = "pile.rs"]
+mod pile;
+
+use std::time::Instant;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use physics_mcp::animation::{self, Camera};
+use physics_mcp::command::{Command, Shape, EVENT_VERSION};
+use physics_mcp::fold::{self, Interval, Lent};
+use physics_mcp::store::{Event, Kind};
+use physics_mcp::world::World;
+
+/// Steps of the interval: the start and a frame every 4 steps make 120 frames.
+const STEPS: u64 = 476;
+
+fn event(seq: u64, kind: Kind, tool: &str, w: &World) -> Event {
+    Event {
+        seq,
+        kind,
+        parent: seq.checked_sub(1).filter(|p| *p > 0),
+        tool: tool.into(),
+        arguments: "{}".into(),
+        command: None,
+        version: EVENT_VERSION,
+        ok: true,
+        mutates: true,
+        inherited: false,
+        result: None,
+        result_hash: None,
+        state_hash: w.state_hash(),
+    }
+}
+
+/// A ground and 100 coloured shapes dropped from up to 2 m, lent as a log would lend it: the
+/// snapshot at the drop, then one step event of `STEPS` steps with its recorded hash.
+fn dropped_100() -> Lent {
+    let (mut w, _) = World::create(&pile::root("anim")).unwrap();
+    let add = |w: &mut World, shape, position: [f32; 3], mass, color| {
+        w.apply(&Command::AddBody { shape, position, orientation: [0.1, 0.2, 0.0, 0.97], mass, color }, &mut |_| true);
+    };
+    add(&mut w, Shape::Box { half_extents: [10.0, 10.0, 0.1] }, [0.0, 0.0, -0.1], 0.0, Some([0.6, 0.6, 0.6, 1.0]));
+    for i in 0..100 {
+        let p = [(i % 10) as f32 * 0.6 - 2.7, (i / 10) as f32 * 0.6 - 2.7, 0.4 + (i % 7) as f32 * 0.25];
+        let color = Some([(i % 3) as f32 / 2.0, ((i / 3) % 3) as f32 / 2.0, 1.0 - (i % 5) as f32 / 4.0, 1.0]);
+        let shape = match i % 4 {
+            0 => Shape::Box { half_extents: [0.2, 0.2, 0.2] },
+            1 => Shape::Sphere { radius: 0.2 },
+            2 => Shape::Cylinder { radius: 0.2, height: 0.4 },
+            _ => Shape::Capsule { radius: 0.15, height: 0.2 },
+        };
+        add(&mut w, shape, p, 1.0, color);
+    }
+    let start = w.snapshot();
+    let first = event(1, Kind::Root, "create_simulation", &w);
+    let step = Command::StepSimulation { steps: STEPS };
+    w.apply(&step, &mut |_| true);
+    let last = event(2, Kind::Change, "step_simulation", &w);
+    Lent {
+        id: "anim".into(),
+        start: Some(start),
+        chain: vec![(first, Command::CreateSimulation { simulation_id: "anim".into(), gravity: [0.0, 0.0, -9.81], gui: false }), (last, step)],
+        interval: Interval { from_seq: 1, to_seq: 2 },
+    }
+}
+
+fn camera() -> Camera {
+    let view = physics_mcp::sensing::camera::view_matrix([6.0, -6.0, 5.0], [0.0, 0.0, 0.3], [0.0, 0.0, 1.0]);
+    Camera { width: 320, height: 240, view: Some(view), projection: None }
+}
+
+/// The replay with the most events.
+fn longest_replay() -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
+    let mut logs: Vec<(usize, std::path::PathBuf)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+        .map(|p| (physics_mcp::replay::events(&p).unwrap().len(), p))
+        .collect();
+    logs.sort();
+    logs.pop().unwrap().1
+}
+
+fn bench(c: &mut Criterion) {
+    let lent = dropped_100();
+    let cam = camera();
+    assert_eq!(animation::sample_count(&lent, 4), 120);
+    let physics = || fold::resimulate(&lent, 4, &mut |_, _| true).unwrap();
+    let animate = || animation::animate(&lent, 4, &cam, 30).unwrap();
+
+    // Side by side in one run, for the REPORT line.
+    let time = |f: &dyn Fn()| {
+        let runs = 5;
+        let t = Instant::now();
+        for _ in 0..runs {
+            f();
+        }
+        t.elapsed().as_secs_f64() * 1e3 / runs as f64
+    };
+    let physics_ms = time(&|| {
+        physics();
+    });
+    let anim = animate();
+    let total_ms = time(&|| {
+        animate();
+    });
+    println!(
+        "REPORT render_animation: 120 frames 320x240, 100 objects, every=4: {total_ms:.0} ms in all, physics alone {physics_ms:.0} ms, beyond physics {:.0} ms on {} threads; GIF {} bytes ({:.0} KiB)",
+        total_ms - physics_ms,
+        rayon::current_num_threads(),
+        anim.gif.len(),
+        anim.gif.len() as f64 / 1024.0
+    );
+    let replay = longest_replay();
+    let t = Instant::now();
+    let page = physics_mcp::report::html(&physics_mcp::report::gather(&replay, |_, _| {}).unwrap()).unwrap();
+    println!("REPORT report: {} ({} events): {:.0} ms, page {} bytes", replay.display(), physics_mcp::replay::events(&replay).unwrap().len(), t.elapsed().as_secs_f64() * 1e3, page.len());
+
+    let mut g = c.benchmark_group("seeing_time");
+    g.sample_size(10);
+    g.bench_function("physics_of_the_interval", |b| b.iter(physics));
+    g.bench_function("render_animation_120x320x240_100_objects", |b| b.iter(animate));
+    g.bench_function("report_longest_replay", |b| {
+        b.iter(|| physics_mcp::report::html(&physics_mcp::report::gather(&replay, |_, _| {}).unwrap()).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,196 @@
+//! render_animation: a looping GIF of any interval of a simulation's chain (SPEC "Seeing
+//! time"). Thin: the interval is lent by the log (`fold::lend`) under the simulation's lock,
+//! re-simulated and rendered without it (`animation::animate`), and the call is then recorded
+//! as a read (or a refusal). The live simulation is never changed.
+
+use base64::Engine;
+use rmcp::handler::server::common::{schema_for_output, schema_for_type};
+use rmcp::model::{CallToolResult, ContentBlock, JsonObject, Resource};
+use rmcp::{tool, tool_router};
+use schemars::JsonSchema;
+use serde::Serialize;
+
+use super::lenient::{int_or, Int, Text};
+use super::params::{self, RenderAnimation};
+use super::PhysicsServer;
+use crate::animation::{self, Camera, MAX_INLINE_GIF_BYTES};
+use crate::fold::{self, Lent};
+use crate::sim::{lock_sim, Sim};
+use crate::value::{self, Args, Refusal};
+use crate::workspace::Sandbox;
+
+const TOOL: &str = "render_animation";
+
+/// What render_animation returns beside the GIF.
+#[derive(Serialize, JsonSchema, Debug)]
+pub struct AnimationSummary {
+    /// Frames in the GIF.
+    pub frames: usize,
+    /// Frame width in pixels.
+    pub width: u32,
+    /// Frame height in pixels.
+    pub height: u32,
+    /// Frames per second as played.
+    pub fps: u32,
+    /// Playing time of one loop (s): frames × the frame delay.
+    pub duration_s: f64,
+    /// Size of the GIF file in bytes.
+    pub bytes: usize,
+    /// The interval's first event.
+    pub from_seq: u64,
+    /// The interval's last event.
+    pub to_seq: u64,
+    /// Steps between frames.
+    pub every: u64,
+    /// Steps simulated over the interval.
+    pub steps: u64,
+    /// Where the GIF was written (with output_path).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub output_path: Option<String>,
+}
+
+/// Everything decided under the lock.
+struct Plan {
+    lent: Lent,
+    every: u64,
+    cam: Camera,
+    fps: u32,
+    output: Option<(String, std::path::PathBuf)>,
+}
+
+/// An optional seq or count: an integer ≥ 0.
+fn opt_u64(v: Option<Int<u64>>, name: &str) -> Result<Option<u64>, Refusal> {
+    v.map(|n| u64::try_from(n.get()).map_err(|_| format!("{name} must be an integer >= 0; got {}", n.get()))).transpose()
+}
+
+/// `every` when given: an integer ≥ 1.
+fn every(v: Option<Int<u64>>) -> Result<Option<u64>, Refusal> {
+    v.map(|n| {
+        u64::try_from(n.get())
+            .ok()
+            .filter(|n| *n >= 1)
+            .ok_or_else(|| format!("every must be an integer >= 1 (steps between frames); got {}", n.get()))
+    })
+    .transpose()
+}
+
+/// A frame side: an integer ≥ 1 (default `default`).
+fn side(v: Option<Int<u32>>, name: &str, default: u32) -> Result<u32, Refusal> {
+    let v = int_or(v, i64::from(default));
+    u32::try_from(v).ok().filter(|v| *v >= 1).ok_or_else(|| format!("{name} must be an integer >= 1; got {v}"))
+}
+
+fn fps(v: Option<Int<u32>>) -> Result<u32, Refusal> {
+    let v = int_or(v, 30);
+    u32::try_from(v).ok().filter(|v| (1..=50).contains(v)).ok_or_else(|| format!("fps must be an integer from 1 to 50; got {v}"))
+}
+
+/// The .gif file `output_path` names, inside the workspace.
+fn output(user: Option<Text>, sandbox: &Sandbox) -> Result<Option<(String, std::path::PathBuf)>, Refusal> {
+    let Some(Text(user)) = user else { return Ok(None) };
+    if !user.to_ascii_lowercase().ends_with(".gif") {
+        return Err(format!("output_path must end in .gif; got {user}"));
+    }
+    let path = sandbox.writable(&user).map_err(|e| e.replacen("file_path", "output_path", 1).replacen("Access denied: ", "Access denied: output_path ", 1))?;
+    Ok(Some((user, path)))
+}
+
+/// Parses the call and lends the interval (under the simulation's lock: no physics here).
+fn plan(sim: &Sim, a: &Args, max_px: usize, sandbox: &Sandbox) -> Result<Plan, Refusal> {
+    let p: RenderAnimation = params::parse(TOOL, a)?;
+    let (from, to) = (opt_u64(p.from_seq, "from_seq")?, opt_u64(p.to_seq, "to_seq")?);
+    let every = every(p.every)?;
+    let cam = Camera {
+        width: side(p.width, "width", 320)?,
+        height: side(p.height, "height", 240)?,
+        view: p.view_matrix.map(|m| m.0),
+        projection: p.projection_matrix.map(|m| m.0),
+    };
+    let fps = fps(p.fps)?;
+    let output = output(p.output_path, sandbox)?;
+    let lent = fold::lend(sim.log(), sim.id(), from, to)?;
+    let every = every.unwrap_or_else(|| animation::default_every(lent.interval_steps()));
+    animation::check_size(animation::sample_count(&lent, every), every, &cam, max_px)?;
+    Ok(Plan { lent, every, cam, fps, output })
+}
+
+/// Renders the plan and writes or inlines the GIF (no lock held).
+fn run(plan: &Plan, sandbox: &Sandbox) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
+    let anim = animation::animate(&plan.lent, plan.every, &plan.cam, plan.fps)?;
+    let delay = animation::gif::delay_for_fps(plan.fps);
+    let summary = AnimationSummary {
+        frames: anim.frames,
+        width: plan.cam.width,
+        height: plan.cam.height,
+        fps: plan.fps,
+        duration_s: anim.frames as f64 * f64::from(delay) / 100.0,
+        bytes: anim.gif.len(),
+        from_seq: plan.lent.interval.from_seq,
+        to_seq: plan.lent.interval.to_seq,
+        every: plan.every,
+        steps: plan.lent.interval_steps(),
+        output_path: plan.output.as_ref().map(|(user, _)| user.clone()),
+    };
+    if let Some((_, path)) = &plan.output {
+        sandbox.write_atomic(path, &anim.gif)?;
+        return Ok((summary, None));
+    }
+    if anim.gif.len() > MAX_INLINE_GIF_BYTES {
+        return Err(format!(
+            "The GIF is {} KiB, over the {} KiB an inline reply holds; give output_path (a .gif in the workspace), a smaller width and height, or a larger every",
+            anim.gif.len().div_ceil(1024),
+            MAX_INLINE_GIF_BYTES / 1024
+        ));
+    }
+    Ok((summary, Some(anim.gif)))
+}
+
+#[tool_router(router = animation_router, vis = "pub(crate)")]
+impl PhysicsServer {
+    /// A looping GIF of any interval of the simulation's history (default: what the last
+    /// step_simulation did), re-simulated exactly from the log on a copy: the first state,
+    /// a frame every `every` steps, and the last state. Read-only.
+    #[tool(
+        input_schema = schema_for_type::<params::RenderAnimation>(),
+        output_schema = schema_for_output::<AnimationSummary>(),
+        annotations(read_only_hint = true)
+    )]
+    async fn render_animation(&self, args: JsonObject) -> Result<CallToolResult, String> {
+        let id = value::string(&args, "sim_id")?;
+        let sim = self.reg.get(&id)?;
+        let reg = self.reg.clone();
+        let (summary, gif) = tokio::task::spawn_blocking(move || {
+            let (max_px, sandbox) = (reg.limits().max_image_px, reg.sandbox());
+            let planned = {
+                let mut guard = lock_sim(&sim);
+                guard.ensure_live()?;
+                plan(&guard, &args, max_px, sandbox).map_err(|why| guard.refuse(TOOL, &args, why))?
+            };
+            let done = run(&planned, sandbox);
+            let mut guard = lock_sim(&sim);
+            match done {
+                Ok((summary, gif)) => guard.read(TOOL, &args, |_| Ok(summary)).map(|s| (s, gif)),
+                Err(why) => Err(guard.refuse(TOOL, &args, why)),
+            }
+        })
+        .await
+        .map_err(|_| "Internal error: the call failed and changed nothing".to_string())??;
+        let structured = serde_json::to_value(&summary).map_err(|e| format!("Internal error: unexpected result shape: {e}"))?;
+        let mut result = CallToolResult::structured(structured);
+        match (gif, &summary.output_path) {
+            (Some(gif), _) => {
+                let b64 = base64::engine::general_purpose::STANDARD.encode(&gif);
+                result.content.insert(0, ContentBlock::image(b64, "image/gif"));
+            }
+            (None, Some(user)) => {
+                let path = self.reg.sandbox().workspace.join(user);
+                let link = Resource::new(format!("file://{}", path.display()), user.clone())
+                    .with_mime_type("image/gif")
+                    .with_size(summary.bytes as u64);
+                result.content.push(ContentBlock::resource_link(link));
+            }
+            (None, None) => {}
+        }
+        Ok(result)
+    }
+}

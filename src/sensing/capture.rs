@@ -1,0 +1,41 @@
+//! A world's drawable state at one moment, detached from the world so frames can be rendered
+//! on other threads while the world moves on (animations, live viewer progress). Built from
+//! `World::scene` (the same parts, in the same order), so a captured frame has exactly the
+//! pixels `render::render` gives on that world.
+
+use rapier3d::prelude::{Pose, SharedShape};
+
+use crate::world::{Viewer, World};
+
+/// One collider as it was when captured, owning (a shared handle to) its shape.
+pub struct Posed {
+    /// The object it belongs to.
+    pub object_id: u32,
+    /// Its shape (shared with the world it came from; shapes are never changed in place).
+    pub shape: SharedShape,
+    /// Its world pose when captured.
+    pub pose: Pose,
+    /// RGBA from the object or the URDF material, if any.
+    pub color: Option<[f32; 4]>,
+}
+
+/// What the camera would draw of a world at one moment.
+pub struct Scene {
+    /// Every collider, in `World::scene` order.
+    pub parts: Vec<Posed>,
+    /// The recorded viewer camera (set_camera) at that moment.
+    pub camera: Viewer,
+}
+
+impl Scene {
+    /// Captures the world as it is now (cheap: poses and shape handles, no meshes).
+    pub fn capture(w: &World) -> Scene {
+        let parts = w
+            .scene()
+            .parts
+            .iter()
+            .map(|p| Posed { object_id: p.object_id, shape: p.shape.clone(), pose: p.pose, color: p.color })
+            .collect();
+        Scene { parts, camera: w.viewer().clone() }
+    }
+}

@@ -1,0 +1,94 @@
+//! Live progress of a long step: while step_simulation holds a simulation's lock, the stepping
+//! loop publishes a copy of what the camera would see (`Scene::capture`: poses and shape
+//! handles) about every 100 ms of wall time, through the step observer hook of
+//! `World::apply_observed`, which only ever sees a shared borrow — so publishing never
+//! changes a result or a hash. The viewer renders the latest copy instead of waiting.
+//!
+//! Slots live in a process-wide table by simulation id (ids are UUIDs, unique across
+//! registries), so the viewer reaches them without the simulation's lock.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, LazyLock, Mutex};
+use std::time::{Duration, Instant};
+
+use crate::sensing::capture::Scene;
+use crate::world::World;
+
+/// How often a running step publishes (wall time): 10 pictures a second to choose from.
+pub const PUBLISH_EVERY: Duration = Duration::from_millis(100);
+
+/// One published moment of a running step.
+pub struct Progress {
+    /// What the camera would see.
+    pub scene: Scene,
+    /// Steps since the simulation's creation (the world's step count then).
+    pub steps: u64,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Objects then.
+    pub objects: usize,
+    /// Steps this call has taken so far.
+    pub done: u64,
+    /// Steps this call asked for.
+    pub total: u64,
+}
+
+type Slot = Arc<Mutex<Option<Arc<Progress>>>>;
+
+static SLOTS: LazyLock<Mutex<BTreeMap<String, Slot>>> = LazyLock::new(Default::default);
+
+fn slot(id: &str) -> Slot {
+    let mut table = SLOTS.lock().unwrap_or_else(|p| p.into_inner());
+    table.entry(id.to_string()).or_default().clone()
+}
+
+/// The latest moment a running step of simulation `id` published; None when no step runs.
+pub fn latest(id: &str) -> Option<Arc<Progress>> {
+    let table = SLOTS.lock().unwrap_or_else(|p| p.into_inner());
+    let slot = table.get(id)?.clone();
+    drop(table);
+    let guard = slot.lock().unwrap_or_else(|p| p.into_inner());
+    guard.clone()
+}
+
+/// Publishes a running step's progress; clears it when dropped (the step is over).
+pub struct Publisher {
+    id: String,
+    slot: Slot,
+    last: Instant,
+    done: u64,
+    total: u64,
+}
+
+impl Publisher {
+    /// A publisher for a step of `total` steps on simulation `id`.
+    pub fn new(id: &str, total: u64) -> Publisher {
+        Publisher { id: id.to_string(), slot: slot(id), last: Instant::now(), done: 0, total }
+    }
+
+    /// The step observer: called after every step with the world (read-only).
+    pub fn observe(&mut self, w: &World) {
+        self.done += 1;
+        if self.last.elapsed() < PUBLISH_EVERY {
+            return;
+        }
+        self.last = Instant::now();
+        let progress = Progress {
+            scene: Scene::capture(w),
+            steps: w.steps(),
+            time: w.current_time(),
+            objects: w.objects().count(),
+            done: self.done,
+            total: self.total,
+        };
+        *self.slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(Arc::new(progress));
+    }
+}
+
+impl Drop for Publisher {
+    fn drop(&mut self) {
+        *self.slot.lock().unwrap_or_else(|p| p.into_inner()) = None;
+        let mut table = SLOTS.lock().unwrap_or_else(|p| p.into_inner());
+        table.remove(&self.id);
+    }
+}
