@@ -6,7 +6,7 @@ use serde_json::Value;
 
 use crate::command::object_not_found;
 use crate::outputs::{
-    CameraImage, Contacts, DynamicsInfo, IkSolution, JointInfo, JointState, NumJoints,
+    CameraImage, Contacts, DynamicsInfo, IkSolution, JointInfo, JointState, LinkState, NumJoints,
     ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
 use crate::sensing::camera::{self, Mat4};
@@ -83,6 +83,19 @@ pub fn joint_state(cx: &ReadContext, a: &Args) -> Result<JointState, Refusal> {
     robot_read(cx, a, |w, id, i| w.joint_state(id, i))
 }
 
+/// get_link_state: link −1 is the base.
+pub fn link_state(cx: &ReadContext, a: &Args) -> Result<LinkState, Refusal> {
+    let id = value::object_id(a, "object_id")?;
+    let w = cx.world;
+    if !w.has_object(id) {
+        return Err(object_not_found(id, w.simulation_id()));
+    }
+    let link = value::integer("link_index", value::required(a, "link_index", "a link index (integer >= -1)")?)?;
+    let link = i32::try_from(link).map_err(|_| format!("link_index must be -1 (base) or a link index; got {link}"))?;
+    w.check_link(id, link)?;
+    w.link_state(id, link).ok_or_else(|| object_not_found(id, w.simulation_id()))
+}
+
 /// calculate_inverse_kinematics.
 pub fn inverse_kinematics(cx: &ReadContext, a: &Args) -> Result<IkSolution, Refusal> {
     let id = value::object_id(a, "object_id")?;
@@ -143,6 +156,7 @@ pub fn replay_read(tool: &str, cx: &ReadContext, a: &Args) -> Option<Result<Valu
         "get_num_joints" => json(num_joints(cx, a)),
         "get_joint_info" => json(joint_info(cx, a)),
         "get_joint_state" => json(joint_state(cx, a)),
+        "get_link_state" => json(link_state(cx, a)),
         "calculate_inverse_kinematics" => json(inverse_kinematics(cx, a)),
         "ray_test" => json(ray_test(cx, a)),
         "ray_test_batch" => json(ray_test_batch(cx, a, usize::MAX)),

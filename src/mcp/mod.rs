@@ -12,6 +12,7 @@
 //! JSON Schema 2020-12 by `schema::plain` (see `tools`).
 
 mod constraints;
+mod mjcf;
 mod objects;
 mod params;
 mod persistence;
@@ -81,7 +82,8 @@ impl PhysicsServer {
                 + PhysicsServer::robot_router()
                 + PhysicsServer::constraint_router()
                 + PhysicsServer::sensing_router()
-                + PhysicsServer::viewer_router();
+                + PhysicsServer::viewer_router()
+                + PhysicsServer::mjcf_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::plain(&tool.input_schema));

@@ -393,6 +393,9 @@ impl World {
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 to_value(&Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
+            Command::ResetJointState { object_id, joint_index, target_value, target_velocity } => {
+                to_value(&Message::new(self.reset_joint(*object_id, *joint_index, *target_value, *target_velocity)))
+            }
             Command::CreateConstraint { spec } => to_value(&self.insert_constraint(spec)),
             Command::SetDebugVisualization { show_contacts, show_frames } => {
                 self.tables.viewer.show_contacts = *show_contacts;
