@@ -7,13 +7,13 @@ use serde_json::Value;
 
 use crate::command::object_not_found;
 use crate::outputs::{
-    CameraImage, Contacts, DynamicsInfo, IkSolution, JointInfo, JointState, NumJoints,
+    CameraImage, Contacts, DynamicsInfo, IkSolution, JointInfo, JointState, LinkState, NumJoints,
     ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
 use crate::sensing::camera::{self, Mat4};
 use crate::sensing::{contacts, rays, render};
 use crate::mcp::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
-use crate::mcp::params::{Fork, GetTrajectory, HistoryPage, RenderAnimation, Save};
+use crate::mcp::params::{Fork, GetTrajectory, HistoryPage, LinkRef, RenderAnimation, Save};
 use crate::value::{r32, r32s, Args, Refusal};
 use crate::world::World;
 
@@ -90,6 +90,19 @@ fn per_joint(name: &str, list: &Option<crate::mcp::lenient::NumList>, n: usize) 
         }
         other => Ok(other.as_ref().map(|l| l.0.clone())),
     }
+}
+
+/// get_link_state: link −1 is the base.
+pub fn link_state(cx: &ReadContext, p: &LinkRef) -> Result<LinkState, Refusal> {
+    let id = p.object_id.0;
+    let w = cx.world;
+    if !w.has_object(id) {
+        return Err(object_not_found(id, w.simulation_id()));
+    }
+    let link = p.link_index.get();
+    let link = i32::try_from(link).map_err(|_| format!("link_index must be -1 (base) or a link index; got {link}"))?;
+    w.check_link(id, link)?;
+    w.link_state(id, link).ok_or_else(|| object_not_found(id, w.simulation_id()))
 }
 
 /// calculate_inverse_kinematics.
@@ -172,6 +185,8 @@ pub enum Read {
     Trajectory(GetTrajectory),
     /// render_animation: its result is re-simulated from the log, not read off the world.
     Animation(RenderAnimation),
+    /// get_link_state.
+    LinkState(LinkRef),
 }
 
 impl Read {
@@ -200,6 +215,7 @@ impl Read {
             "fork_simulation" => Read::Fork(p(tool, a)?),
             "get_trajectory" => Read::Trajectory(p(tool, a)?),
             "render_animation" => Read::Animation(p(tool, a)?),
+            "get_link_state" => Read::LinkState(p(tool, a)?),
             other => return Err(format!("{other} is not a read this server knows")),
         })
     }
@@ -224,6 +240,7 @@ impl Read {
             Read::AllCollisions(_) => json(all_collisions(cx)),
             Read::CollisionsForPair(p) => json(collisions_for_pair(cx, p)),
             Read::CameraImage(p) => json(camera_image(cx, p, usize::MAX)),
+            Read::LinkState(p) => json(link_state(cx, p)),
             Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) | Read::Animation(_) => return None,
         })
     }

@@ -15,6 +15,7 @@
 mod animation;
 mod constraints;
 pub mod lenient;
+mod mjcf;
 mod objects;
 pub mod params;
 mod persistence;
@@ -93,7 +94,8 @@ impl PhysicsServer {
                 + PhysicsServer::sensing_router()
                 + PhysicsServer::viewer_router()
                 + PhysicsServer::animation_router()
-                + PhysicsServer::time_router();
+                + PhysicsServer::time_router()
+                + PhysicsServer::mjcf_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::plain(&tool.input_schema));

@@ -699,3 +699,31 @@ pub struct RenderAnimation {
     /// Write the GIF to this .gif file in the workspace instead of returning it inline.
     pub output_path: Option<Text>,
 }
+
+/// get_link_state parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct LinkRef {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Object id of the robot.
+    pub object_id: ObjectId,
+    /// Link index (PyBullet numbering; -1 = the base).
+    pub link_index: Int<i32>,
+}
+
+/// reset_joint_state parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ResetJoint {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Object id of the robot.
+    pub object_id: ObjectId,
+    /// Joint index (PyBullet numbering).
+    pub joint_index: Int<u32>,
+    /// New joint position (rad or m).
+    pub target_value: Num,
+    /// New joint velocity (default 0).
+    pub target_velocity: Option<Num>,
+}

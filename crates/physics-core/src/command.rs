@@ -376,6 +376,18 @@ pub enum Command {
         /// The motor.
         motor: MotorSpec,
     },
+    /// Teleport one joint to a position and velocity (reset_joint_state, PyBullet's
+    /// resetJointState); the links below it follow through forward kinematics.
+    ResetJointState {
+        /// The robot.
+        object_id: u32,
+        /// PyBullet joint index.
+        joint_index: u32,
+        /// New joint position (rad or m; MJCF: qpos, `ref` included).
+        target_value: f32,
+        /// New joint velocity (rad/s or m/s).
+        target_velocity: f32,
+    },
     /// Join two objects (or an object and the world) with an impulse joint.
     CreateConstraint {
         /// What joins what, and where.
@@ -614,6 +626,10 @@ impl Command {
                     (_, Some(f)) => non_negative("force", f),
                 }
             }
+            Command::ResetJointState { target_value, target_velocity, .. } => {
+                finite("target_value", &[*target_value])?;
+                finite("target_velocity", &[*target_velocity])
+            }
             Command::CreateConstraint { spec } => {
                 if matches!(spec.joint_type, ConstraintType::Prismatic | ConstraintType::Revolute) {
                     non_zero("joint_axis", &spec.joint_axis)?;
@@ -704,6 +720,10 @@ impl Command {
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 exists(*object_id)?;
                 world.check_motor(*object_id, *joint_index, motor)
+            }
+            Command::ResetJointState { object_id, joint_index, .. } => {
+                exists(*object_id)?;
+                world.check_reset_joint(*object_id, *joint_index)
             }
             Command::AddBody { .. } => room_for_object(world, limits),
             Command::CreateConstraint { spec } => {

@@ -155,6 +155,25 @@ pub struct ObjectState {
     pub angular_velocity: [f64; 3],
 }
 
+/// Result of get_link_state (PyBullet's getLinkState with computeLinkVelocity and
+/// computeForwardKinematics): the link's own frame and its centre-of-mass frame, both in the
+/// world, and the velocity of its centre of mass.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct LinkState {
+    /// World position of the link frame (the URDF link frame, or the MJCF body frame) (m).
+    pub link_world_position: [f64; 3],
+    /// Orientation of the link frame [x, y, z, w].
+    pub link_world_orientation: [f64; 4],
+    /// World position of the centre of mass (m).
+    pub com_world_position: [f64; 3],
+    /// Orientation of the inertial (principal axes) frame [x, y, z, w].
+    pub com_world_orientation: [f64; 4],
+    /// Linear velocity of the centre of mass (m/s).
+    pub linear_velocity: [f64; 3],
+    /// Angular velocity (rad/s, world frame).
+    pub angular_velocity: [f64; 3],
+}
+
 /// Result of change_dynamics.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct DynamicsChanged {

@@ -141,6 +141,7 @@ impl World {
             | Command::SetTimestep { .. }
             | Command::LoadUrdf { .. }
             | Command::SetJointMotor { .. }
+            | Command::ResetJointState { .. }
             | Command::CreateConstraint { .. }
             | Command::RemoveConstraint { .. }
             | Command::SetDebugVisualization { .. }
@@ -456,7 +457,7 @@ impl World {
 /// `[0.5, 0.5, 0.5, −0.5]` — where PyBullet says `[Ixx, Iyy, Izz]` at identity. When the tensor
 /// in the body frame is diagonal we report it so; otherwise the principal axes and their frame.
 /// Computed in f64 so the diagonal comes back exactly as given.
-fn reported_inertia(mp: &MassProperties) -> ([f32; 3], [f32; 4]) {
+pub(super) fn reported_inertia(mp: &MassProperties) -> ([f32; 3], [f32; 4]) {
     use rapier3d::glamx::{DMat3, DVec3};
     let principal = mp.principal_inertia();
     let frame = mp.principal_inertia_local_frame.as_dquat();

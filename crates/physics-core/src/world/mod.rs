@@ -461,6 +461,9 @@ impl World {
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 Outcome::Message(Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
+            Command::ResetJointState { object_id, joint_index, target_value, target_velocity } => {
+                Outcome::Message(Message::new(self.reset_joint(*object_id, *joint_index, *target_value, *target_velocity)))
+            }
             Command::CreateConstraint { spec } => self.insert_constraint(spec).into(),
             Command::SetDebugVisualization { show_contacts, show_frames } => {
                 self.tables.viewer.show_contacts = *show_contacts;

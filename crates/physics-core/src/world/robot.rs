@@ -333,6 +333,78 @@ impl World {
         }
     }
 
+    /// Checks a reset_joint_state: the joint exists and moves.
+    pub fn check_reset_joint(&self, id: u32, joint_index: u32) -> Result<(), Refusal> {
+        let i = self.check_joint(id, joint_index as i64)?;
+        let robot = self.robot(id).ok_or_else(|| format!("Joint index {joint_index} out of range: object {id} has 0 joints"))?;
+        if robot.links[i].joint.kind.movable() {
+            Ok(())
+        } else {
+            Err(format!("joint_index {joint_index} is a fixed joint ({}); it has no position to reset", robot.links[i].joint.name))
+        }
+    }
+
+    /// reset_joint_state: sets one joint's coordinate and velocity, then moves every body of
+    /// the multibody to the new configuration (poses by forward kinematics, velocities from
+    /// the body Jacobians) so reads see it before the next step, as in PyBullet.
+    pub(super) fn reset_joint(&mut self, id: u32, joint_index: u32, value: f32, velocity: f32) -> String {
+        let Some(link) = self.robot(id).and_then(|r| r.links.get(joint_index as usize)) else { return String::new() };
+        let (body, kind) = (link.body, link.joint.kind);
+        let (q, _) = self.joint_coordinates(body, kind);
+        let mbs = &mut self.physics.multibody_joints;
+        let Some(lid) = mbs.rigid_body_link(body).copied() else { return String::new() };
+        let Some(mb) = mbs.get_multibody_mut(lid.multibody) else { return String::new() };
+        // The root's pose (and whether it is free, which shifts every dof index) comes from
+        // its body, as set_object_pose leaves it.
+        mb.forward_kinematics(&self.physics.bodies, true);
+        let Some(l) = mb.link_mut(lid.id) else { return String::new() };
+        let dof = l.assembly_id();
+        l.joint.apply_displacement(&[value - q]);
+        mb.generalized_velocity_mut()[dof] = velocity;
+        mb.forward_kinematics(&self.physics.bodies, true);
+        mb.update_rigid_bodies(&mut self.physics.bodies, true);
+        let v = mb.generalized_velocity().clone_owned();
+        let velocities: Vec<(RigidBodyHandle, Vector, Vector)> = mb
+            .links()
+            .map(|l| {
+                let j = mb.body_jacobian(l.link_id()) * &v;
+                (l.rigid_body_handle(), Vector::new(j[0], j[1], j[2]), Vector::new(j[3], j[4], j[5]))
+            })
+            .collect();
+        for (h, lin, ang) in velocities {
+            if let Some(b) = self.physics.bodies.get_mut(h) {
+                if b.is_dynamic() {
+                    b.set_linvel(lin, true);
+                    b.set_angvel(ang, true);
+                }
+            }
+        }
+        format!("Joint {joint_index} of object {id} reset")
+    }
+
+    /// get_link_state: link −1 is the base; otherwise the link's frame, its centre of mass and
+    /// inertial frame (rotated by the principal-axes frame get_dynamics_info reports), and the
+    /// velocity of its centre of mass.
+    pub fn link_state(&self, id: u32, link_index: i32) -> Option<crate::outputs::LinkState> {
+        let base = self.tables.objects.get(&id)?.body;
+        let h = match self.robot(id) {
+            Some(r) => r.link_body(base, link_index)?,
+            None => base,
+        };
+        let b = self.physics.bodies.get(h)?;
+        let p = b.position();
+        let (_, inertia_orn) = super::bodies::reported_inertia(&b.mass_properties().local_mprops);
+        let com_rot = p.rotation * Rotation::from_array(inertia_orn);
+        Some(crate::outputs::LinkState {
+            link_world_position: r32s(p.translation.to_array()),
+            link_world_orientation: r32s(p.rotation.to_array()),
+            com_world_position: r32s(b.center_of_mass().to_array()),
+            com_world_orientation: r32s(com_rot.to_array()),
+            linear_velocity: r32s(b.linvel().to_array()),
+            angular_velocity: r32s(b.angvel().to_array()),
+        })
+    }
+
     /// Joint position and velocity (rad, rad/s or m, m/s) of a link's parent joint.
     pub fn joint_coordinates(&self, body: RigidBodyHandle, kind: JointKind) -> (f32, f32) {
         let mbs = &self.physics.multibody_joints;
