@@ -25,12 +25,14 @@
 //! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
 //!   writing generate_revolute_joint's URDFs.
 //! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
+//! - `failpoints` — crash points for the crash-loop test (feature `failpoints` only).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
 
 pub use physics_core::{command, digest, limits, outputs, value, world};
 
 pub mod cli;
+pub mod failpoints;
 pub mod fold;
 pub mod persistence;
 pub mod reads;

@@ -1,0 +1,1 @@
+//! Crash loop (issue #15): written below.
