@@ -133,7 +133,7 @@ pub fn partial_path(final_path: &Path) -> PathBuf {
 
 /// Whether a file name in the data directory is a left-over partial log or its companion.
 pub fn is_partial(name: &str) -> bool {
-    [PARTIAL_SUFFIX, "partial-wal", "partial-shm", "partial-seq"]
+    [PARTIAL_SUFFIX, "partial-wal", "partial-shm", "partial-seq", "partial-journal"]
         .iter()
         .any(|s| name.strip_suffix(s).is_some_and(|rest| rest.ends_with('.')))
 }
@@ -145,8 +145,9 @@ fn companion(path: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(p)
 }
 
-/// Companion files of a log that belong to it (deleted and renamed with it).
-pub const COMPANIONS: [&str; 3] = ["-wal", "-shm", SEQ_SUFFIX];
+/// Companion files of a log that belong to it (deleted with it); `-journal` exists only while
+/// a new file is switched to WAL mode.
+pub const COMPANIONS: [&str; 4] = ["-wal", "-shm", SEQ_SUFFIX, "-journal"];
 
 /// The acknowledgement file beside a log (`<id>.sqlite-seq`): the seq of the last
 /// state-changing event committed, as 8 little-endian bytes, written after each commit and

@@ -74,3 +74,13 @@ pub fn listed(list: &Value) -> (Vec<String>, Vec<(String, String)>) {
         .unwrap_or_default();
     (ids, damaged)
 }
+
+/// Whether the server process has exited (a crash point fired).
+pub fn exited(server: &mut super::Server) -> bool {
+    server.child.try_wait().ok().flatten().is_some()
+}
+
+/// The server's process id (for reading its peak memory).
+pub fn pid(server: &super::Server) -> u32 {
+    server.child.id()
+}
