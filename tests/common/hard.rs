@@ -12,7 +12,7 @@ pub fn seed() -> u64 {
     let seed = std::env::var("PHYSICS_SEED")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| rand::random::<u64>());
+        .unwrap_or_else(rand::random::<u64>);
     eprintln!("seed={seed} (replay with PHYSICS_SEED={seed})");
     seed
 }
