@@ -28,6 +28,7 @@
 //! - `report`  — a recorded session as a self-contained HTML page; `replay --render`.
 //! - `animation` — frames of re-simulated intervals → looping GIFs (palette, encoder).
 //! - `trajectory` — the pose sampler over the re-simulation core (get_trajectory, CSV/JSONL).
+//! - `failpoints` — crash points for the crash-loop test (feature `failpoints` only).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
 #![warn(missing_docs)]
 
@@ -35,6 +36,7 @@ pub use physics_core::{command, digest, limits, outputs, value, world};
 
 pub mod animation;
 pub mod cli;
+pub mod failpoints;
 pub mod fold;
 pub mod persistence;
 pub mod reads;

@@ -239,6 +239,18 @@ fn open_registry(c: Common) -> anyhow::Result<Arc<Registry>> {
     })?))
 }
 
+/// A write past the file-size limit (RLIMIT_FSIZE) raises SIGXFSZ, whose default action kills
+/// the process. Ignored, the write fails with EFBIG instead: the call is refused and the
+/// server keeps serving (tests/full_disk.rs).
+fn ignore_file_size_signal() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to SIG_IGN, before any thread is started here,
+    // touches no memory of ours.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+}
+
 fn main() {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
@@ -249,6 +261,9 @@ fn main() {
         )
         .init();
     let cli = Cli::parse();
+    #[cfg(feature = "failpoints")]
+    let _failpoints = physics_mcp::failpoints::setup();
+    ignore_file_size_signal();
     // One async worker: the async side only moves small JSON messages between hyper, rmcp's
     // session tasks and our handlers (simulation work runs on the blocking pool, reads take a
     // try_lock), and with one worker those hand-offs stay on one thread instead of waking

@@ -122,6 +122,8 @@ impl Registry {
 
     fn load_readable(&self, file: &SaveFile, id: &str, gui: bool, args: &Args) -> Result<Sim, Refusal> {
         let path = self.path_for(id);
+        // Built under a partial name and renamed when complete: a kill mid-load leaves nothing.
+        let partial = crate::store::partial_path(&path);
         let mut sim: Option<Sim> = None;
         let emitted = commands_from_readable(&file.readable, id, self.sandbox(), &mut |tool, cmd| {
             match &mut sim {
@@ -130,7 +132,7 @@ impl Registry {
                     if let Command::CreateSimulation { gui: g, .. } = &mut root {
                         *g = gui;
                     }
-                    sim = Some(Sim::create(&path, tool, root, args, self.config().sync)?.0);
+                    sim = Some(Sim::create_unpublished(&partial, tool, root, args, self.config().sync)?.0);
                 }
                 Some(sim) => {
                     sim.change(tool, &Args::new(), Ok(cmd), self.limits(), &mut |_| true)
@@ -139,14 +141,14 @@ impl Registry {
             }
             Ok(())
         });
-        let built = match (emitted, sim) {
-            (Ok(()), Some(sim)) => Ok(sim),
+        match (emitted, sim) {
+            (Ok(()), Some(sim)) => sim.publish(&path),
             (Ok(()), None) => Err("The file gave no simulation to create".into()),
-            (Err(why), _) => Err(why),
-        };
-        if built.is_err() {
-            remove_log_files(&path);
+            (Err(why), sim) => {
+                drop(sim);
+                remove_log_files(&partial);
+                Err(why)
+            }
         }
-        built
     }
 }

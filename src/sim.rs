@@ -16,7 +16,7 @@ use serde::Serialize;
 use crate::command::{Command, NoBlobs, EVENT_VERSION};
 use crate::fold::{self, Verify};
 use crate::limits::Limits;
-use crate::outputs::{Message, Outcome, SimulationList, SimulationSummary};
+use crate::outputs::{DamagedSimulation, Message, Outcome, SimulationList, SimulationSummary};
 use crate::reads::ReadContext;
 use crate::store::{Event, Kind, Log, StoreError, SyncMode};
 use crate::value::{Args, Refusal};
@@ -95,11 +95,60 @@ pub struct Sim {
     /// Set by destroy_simulation, under the lock, before the files are deleted: a request that
     /// took this simulation's handle earlier then finds it gone and writes nothing.
     destroyed: bool,
+    /// Why the world can no longer be trusted (its log failed to fold again after a failed
+    /// commit): every call is then refused with `Simulation {id} is damaged: {reason}`.
+    damaged: Option<String>,
+}
+
+/// The standard "simulation damaged" sentence: its log could not be folded back, so nothing
+/// of it is served.
+pub fn sim_damaged(id: &str, reason: &str) -> Refusal {
+    format!("Simulation {id} is damaged: {reason}")
 }
 
 impl Sim {
-    /// Creates a simulation from a root command, committing the root event and a snapshot.
+    /// Creates a simulation from a root command, committing the root event and a snapshot
+    /// under a partial name first, so a kill before the root commits leaves nothing that a
+    /// restart would serve or call damaged.
     pub fn create(
+        path: &Path,
+        tool: &str,
+        root: Command,
+        args: &Args,
+        sync: SyncMode,
+    ) -> Result<(Sim, Outcome), String> {
+        let (sim, result) = Sim::create_unpublished(&crate::store::partial_path(path), tool, root, args, sync)?;
+        crate::crash_point!("create_before_publish");
+        Ok((sim.publish(path)?, result))
+    }
+
+    /// Gives a simulation built at a partial path (create, load) its final name, once
+    /// everything it needs has committed; on failure the partial files are removed.
+    pub(crate) fn publish(self, final_path: &Path) -> Result<Sim, String> {
+        let Sim { world, log, sync, state_hash, redo, work_since_snapshot, changes_since_snapshot, .. } = self;
+        let partial = log.path().to_path_buf();
+        let published = log.publish(final_path, sync).and_then(|()| Log::open(final_path, sync));
+        match published {
+            Ok(log) => Ok(Sim {
+                world,
+                log,
+                sync,
+                state_hash,
+                redo,
+                work_since_snapshot,
+                changes_since_snapshot,
+                destroyed: false,
+                damaged: None,
+            }),
+            Err(e) => {
+                remove_log_files(&partial);
+                Err(format!("The simulation could not be recorded: {e}"))
+            }
+        }
+    }
+
+    /// `create` at `path` itself, which stays a partial log until `publish`.
+    pub(crate) fn create_unpublished(
         path: &Path,
         tool: &str,
         root: Command,
@@ -129,8 +178,11 @@ impl Sim {
         };
         let state_hash = event.state_hash.clone();
         let head = event.seq;
-        log.append_durable(event, head, Some((&snapshot, &snap_hash)))
-            .map_err(|e| e.to_string())?;
+        if let Err(e) = log.append_durable(event, head, Some((&snapshot, &snap_hash))) {
+            drop(log);
+            remove_log_files(path);
+            return Err(format!("The simulation could not be recorded: {e}"));
+        }
         Ok((
             Sim {
                 world,
@@ -141,6 +193,7 @@ impl Sim {
                 work_since_snapshot: 0,
                 changes_since_snapshot: 0,
                 destroyed: false,
+                damaged: None,
             },
             result,
         ))
@@ -151,6 +204,14 @@ impl Sim {
     pub fn recover(path: &Path, sync: SyncMode) -> Result<Sim, StoreError> {
         let log = Log::open(path, sync)?;
         let id = log.simulation_id()?;
+        if let Some(expected) = log.head_by_events()? {
+            if expected != log.head_seq() {
+                return Err(StoreError::Corrupt(format!(
+                    "the stored head is event {} but the last change or move left event {expected}",
+                    log.head_seq()
+                )));
+            }
+        }
         let rebuilt = rebuild_at(&log, &id, log.head_seq(), true)?;
         let redo = redo_stack(&log)?;
         let state_hash = rebuilt.world.state_hash();
@@ -163,6 +224,7 @@ impl Sim {
             work_since_snapshot: rebuilt.work_since_snapshot,
             changes_since_snapshot: rebuilt.changes_since_snapshot,
             destroyed: false,
+            damaged: None,
         })
     }
 
@@ -171,9 +233,16 @@ impl Sim {
     pub(crate) fn ensure_live(&self) -> Result<(), Refusal> {
         if self.destroyed {
             Err(sim_not_found(self.id()))
+        } else if let Some(why) = &self.damaged {
+            Err(sim_damaged(self.id(), why))
         } else {
             Ok(())
         }
+    }
+
+    /// Why this simulation is damaged, if it is.
+    pub fn damaged(&self) -> Option<&str> {
+        self.damaged.as_deref()
     }
 
     /// Marks the simulation destroyed and closes its log (dropping buffered events), so its
@@ -365,17 +434,29 @@ impl Sim {
         }
     }
 
-    /// Rebuilds this simulation from its log (after a failed commit or a panic mid-call), so
-    /// the world never holds a change the log does not.
+    /// Rebuilds this simulation's world from its log (after a failed commit or a panic
+    /// mid-call), so the world never holds a change the log does not. Reads the open log and
+    /// writes nothing (a full disk cannot stop it); if the log no longer folds, the
+    /// simulation is marked damaged and refuses every call.
     fn reload(&mut self) {
         if self.destroyed {
-            return; // its files are gone on purpose; reopening would recreate them
+            return; // its files are gone on purpose
         }
-        self.flush();
-        let path = self.log.path().to_path_buf();
-        match Sim::recover(&path, self.sync) {
-            Ok(again) => *self = again,
-            Err(e) => tracing::error!("could not reload {}: {e}", path.display()),
+        let id = self.id().to_string();
+        let rebuilt = rebuild_at(&self.log, &id, self.log.head_seq(), true)
+            .and_then(|r| Ok((r, redo_stack(&self.log)?)));
+        match rebuilt {
+            Ok((r, redo)) => {
+                self.state_hash = r.world.state_hash();
+                self.world = r.world;
+                self.redo = redo;
+                self.work_since_snapshot = r.work_since_snapshot;
+                self.changes_since_snapshot = r.changes_since_snapshot;
+            }
+            Err(e) => {
+                tracing::error!("could not reload simulation {id}: {e}");
+                self.damaged = Some(e.to_string());
+            }
         }
     }
 
@@ -477,9 +558,21 @@ pub fn lock_sim(sim: &SharedSim) -> MutexGuard<'_, Sim> {
     }
 }
 
+/// Deletes the partial logs a kill during create, fork or load left behind (start-up: no
+/// request is running, so none is being written).
+fn remove_partial_logs(data_dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(data_dir) else { return };
+    for e in entries.flatten() {
+        if e.file_name().to_str().is_some_and(crate::store::is_partial) {
+            tracing::info!("removing the partial log {}", e.path().display());
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
 /// Deletes a log and its WAL/shared-memory companions.
 pub(crate) fn remove_log_files(path: &Path) {
-    for suffix in ["", "-wal", "-shm"] {
+    for suffix in std::iter::once("").chain(crate::store::COMPANIONS) {
         let mut p = path.to_path_buf().into_os_string();
         p.push(suffix);
         let _ = std::fs::remove_file(PathBuf::from(p));
@@ -505,6 +598,9 @@ pub type SharedSim = Arc<Mutex<Sim>>;
 /// All simulations of a data directory, which this process holds an exclusive lock on.
 pub struct Registry {
     sims: Mutex<BTreeMap<String, SharedSim>>,
+    /// Simulations whose logs failed to open or fold at start: id (the file's name) → why.
+    /// Never served; every call on them answers `Simulation {id} is damaged: {reason}`.
+    damaged: BTreeMap<String, String>,
     config: Config,
     sandbox: Sandbox,
     mac_key: [u8; 32],
@@ -568,22 +664,37 @@ impl Registry {
                 lock_path.display()
             );
         }
+        remove_partial_logs(&config.data_dir);
         let mut sims = BTreeMap::new();
+        let mut damaged = BTreeMap::new();
         let mut paths: Vec<PathBuf> = std::fs::read_dir(&config.data_dir)?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
             .collect();
         paths.sort();
         for path in paths {
-            match Sim::recover(&path, config.sync) {
-                Ok(sim) => {
-                    tracing::info!("recovered simulation {} from {}", sim.id(), path.display());
+            let started = std::time::Instant::now();
+            let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            // A panic while folding a hostile file is damage too, not a failed start.
+            let recovered = std::panic::catch_unwind(|| Sim::recover(&path, config.sync))
+                .unwrap_or_else(|_| Err(StoreError::Corrupt("folding it panicked".into())));
+            match recovered {
+                Ok(sim) if sim.id() == name => {
+                    tracing::info!("recovered simulation {} in {:?}", sim.id(), started.elapsed());
                     sims.insert(sim.id().to_string(), Arc::new(Mutex::new(sim)));
                 }
-                Err(e) => eprintln!(
-                    "physics-mcp: warning: skipping {}: {e} (the file is left as it is)",
-                    path.display()
-                ),
+                Ok(sim) => {
+                    let why = format!("the file {} holds simulation {}", path.display(), sim.id());
+                    eprintln!("physics-mcp: warning: skipping {}: {why} (the file is left as it is)", path.display());
+                    damaged.insert(name, why);
+                }
+                Err(e) => {
+                    eprintln!(
+                        "physics-mcp: warning: skipping {}: {e} (the file is left as it is)",
+                        path.display()
+                    );
+                    damaged.insert(name, e.to_string());
+                }
             }
         }
         let sandbox = Sandbox {
@@ -593,6 +704,7 @@ impl Registry {
         let mac_key = mac_key(&config.data_dir)?;
         Ok(Registry {
             sims: Mutex::new(sims),
+            damaged,
             config,
             sandbox,
             mac_key,
@@ -660,13 +772,19 @@ impl Registry {
         Ok(result)
     }
 
-    /// The simulation with this id.
+    /// The simulation with this id (refused with the reason when it is damaged).
     pub fn get(&self, id: &str) -> Result<SharedSim, Refusal> {
+        if let Some(why) = self.damaged.get(id) {
+            return Err(sim_damaged(id, why));
+        }
         self.table().get(id).cloned().ok_or_else(|| sim_not_found(id))
     }
 
     /// Removes a simulation and deletes its log.
     pub fn destroy(&self, id: &str) -> Result<Message, Refusal> {
+        if let Some(why) = self.damaged.get(id) {
+            return Err(sim_damaged(id, why));
+        }
         let sim = self.table().remove(id).ok_or_else(|| sim_not_found(id))?;
         // Wait for any call in flight; then, still under the lock, mark it destroyed and close
         // its log before deleting the files, so a request that took the handle earlier finds
@@ -683,18 +801,26 @@ impl Registry {
     /// list_simulations.
     pub fn list(&self) -> SimulationList {
         let sims: Vec<SharedSim> = self.table().values().cloned().collect();
-        let simulations = sims
+        let mut damaged: Vec<DamagedSimulation> = self
+            .damaged
             .iter()
-            .map(|s| {
-                let s = lock_sim(s);
-                SimulationSummary {
-                    simulation_id: s.id().to_string(),
-                    objects: s.world().object_count(),
-                    simulation_time: s.world().current_time(),
-                }
-            })
+            .map(|(id, why)| DamagedSimulation { simulation_id: id.clone(), reason: why.clone() })
             .collect();
-        SimulationList { simulations }
+        let mut simulations = Vec::new();
+        for s in &sims {
+            let s = lock_sim(s);
+            if let Some(why) = s.damaged() {
+                damaged.push(DamagedSimulation { simulation_id: s.id().to_string(), reason: why.to_string() });
+                continue;
+            }
+            simulations.push(SimulationSummary {
+                simulation_id: s.id().to_string(),
+                objects: s.world().object_count(),
+                simulation_time: s.world().current_time(),
+            });
+        }
+        damaged.sort_by(|a, b| a.simulation_id.cmp(&b.simulation_id));
+        SimulationList { simulations, damaged }
     }
 
     /// Commits every simulation's buffered events (graceful shutdown).

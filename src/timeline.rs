@@ -323,8 +323,9 @@ impl Registry {
             state_hash: world.state_hash(),
         };
         let path = self.path_for(&id);
+        let partial = crate::store::partial_path(&path);
         let built = (|| {
-            let mut log = Log::create(&path, &id, self.config().sync).map_err(store_err)?;
+            let mut log = Log::create(&partial, &id, self.config().sync).map_err(store_err)?;
             for (hash, bytes) in &crate::save::chain_blobs(chain, blobs) {
                 let raw = base64::Engine::decode(&base64::engine::general_purpose::STANDARD, bytes)
                     .map_err(|e| e.to_string())?;
@@ -334,10 +335,13 @@ impl Registry {
             let snap_hash = crate::digest::content_hash(&snapshot);
             log.append_root_with_ancestry(chain, parent, root, (&snapshot, &snap_hash))
                 .map_err(store_err)?;
-            drop(log);
+            crate::crash_point!("adopt_before_publish");
+            // Renamed to its final name only now that the root has committed.
+            log.publish(&path, self.config().sync).map_err(store_err)?;
             Sim::recover(&path, self.config().sync).map_err(store_err)
         })();
         if built.is_err() {
+            crate::sim::remove_log_files(&partial);
             crate::sim::remove_log_files(&path);
         }
         built

@@ -118,6 +118,7 @@ impl Sandbox {
         tmp.write_all(bytes)
             .and_then(|_| tmp.as_file().sync_all())
             .map_err(|e| format!("could not write {}: {e}", target.display()))?;
+        crate::crash_point!("save_write");
         tmp.persist(target)
             .map_err(|e| format!("could not write {}: {e}", target.display()))?;
         Ok(())

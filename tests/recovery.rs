@@ -305,6 +305,9 @@ async fn a_tampered_log_is_reported_and_skipped_not_served() {
     let ids: Vec<&str> = listed["simulations"].as_array().unwrap().iter().map(|s| s["simulation_id"].as_str().unwrap()).collect();
     assert_eq!(ids, vec![good.as_str()], "the tampered simulation must not be served");
     let e = c.try_call("get_simulation_info", json!({"sim_id": bad})).await.unwrap_err();
-    assert!(e.contains("not found"), "{e}");
+    // Issue #15: named damaged (it used to answer "not found"), with the event that diverged.
+    assert!(e.starts_with(&format!("Simulation {bad} is damaged: ")) && e.contains("seq"), "{e}");
+    let damaged = &listed["damaged"][0];
+    assert_eq!(damaged["simulation_id"], json!(bad));
     assert!(data.join(format!("{bad}.sqlite")).exists(), "the tampered file is left for inspection");
 }

@@ -117,6 +117,54 @@ pub enum StoreError {
     /// The file's contents are not a valid log.
     #[error("log is corrupt: {0}")]
     Corrupt(String),
+    /// A file operation failed.
+    #[error("file system error: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Suffix of a log being created (create, fork, load) before its root commits: start-up
+/// skips and deletes such files, so a kill mid-creation leaves nothing half-made behind.
+pub const PARTIAL_SUFFIX: &str = "partial";
+
+/// Where a log for `final_path` is written until its root commits.
+pub fn partial_path(final_path: &Path) -> PathBuf {
+    final_path.with_extension(PARTIAL_SUFFIX)
+}
+
+/// Whether a file name in the data directory is a left-over partial log or its companion.
+pub fn is_partial(name: &str) -> bool {
+    [PARTIAL_SUFFIX, "partial-wal", "partial-shm", "partial-seq", "partial-journal"]
+        .iter()
+        .any(|s| name.strip_suffix(s).is_some_and(|rest| rest.ends_with('.')))
+}
+
+/// `path` with `suffix` appended (SQLite's companions: `-wal`, `-shm`; ours: `-seq`).
+fn companion(path: &Path, suffix: &str) -> PathBuf {
+    let mut p = path.to_path_buf().into_os_string();
+    p.push(suffix);
+    PathBuf::from(p)
+}
+
+/// Companion files of a log that belong to it (deleted with it); `-journal` exists only while
+/// a new file is switched to WAL mode.
+pub const COMPANIONS: [&str; 4] = ["-wal", "-shm", SEQ_SUFFIX, "-journal"];
+
+/// The acknowledgement file beside a log (`<id>.sqlite-seq`): the seq of the last
+/// state-changing event committed, as 8 little-endian bytes, written after each commit and
+/// before the reply. A log that ends before it lost acknowledged commits (a deleted or cut
+/// WAL): SQLite alone would open it as a consistent older state.
+const SEQ_SUFFIX: &str = "-seq";
+
+/// The acknowledged seq recorded beside `path`, if the file is there and whole.
+fn acknowledged_seq(path: &Path) -> Option<u64> {
+    let bytes = std::fs::read(companion(path, SEQ_SUFFIX)).ok()?;
+    Some(u64::from_le_bytes(bytes.get(..8)?.try_into().ok()?))
+}
+
+/// Overwrites the acknowledgement file with `seq` (in place: one 8-byte write).
+fn record_acknowledged(file: &std::fs::File, seq: u64) -> std::io::Result<()> {
+    use std::os::unix::fs::FileExt;
+    file.write_all_at(&seq.to_le_bytes(), 0)
 }
 
 /// Commits between background checkpoints when no snapshot triggers one sooner.
@@ -131,6 +179,8 @@ pub struct Log {
     pending: Vec<Event>,
     commits_since_checkpoint: u32,
     checkpointing: Arc<AtomicBool>,
+    /// The acknowledgement file (`-seq`), once the log is open under its final name.
+    acknowledged: Option<std::fs::File>,
 }
 
 /// Copies the WAL into the main file on its own connection (PASSIVE: never blocks the
@@ -142,6 +192,7 @@ fn checkpoint_in_background(path: PathBuf, busy: Arc<AtomicBool>) {
     std::thread::spawn(move || {
         let flags = rusqlite::OpenFlags::SQLITE_OPEN_READ_WRITE | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX;
         if let Ok(conn) = Connection::open_with_flags(&path, flags) {
+            crate::crash_point!("checkpoint");
             if let Err(e) = conn.query_row("PRAGMA wal_checkpoint(PASSIVE)", [], |_| Ok(())) {
                 tracing::warn!("checkpoint of {} failed: {e}", path.display());
             }
@@ -257,15 +308,86 @@ impl Log {
             pending: Vec::new(),
             commits_since_checkpoint: 0,
             checkpointing: Arc::default(),
+            acknowledged: None,
         })
     }
 
-    /// Opens an existing log.
+    /// Opens an existing log for writing. Refuses, without writing to it, a file that is not
+    /// a log (empty, truncated, another database), fails SQLite's structural check, or ends
+    /// before the last acknowledged commit (its WAL deleted or cut short).
     pub fn open(path: &Path, sync: SyncMode) -> Result<Log, StoreError> {
+        if std::fs::metadata(path).map(|m| m.len()).unwrap_or(0) == 0 {
+            return Err(StoreError::Corrupt("the file is empty".into()));
+        }
         let mut conn = open_conn(path, sync)?;
+        let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+        if version == 0 {
+            return Err(StoreError::Corrupt("the file holds no physics-mcp log (schema version 0)".into()));
+        }
+        let check: String = conn.query_row("PRAGMA quick_check(1)", [], |r| r.get(0))?;
+        if check != "ok" {
+            return Err(StoreError::Corrupt(format!("SQLite's integrity check failed: {check}")));
+        }
         migrate(&mut conn)?;
-        Self::from_existing(conn, path)
+        let mut log = Self::from_existing(conn, path)?;
+        if let Some(acked) = acknowledged_seq(path) {
+            let last = log.last_state_seq()?;
+            if last < acked {
+                return Err(StoreError::Corrupt(format!(
+                    "event {acked} was acknowledged but the log ends at event {last}: its write-ahead log (the -wal file) is missing or cut short, so acknowledged commits are lost"
+                )));
+            }
+        }
+        let seq_file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(companion(path, SEQ_SUFFIX))?;
+        record_acknowledged(&seq_file, log.last_state_seq()?)?;
+        log.acknowledged = Some(seq_file);
+        Ok(log)
     }
+
+    /// The seq of the last root, change or move event committed (0 if none).
+    fn last_state_seq(&self) -> Result<u64, StoreError> {
+        let seq: i64 = self.conn.query_row(
+            "SELECT COALESCE(MAX(seq), 0) FROM events WHERE kind IN ('root', 'change', 'move')",
+            [],
+            |r| r.get(0),
+        )?;
+        Ok(seq as u64)
+    }
+    /// Commits buffered events and closes the file (its WAL is copied in and deleted). The
+    /// log then sits on an empty in-memory database.
+    fn close(&mut self) -> Result<(), StoreError> {
+        self.flush()?;
+        while self.checkpointing.load(Ordering::Acquire) {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        self.checkpoint()?;
+        let empty = Connection::open_in_memory()?;
+        let old = std::mem::replace(&mut self.conn, empty);
+        old.close().map_err(|(_, e)| StoreError::Sql(e))
+    }
+
+    /// Closes a log written at `partial_path(final_path)` and renames it to `final_path` once
+    /// its root has committed (the directory is synced under `--sync full`). Until then
+    /// start-up never serves it and deletes it.
+    pub fn publish(mut self, final_path: &Path, sync: SyncMode) -> Result<(), StoreError> {
+        self.close()?;
+        if final_path.exists() {
+            return Err(StoreError::Corrupt(format!("{} already exists", final_path.display())));
+        }
+        crate::crash_point!("publish_before_rename");
+        std::fs::rename(&self.path, final_path)?;
+        if sync == SyncMode::Full {
+            if let Some(dir) = final_path.parent() {
+                std::fs::File::open(dir).and_then(|d| d.sync_all())?;
+            }
+        }
+        Ok(())
+    }
+
 
     /// A `Log` over an opened existing file: reads where its head and last event are.
     fn from_existing(conn: Connection, path: &Path) -> Result<Log, StoreError> {
@@ -283,6 +405,7 @@ impl Log {
             pending: Vec::new(),
             commits_since_checkpoint: 0,
             checkpointing: Arc::default(),
+            acknowledged: None,
         })
     }
 
@@ -427,8 +550,15 @@ impl Log {
                 "INSERT OR REPLACE INTO snapshots (seq, hash, bytes) VALUES (?1, ?2, ?3)",
                 params![event.seq as i64, hash, bytes],
             )?;
+            crate::crash_point!("snapshot_write");
         }
         tx.commit()?;
+        crate::crash_point!("after_commit");
+        if let Some(file) = &self.acknowledged {
+            if let Err(e) = record_acknowledged(file, event.seq) {
+                tracing::warn!("could not record the acknowledged seq of {}: {e}", self.path.display());
+            }
+        }
         self.pending.clear();
         self.last_seq = event.seq;
         self.head_seq = head;
@@ -537,6 +667,29 @@ impl Log {
             }
         }
         Ok(out)
+    }
+
+    /// The head the log's last own root, change or move event left (a move's `to`): the
+    /// stored head must equal it, since both are written in one transaction.
+    pub fn head_by_events(&self) -> Result<Option<u64>, StoreError> {
+        let last: Option<(i64, String, Option<String>)> = self
+            .conn
+            .prepare_cached(
+                "SELECT seq, kind, command FROM events WHERE kind IN ('root', 'change', 'move') \
+                 AND inherited = 0 ORDER BY seq DESC LIMIT 1",
+            )?
+            .query_row([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+            .optional()?;
+        let Some((seq, kind, command)) = last else { return Ok(None) };
+        if kind != "move" {
+            return Ok(Some(seq as u64));
+        }
+        let to = command
+            .as_deref()
+            .and_then(|c| serde_json::from_str::<serde_json::Value>(c).ok())
+            .and_then(|v| v["to"].as_u64())
+            .ok_or_else(|| StoreError::Corrupt(format!("move {seq} does not decode")))?;
+        Ok(Some(to))
     }
 
     /// This log's own root command (not an inherited one): it holds the gui flag.

@@ -263,3 +263,5 @@ pub fn empty_world(id: &str) -> physics_mcp::world::World {
     let root = physics_mcp::command::Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false };
     physics_mcp::world::World::create(&root).unwrap().0
 }
+/// Hardening helpers (issue #15): seeds, fingerprints, list_simulations parts.
+pub mod hard;

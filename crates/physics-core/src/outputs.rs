@@ -52,6 +52,20 @@ pub struct SimulationSummary {
 pub struct SimulationList {
     /// The live simulations, ordered by id.
     pub simulations: Vec<SimulationSummary>,
+    /// Simulations whose logs are damaged (never served), ordered by id; every call on one
+    /// answers `Simulation {id} is damaged: {reason}`.
+    #[serde(default)]
+    pub damaged: Vec<DamagedSimulation>,
+}
+
+/// A simulation whose log could not be opened or folded back (list_simulations): reported
+/// so an operator can inspect the file, never served.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct DamagedSimulation {
+    /// Simulation id (the log file's name).
+    pub simulation_id: String,
+    /// Why, in one sentence (naming the first bad event where known).
+    pub reason: String,
 }
 
 /// Result of step_simulation.
