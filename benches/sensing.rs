@@ -124,9 +124,14 @@ fn bench_rays(c: &mut Criterion) {
     // Single ray_test calls on an unchanged world (an agent probing a scene ray by ray): the
     // tool's path (the world's scene index, built once per state) against an index built for
     // every call (what each ray_test did before), and the build alone.
-    let per_call = |f: &dyn Fn(&([f32; 3], [f32; 3]))| median_ms(|| rays.iter().take(100).for_each(f), 30) * 10.0;
-    let fresh = per_call(&|(f, t)| drop(rays::cast(&Scene::new(&w), *f, *t)));
-    let cached = per_call(&|(f, t)| drop(rays::ray_test(&w, *f, *t)));
+    type Ray = ([f32; 3], [f32; 3]);
+    let per_call = |f: &dyn Fn(&Ray)| median_ms(|| rays.iter().take(100).for_each(f), 30) * 10.0;
+    let fresh = per_call(&|(f, t)| {
+        std::hint::black_box(rays::cast(&Scene::new(&w), *f, *t));
+    });
+    let cached = per_call(&|(f, t)| {
+        std::hint::black_box(rays::ray_test(&w, *f, *t));
+    });
     let build = median_ms(|| drop(Scene::new(&w)), 30) * 1e3;
     println!(
         "REPORT rays: single ray_test over the collapsed 1000-box pile, unchanged world: {cached:.1} µs per call with the world's index, {fresh:.1} µs with a fresh index per call (index build {build:.0} µs; medians of 30 runs of 100 calls)"

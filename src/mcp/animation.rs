@@ -14,9 +14,8 @@ use super::lenient::{int_or, Int, Text};
 use super::params::{self, RenderAnimation};
 use super::PhysicsServer;
 use crate::animation::{self, Camera, MAX_INLINE_GIF_BYTES};
-use crate::fold::{self, Lent};
-use crate::sim::{lock_sim, Sim};
-use crate::value::{self, Args, Refusal};
+use crate::fold::Lent;
+use crate::value::{Args, Refusal};
 use crate::workspace::Sandbox;
 
 const TOOL: &str = "render_animation";
@@ -49,10 +48,9 @@ pub struct AnimationSummary {
     pub output_path: Option<String>,
 }
 
-/// Everything decided under the lock.
-struct Plan {
-    lent: Lent,
-    every: u64,
+/// What the call asks for besides the interval.
+struct Asked {
+    every: Option<u64>,
     cam: Camera,
     fps: u32,
     output: Option<(String, std::path::PathBuf)>,
@@ -85,53 +83,49 @@ fn fps(v: Option<Int<u32>>) -> Result<u32, Refusal> {
     u32::try_from(v).ok().filter(|v| (1..=50).contains(v)).ok_or_else(|| format!("fps must be an integer from 1 to 50; got {v}"))
 }
 
-/// The .gif file `output_path` names, inside the workspace.
+/// The .gif file `output_path` names: new, inside the workspace.
 fn output(user: Option<Text>, sandbox: &Sandbox) -> Result<Option<(String, std::path::PathBuf)>, Refusal> {
     let Some(Text(user)) = user else { return Ok(None) };
     if !user.to_ascii_lowercase().ends_with(".gif") {
         return Err(format!("output_path must end in .gif; got {user}"));
     }
-    let path = sandbox.writable(&user).map_err(|e| e.replacen("file_path", "output_path", 1).replacen("Access denied: ", "Access denied: output_path ", 1))?;
+    let path = super::time::new_output(sandbox, &user)?;
     Ok(Some((user, path)))
 }
 
-/// Parses the call and lends the interval (under the simulation's lock: no physics here).
-fn plan(sim: &Sim, a: &Args, max_px: usize, sandbox: &Sandbox) -> Result<Plan, Refusal> {
+/// Parses the call: the interval asked for and the rest.
+fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::time::Asked, Asked), Refusal> {
     let p: RenderAnimation = params::parse(TOOL, a)?;
-    let (from, to) = (opt_u64(p.from_seq, "from_seq")?, opt_u64(p.to_seq, "to_seq")?);
-    let every = every(p.every)?;
+    let interval = (opt_u64(p.from_seq, "from_seq")?, opt_u64(p.to_seq, "to_seq")?);
     let cam = Camera {
         width: side(p.width, "width", 320)?,
         height: side(p.height, "height", 240)?,
         view: p.view_matrix.map(|m| m.0),
         projection: p.projection_matrix.map(|m| m.0),
     };
-    let fps = fps(p.fps)?;
-    let output = output(p.output_path, sandbox)?;
-    let lent = fold::lend(sim.log(), sim.id(), from, to)?;
-    let every = every.unwrap_or_else(|| animation::default_every(lent.interval_steps()));
-    animation::check_size(animation::sample_count(&lent, every), every, &cam, max_px)?;
-    Ok(Plan { lent, every, cam, fps, output })
+    Ok((interval, Asked { every: every(p.every)?, cam, fps: fps(p.fps)?, output: output(p.output_path, sandbox)? }))
 }
 
-/// Renders the plan and writes or inlines the GIF (no lock held).
-fn run(plan: &Plan, sandbox: &Sandbox) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
-    let anim = animation::animate(&plan.lent, plan.every, &plan.cam, plan.fps)?;
-    let delay = animation::gif::delay_for_fps(plan.fps);
+/// Checks the size, renders the interval and writes or inlines the GIF (no lock held).
+fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
+    let every = asked.every.unwrap_or_else(|| animation::default_every(lent.interval_steps()));
+    animation::check_size(animation::sample_count(lent, every), every, &asked.cam, max_px)?;
+    let anim = animation::animate(lent, every, &asked.cam, asked.fps)?;
+    let delay = animation::gif::delay_for_fps(asked.fps);
     let summary = AnimationSummary {
         frames: anim.frames,
-        width: plan.cam.width,
-        height: plan.cam.height,
-        fps: plan.fps,
+        width: asked.cam.width,
+        height: asked.cam.height,
+        fps: asked.fps,
         duration_s: anim.frames as f64 * f64::from(delay) / 100.0,
         bytes: anim.gif.len(),
-        from_seq: plan.lent.interval.from_seq,
-        to_seq: plan.lent.interval.to_seq,
-        every: plan.every,
-        steps: plan.lent.interval_steps(),
-        output_path: plan.output.as_ref().map(|(user, _)| user.clone()),
+        from_seq: lent.interval.from_seq,
+        to_seq: lent.interval.to_seq,
+        every,
+        steps: lent.interval_steps(),
+        output_path: asked.output.as_ref().map(|(user, _)| user.clone()),
     };
-    if let Some((_, path)) = &plan.output {
+    if let Some((_, path)) = &asked.output {
         sandbox.write_atomic(path, &anim.gif)?;
         return Ok((summary, None));
     }
@@ -156,25 +150,9 @@ impl PhysicsServer {
         annotations(read_only_hint = true)
     )]
     async fn render_animation(&self, args: JsonObject) -> Result<CallToolResult, String> {
-        let id = value::string(&args, "sim_id")?;
-        let sim = self.reg.get(&id)?;
-        let reg = self.reg.clone();
-        let (summary, gif) = tokio::task::spawn_blocking(move || {
-            let (max_px, sandbox) = (reg.limits().max_image_px, reg.sandbox());
-            let planned = {
-                let mut guard = lock_sim(&sim);
-                guard.ensure_live()?;
-                plan(&guard, &args, max_px, sandbox).map_err(|why| guard.refuse(TOOL, &args, why))?
-            };
-            let done = run(&planned, sandbox);
-            let mut guard = lock_sim(&sim);
-            match done {
-                Ok((summary, gif)) => guard.read(TOOL, &args, |_| Ok(summary)).map(|s| (s, gif)),
-                Err(why) => Err(guard.refuse(TOOL, &args, why)),
-            }
-        })
-        .await
-        .map_err(|_| "Internal error: the call failed and changed nothing".to_string())??;
+        let (max_px, sandbox) = (self.reg.limits().max_image_px, self.reg.sandbox().clone());
+        let parsed = parse(&args, &sandbox);
+        let (summary, gif) = self.look_back_with(TOOL, args, parsed, move |asked, lent| run(asked, lent, max_px, &sandbox)).await?;
         let structured = serde_json::to_value(&summary).map_err(|e| format!("Internal error: unexpected result shape: {e}"))?;
         let mut result = CallToolResult::structured(structured);
         match (gif, &summary.output_path) {

@@ -105,6 +105,18 @@ impl PhysicsServer {
         parsed: Result<(Asked, P), Refusal>,
         f: impl FnOnce(P, &Lent) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
+        self.look_back_with(tool, args, parsed, move |p, lent| f(p, lent).map(|t| (t, ()))).await.map(|(t, ())| Json(t))
+    }
+
+    /// `look_back` whose `f` also returns a payload `E` that goes to the client but not into
+    /// the log (render_animation's GIF bytes): the log records the result `T` only.
+    pub(crate) async fn look_back_with<P: Send + 'static, T: Serialize + Send + 'static, E: Send + 'static>(
+        &self,
+        tool: &'static str,
+        args: Args,
+        parsed: Result<(Asked, P), Refusal>,
+        f: impl FnOnce(P, &Lent) -> Result<(T, E), Refusal> + Send + 'static,
+    ) -> Result<(T, E), String> {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
         tokio::task::spawn_blocking(move || {
@@ -121,13 +133,12 @@ impl PhysicsServer {
             let out = f(p, &lent);
             let mut s = lock_sim(&sim);
             match out {
-                Ok(v) => s.read(tool, &args, |_| Ok(v)),
+                Ok((v, extra)) => s.read(tool, &args, |_| Ok(v)).map(|v| (v, extra)),
                 Err(why) => Err(s.refuse(tool, &args, why)),
             }
         })
         .await
         .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?
-        .map(Json)
     }
 }
 
