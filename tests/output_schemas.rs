@@ -119,6 +119,7 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("step_simulation", json!({"sim_id": sim, "steps": 60})).await;
     c.call("step_simulation", json!({"sim_id": sim, "steps": 5, "sample_every": 2})).await;
     c.call("get_trajectory", json!({"sim_id": sim, "include_velocities": true})).await;
+    c.call("render_animation", json!({"sim_id": sim, "width": 32, "height": 24, "every": 50})).await;
     c.call("get_joint_state", json!({"sim_id": sim, "object_id": arm, "joint_index": 0})).await;
     c.call("reset_joint_state", json!({"sim_id": sim, "object_id": arm, "joint_index": 1, "target_value": 0.2, "target_velocity": 0.1})).await;
     c.call("get_link_state", json!({"sim_id": sim, "object_id": arm, "link_index": 1})).await;
