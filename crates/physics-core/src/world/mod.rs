@@ -504,6 +504,8 @@ impl World {
             self.tables.time_s += self.physics.integration_parameters.dt as f64;
             self.tables.steps += 1;
             taken += 1;
+            // The bodies moved: an observer reading the scene index must see this step's poses.
+            self.scene.take();
             observe(self);
             if taken % CHECK_EVERY == 0 && taken < n && !control(taken) {
                 break;
