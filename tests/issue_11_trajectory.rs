@@ -242,8 +242,10 @@ async fn replay_trajectory_on_every_recorded_log_equals_get_trajectory() {
     for e in std::fs::read_dir(&replays).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "sqlite") {
-            // A copy: the recorded logs are never touched.
-            let copy = data.join(p.file_name().unwrap());
+            // A copy, named as the server names a simulation's log (`<id>.sqlite`; it skips
+            // files named otherwise): the recorded logs are never touched.
+            let id = physics_mcp::store::Log::open_read_only(&p).unwrap().simulation_id().unwrap();
+            let copy = data.join(format!("{id}.sqlite"));
             std::fs::copy(&p, &copy).unwrap();
             let out_csv = dir.path().join(format!("{}.csv", p.file_stem().unwrap().to_string_lossy()));
             let out = std::process::Command::new(env!("CARGO_BIN_EXE_physics-mcp"))
