@@ -167,3 +167,42 @@ async fn a_long_step_shows_its_progress_and_watching_changes_nothing() {
     assert!(f["progress"].is_null());
     assert_eq!(f["state_hash"], watched.as_str());
 }
+
+/// Scrubbing back shows the overlays of then: contacts and body frames of a past state are
+/// those the present frame of a fork at that state shows, and before enable_debug_visualization
+/// turned body frames on none are drawn.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_past_frame_carries_the_overlays_of_its_moment() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let base = base_of(&server.url);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({"gui": true})).await;
+    c.ground(&sim).await;
+    c.call("add_box", json!({"sim_id": sim, "dimensions": [0.4, 0.4, 0.4], "position": [0, 0, 0.6]})).await;
+    let before = head(&c, &sim).await;
+    c.call("enable_debug_visualization", json!({"sim_id": sim, "show_contacts": true, "show_frames": true})).await;
+    c.step(&sim, 120).await;
+    let settled = head(&c, &sim).await;
+    c.call("set_object_pose", json!({"sim_id": sim, "object_id": 1, "position": [0, 0, 3]})).await;
+
+    let (status, f) = get_json(&format!("{base}/viewer/{sim}/frame?seq={before}&w=80&h=60")).await;
+    assert_eq!(status, 200, "{f}");
+    assert_eq!(f["show_frames"], false, "body frames are off by default: {f}");
+    assert!(f["frames"].as_array().unwrap().is_empty(), "{f}");
+    assert!(f["contacts"].as_array().unwrap().is_empty(), "the box hangs above the ground then: {f}");
+
+    let (status, past) = get_json(&format!("{base}/viewer/{sim}/frame?seq={settled}&w=80&h=60")).await;
+    assert_eq!(status, 200, "{past}");
+    assert_eq!(past["show_frames"], true);
+    assert!(!past["contacts"].as_array().unwrap().is_empty(), "the settled box touches the ground: {past}");
+    let fork = c.call("fork_simulation", json!({"sim_id": sim, "at_seq": settled})).await;
+    let fork_id = fork["simulation_id"].as_str().unwrap();
+    let (status, now) = get_json(&format!("{base}/viewer/{fork_id}/frame?w=80&h=60")).await;
+    assert_eq!(status, 200, "{now}");
+    assert_eq!(past["frames"], now["frames"], "body frames of then");
+    assert_eq!(past["contacts"], now["contacts"], "contacts of then");
+    // The present differs (the box was lifted), so the past frame is not the present one.
+    let (_, present) = get_json(&format!("{base}/viewer/{sim}/frame?w=80&h=60")).await;
+    assert_ne!(present["frames"], past["frames"]);
+}

@@ -12,6 +12,7 @@ use std::sync::{Arc, LazyLock, Mutex};
 use std::time::{Duration, Instant};
 
 use crate::sensing::capture::Scene;
+use crate::viewer::Overlays;
 use crate::world::World;
 
 /// How often a running step publishes (wall time): 10 pictures a second to choose from.
@@ -31,6 +32,8 @@ pub struct Progress {
     pub done: u64,
     /// Steps this call asked for.
     pub total: u64,
+    /// Contacts and body frames at that moment, as the recorded viewer settings ask.
+    pub overlays: Overlays,
 }
 
 type Slot = Arc<Mutex<Option<Arc<Progress>>>>;
@@ -80,6 +83,7 @@ impl Publisher {
             objects: w.objects().count(),
             done: self.done,
             total: self.total,
+            overlays: Overlays::of(w),
         };
         *self.slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(Arc::new(progress));
     }

@@ -65,7 +65,7 @@ pub struct FrameQuery {
 }
 
 /// One body frame to draw: where a body is and how it is turned.
-#[derive(Serialize, Debug)]
+#[derive(Serialize, Debug, Clone)]
 pub struct BodyFrame {
     /// The object.
     pub object_id: u32,
@@ -77,6 +77,37 @@ pub struct BodyFrame {
     pub orientation: [f64; 4],
     /// Axis length to draw (m), from the body's size.
     pub axis_length: f64,
+}
+
+/// What the page draws over a frame, taken from the world the frame shows (present, past or a
+/// running step's moment alike), so scrubbing back shows the contacts and frames of then.
+#[derive(Debug, Default, Clone)]
+pub struct Overlays {
+    /// Whether contact points are shown (enable_debug_visualization).
+    pub show_contacts: bool,
+    /// Whether body frames are shown.
+    pub show_frames: bool,
+    /// Contact points (on A) when shown.
+    pub contacts: Vec<[f64; 3]>,
+    /// Body frames when shown.
+    pub frames: Vec<BodyFrame>,
+}
+
+impl Overlays {
+    /// The overlays `w`'s recorded viewer settings ask for (computed only when shown).
+    pub fn of(w: &World) -> Overlays {
+        let cam = w.viewer();
+        Overlays {
+            show_contacts: cam.show_contacts,
+            show_frames: cam.show_frames,
+            contacts: if cam.show_contacts {
+                contacts::contacts(w, None).into_iter().map(|c| c.position_on_a).collect()
+            } else {
+                Vec::new()
+            },
+            frames: if cam.show_frames { body_frames(w) } else { Vec::new() },
+        }
+    }
 }
 
 /// The recorded viewer camera.
@@ -184,10 +215,11 @@ pub struct SceneInfo<'a> {
     pub step: Option<u64>,
     /// [done, asked] of a running step.
     pub progress: Option<[u64; 2]>,
+    /// What to draw over it, taken when the scene was captured.
+    pub overlays: &'a Overlays,
 }
 
-/// Renders a captured scene as the page asked (no overlays: contacts and body frames are
-/// drawn for the present only).
+/// Renders a captured scene as the page asked, with the overlays of its moment.
 pub fn scene_frame(s: &Scene, info: SceneInfo, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
     let (width, height) = size(q, max_px)?;
     let (recorded, view, proj) = matrices(&s.camera, q, width, height);
@@ -204,10 +236,10 @@ pub fn scene_frame(s: &Scene, info: SceneInfo, q: &FrameQuery, max_px: usize) ->
         steps: info.steps,
         objects: info.objects,
         state_hash: info.state_hash.to_string(),
-        show_contacts: false,
-        show_frames: false,
-        contacts: Vec::new(),
-        frames: Vec::new(),
+        show_contacts: info.overlays.show_contacts,
+        show_frames: info.overlays.show_frames,
+        contacts: info.overlays.contacts.clone(),
+        frames: info.overlays.frames.clone(),
         seq: info.seq,
         step: info.step,
         progress: info.progress,
@@ -220,12 +252,7 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
     let cam = w.viewer();
     let (recorded, view, proj) = matrices(cam, q, width, height);
     let image = render::render(w, width, height, &view, &proj);
-    let contacts = if cam.show_contacts {
-        contacts::contacts(w, None).into_iter().map(|c| c.position_on_a).collect()
-    } else {
-        Vec::new()
-    };
-    let frames = if cam.show_frames { body_frames(w) } else { Vec::new() };
+    let Overlays { show_contacts, show_frames, contacts, frames } = Overlays::of(w);
     Ok(FrameJson {
         simulation_id: w.simulation_id().to_string(),
         width,
@@ -238,8 +265,8 @@ pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Resu
         steps: w.steps(),
         objects: w.object_count(),
         state_hash: state_hash.to_string(),
-        show_contacts: cam.show_contacts,
-        show_frames: cam.show_frames,
+        show_contacts,
+        show_frames,
         contacts,
         frames,
         seq: None,
@@ -325,6 +352,7 @@ async fn frame_route(State(v): State<Viewer>, Path(sim_id): Path<String>, Query(
                 seq: Some(seq),
                 step: q.step,
                 progress: None,
+                overlays: &p.overlays,
             };
             return scene_frame(&p.scene, info, &q, max_px).map_err(bad);
         }
@@ -340,6 +368,7 @@ async fn frame_route(State(v): State<Viewer>, Path(sim_id): Path<String>, Query(
                 seq: None,
                 step: None,
                 progress: Some([p.done, p.total]),
+                overlays: &p.overlays,
             };
             return scene_frame(&p.scene, info, &q, max_px).map_err(bad);
         };

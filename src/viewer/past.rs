@@ -12,6 +12,7 @@ use crate::command::Command;
 use crate::fold::{self, At};
 use crate::sensing::capture::Scene;
 use crate::sim::Sim;
+use crate::viewer::Overlays;
 
 /// Past states kept rendered-ready (scenes are small: poses and shape handles).
 const CACHED: usize = 64;
@@ -72,6 +73,8 @@ pub struct Past {
     pub objects: usize,
     /// Its state hash.
     pub state_hash: String,
+    /// Contacts and body frames then, as its recorded viewer settings asked.
+    pub overlays: Overlays,
 }
 
 type Key = (String, u64, Option<u64>);
@@ -145,6 +148,7 @@ pub fn resolve(req: Request) -> Result<Arc<Past>, String> {
                 time: w.current_time(),
                 objects: w.objects().count(),
                 state_hash: w.state_hash(),
+                overlays: Overlays::of(w),
             });
         }
         !here
