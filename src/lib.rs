@@ -36,6 +36,7 @@ pub use physics_core::{command, digest, limits, outputs, value, world};
 
 pub mod animation;
 pub mod cli;
+pub mod client;
 pub mod failpoints;
 pub mod fold;
 pub mod persistence;

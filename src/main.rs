@@ -1,4 +1,5 @@
-//! The `physics-mcp` command line: `serve` (HTTP), `stdio`, `replay`, `report`, `history`, `diff`.
+//! The `physics-mcp` command line: `serve` (HTTP), `stdio`, `replay`, `report`, `history`, `diff`,
+//! `call`.
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -92,6 +93,19 @@ enum Cmd {
     History {
         /// A simulation's SQLite log.
         file: PathBuf,
+    },
+    /// Call one tool on a running server and print its result (exit 1 if the tool refused).
+    Call {
+        /// The server's MCP endpoint, e.g. http://127.0.0.1:8000/mcp.
+        url: String,
+        /// The tool, e.g. create_simulation.
+        tool: String,
+        /// Its arguments as a JSON object.
+        #[arg(default_value = "{}")]
+        args: String,
+        /// Bearer token, when the server was started with --token.
+        #[arg(long)]
+        token: Option<String>,
     },
     /// Name the first event where two logs diverge (exit 1 if they do).
     Diff {
@@ -306,6 +320,14 @@ fn main() {
                         Ok(())
                     }
                     Cmd::History { file } => print_history(&file),
+                    Cmd::Call { url, tool, args, token } => {
+                        let called = physics_mcp::client::call(&url, &tool, &args, token.as_deref()).await?;
+                        println!("{}", called.output);
+                        if called.is_error {
+                            std::process::exit(1);
+                        }
+                        Ok(())
+                    }
                     Cmd::Diff { a, b } => match physics_mcp::replay::diff(&a, &b)? {
                         Some(d) => {
                             println!("{d}");
