@@ -125,6 +125,12 @@ impl Server {
         let _ = self.child.wait();
     }
 
+    /// The server's process id (to change its limits from outside, as an operator would).
+    #[allow(dead_code)]
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
     /// A connected MCP client.
     pub async fn client(&self) -> Client {
         Client::connect(&self.url).await
