@@ -48,6 +48,9 @@ enum Cmd {
         /// Allow this browser Origin besides loopback ones (repeatable).
         #[arg(long)]
         allow_origin: Vec<String>,
+        /// Live MCP sessions at most; a new session past it is refused (503) until one ends.
+        #[arg(long, default_value_t = physics_mcp::mcp::session_limit::DEFAULT_MAX_SESSIONS, value_parser = clap::value_parser!(usize))]
+        max_sessions: usize,
         #[command(flatten)]
         common: Common,
     },
@@ -294,10 +297,11 @@ fn main() {
                         bind,
                         token,
                         allow_origin,
+                        max_sessions,
                         common,
                     } => {
                         let reg = open_registry(common)?;
-                        serve_http(reg, HttpOptions { bind, token, allow_origin }).await
+                        serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
                     Cmd::Replay { file, render: Some(out), interval, size, .. } => {

@@ -23,6 +23,7 @@ mod prompts;
 mod resources;
 mod robots;
 mod schema;
+pub mod session_limit;
 mod sensing;
 mod simulations;
 mod time;

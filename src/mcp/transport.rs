@@ -17,6 +17,7 @@ use rmcp::ServiceExt;
 use subtle::ConstantTimeEq;
 use tokio_util::sync::CancellationToken;
 
+use super::session_limit::{limit_sessions, SessionLimit};
 use super::{PhysicsServer, Sessions};
 use crate::sim::Registry;
 
@@ -29,6 +30,8 @@ pub struct HttpOptions {
     pub token: Option<String>,
     /// Extra browser origins allowed besides loopback ones.
     pub allow_origin: Vec<String>,
+    /// Live MCP sessions at most (`--max-sessions`); a new one past it is refused.
+    pub max_sessions: usize,
 }
 
 async fn require_token(State(token): State<Option<Arc<str>>>, req: Request, next: Next) -> Response {
@@ -156,9 +159,11 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let server_reg = reg.clone();
     let sessions = Sessions::default();
     let viewer_base: Arc<str> = Arc::from(format!("http://{local}"));
+    let manager = session_manager();
+    let limit = SessionLimit { manager: manager.clone(), max: opts.max_sessions };
     let service = StreamableHttpService::new(
         move || Ok(PhysicsServer::new(server_reg.clone(), sessions.clone()).with_viewer(viewer_base.clone())),
-        session_manager(),
+        manager,
         config,
     );
     let token: Option<Arc<str>> = opts.token.as_deref().map(Arc::from);
@@ -166,7 +171,8 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         .route_layer(middleware::from_fn_with_state(Arc::new(hosts_for_viewer), require_known_host));
     let mcp = axum::Router::new()
         .nest_service("/mcp", service)
-        .layer(middleware::from_fn(session_end_no_content));
+        .layer(middleware::from_fn(session_end_no_content))
+        .layer(middleware::from_fn_with_state(limit, limit_sessions));
     let app = mcp
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
