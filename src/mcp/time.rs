@@ -144,8 +144,7 @@ impl PhysicsServer {
 
 #[tool_router(router = time_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Poses (and velocities, robot joint positions) sampled over any past interval of the
-    /// simulation, re-simulated exactly from its log: columnar arrays, one entry per sample.
+    /// Poses sampled over a past interval, re-simulated from the log (columnar).
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
     async fn get_trajectory(&self, args: JsonObject) -> Result<Json<Trajectory>, String> {
         let parsed = trajectory_args(&args);
