@@ -81,6 +81,16 @@ impl Raw {
         response.bytes().await.expect("body").to_vec()
     }
 
+    /// Every tool's output schema, by name (tools/list).
+    async fn output_schemas(&mut self) -> std::collections::BTreeMap<String, Value> {
+        self.next_id += 1;
+        let body = self.post(json!({"jsonrpc": "2.0", "id": self.next_id, "method": "tools/list"})).await;
+        let text = String::from_utf8(body).unwrap();
+        let data = text.lines().filter_map(|l| l.strip_prefix("data:")).map(str::trim).find(|d| d.contains("\"tools\"")).unwrap_or(text.trim());
+        let listed: Value = serde_json::from_str(data).unwrap();
+        listed["result"]["tools"].as_array().unwrap().iter().map(|t| (t["name"].as_str().unwrap().to_string(), t["outputSchema"].clone())).collect()
+    }
+
     /// Calls `tool` and measures the reply.
     async fn call(&mut self, tool: &str, args: Value) -> Reply {
         self.next_id += 1;
@@ -176,6 +186,13 @@ async fn every_big_reply_fits_one_mebibyte_or_says_what_to_change() {
     let r = c.call("ray_test_batch", json!({"sim_id": s, "rays_from": from, "rays_to": to, "output_path": "out/rays.json"})).await;
     fits_or_says("ray_test_batch", &r, MIB, &[]);
     let summary = r.outcome().unwrap().clone();
+    let schemas = c.output_schemas().await;
+    let valid = |tool: &str, v: &Value| {
+        let validator = jsonschema::validator_for(&schemas[tool]).unwrap();
+        let errors: Vec<String> = validator.iter_errors(v).map(|e| e.to_string()).collect();
+        assert!(errors.is_empty(), "{tool}: {errors:?} in {v}");
+    };
+    valid("ray_test_batch", &summary);
     assert_eq!(summary["rays"], 16_384);
     assert!(summary.get("results").is_none(), "{summary}");
     let file: Value = serde_json::from_slice(&std::fs::read(summary["output_path"].as_str().unwrap()).unwrap()).unwrap();
@@ -207,6 +224,7 @@ async fn every_big_reply_fits_one_mebibyte_or_says_what_to_change() {
     fits_or_says("get_camera_image", &r, MIB, &[]);
     let cam = r.outcome().unwrap().clone();
     assert!(cam.get("depth").is_none() && cam.get("segmentation").is_none(), "{cam}");
+    valid("get_camera_image", &cam);
     assert!(r.result["content"].as_array().unwrap().iter().all(|c| c["type"] != "image"), "no inline image with output_path");
     let png = std::fs::read(cam["png_path"].as_str().unwrap()).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -283,6 +301,7 @@ async fn every_big_reply_fits_one_mebibyte_or_says_what_to_change() {
         fits_or_says("get_history", &r, MIB, &[]);
         let page = r.outcome().unwrap().clone();
         let events = page["events"].as_array().unwrap();
+        valid("get_history", &page);
         assert!(!events.is_empty());
         seen.extend(events.iter().map(|e| e["seq"].as_u64().unwrap()));
         since = *seen.last().unwrap();
