@@ -10,16 +10,17 @@
 //! A tool returns `Result<Json<T>, String>` spelled out: rmcp's `#[tool]` macro finds the
 //! output schema by reading `Json<…>` in the written return type, so an alias for it would
 //! silently drop the tool's `outputSchema`. Both schemas of every tool are then made plain
-//! JSON Schema 2020-12 by `schema::plain` (see `tools`).
+//! JSON Schema 2020-12 by `schema::plain` (input schemas by `schema::input`, also leaner; see
+//! `tools`). Every reply passes the reply budget (`reply::fit`, in `call_tool`).
 
 mod animation;
 mod constraints;
+mod instructions;
 pub mod lenient;
 mod mjcf;
 mod objects;
 pub mod params;
 mod persistence;
-mod instructions;
 mod prompts;
 mod reply;
 mod resources;

@@ -1,18 +1,18 @@
-//! Sensing tools: rays, contacts, camera matrices and images.
+//! Sensing tools: rays, contacts, camera matrices and images; ray batches and images can go
+//! to files (`output_path`) when they would not fit the reply budget.
 
 use base64::Engine;
 use rmcp::handler::server::common::{schema_for_output, schema_for_type};
 use rmcp::handler::server::wrapper::Json;
 use rmcp::model::{CallToolResult, ContentBlock, JsonObject};
 use rmcp::{tool, tool_router};
+use serde::Serialize;
 
 use super::lenient::int_or;
 use super::params::{self, CollisionPair, ProjectionMatrix as ProjectionParams, RayTest, RayTestBatch, SimRef, ViewMatrix as ViewParams, ViewMatrixYawPitch};
-use super::PhysicsServer;
-use serde::Serialize;
-
 use super::reply;
 use super::time::new_output;
+use super::PhysicsServer;
 use crate::npy;
 use crate::outputs::{CameraImage, Contacts, ProjectionMatrix, RayBatch, RayHit, ViewMatrix};
 use crate::reads;
