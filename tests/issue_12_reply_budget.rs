@@ -342,6 +342,12 @@ async fn a_small_budget_refuses_after_the_work_and_truncates_history() {
     let (from, to) = rays(100);
     let r = c.call("ray_test_batch", json!({"sim_id": s, "rays_from": from, "rays_to": to})).await;
     assert!(r.outcome().unwrap_err().contains("fewer rays"));
+    // A sampled step whose samples could not fit is refused before stepping.
+    // (4 samples of 256 objects: under the fixed 500 KB trajectory bound, over this budget.)
+    let r = c.call("step_simulation", json!({"sim_id": s, "steps": 10, "sample_every": 5})).await;
+    fits_or_says("step_simulation", &r, budget, &["sample_every"]);
+    let why = r.outcome().expect_err("4 samples of 256 objects cannot fit 20,000 bytes");
+    assert!(why.contains("--max-reply-bytes"), "{why}");
     let r = c.call("get_history", json!({"sim_id": s, "limit": 1000})).await;
     fits_or_says("get_history", &r, budget, &[]);
     let page = r.outcome().unwrap();

@@ -66,6 +66,22 @@ pub(crate) fn check_bound(tool: &str, elements: u64, per_element: usize, budget:
     Ok(())
 }
 
+/// Refuses before the work when a result whose structuredContent is at most `structured`
+/// bytes could not fit: for a state-changing call (step_simulation's samples), which cannot be
+/// refused once its steps are taken. Below [`SUMMARY_OVER`] the text copy rides along, its
+/// escaping at most doubling it; above, a summary of at most a few KB does.
+pub(crate) fn check_structured_bound(tool: &str, structured: u64, budget: usize) -> Result<(), Refusal> {
+    let reply = if structured > SUMMARY_OVER as u64 {
+        structured.saturating_add(4096)
+    } else {
+        structured.saturating_mul(3).saturating_add(1024)
+    };
+    if reply.saturating_add(ENVELOPE as u64) > budget as u64 {
+        return Err(over_budget(tool, reply, budget));
+    }
+    Ok(())
+}
+
 /// The reply `result` of `tool` as it may go out: a short text summary in place of the text
 /// copy when structuredContent is over [`SUMMARY_OVER`], and a refusal instead of a reply
 /// over `budget` bytes.
