@@ -27,13 +27,17 @@ pub struct LimitArgs {
     /// Pixels per camera image.
     #[arg(long, default_value_t = DEFAULT.max_image_px)]
     pub max_image_px: usize,
+    /// Bytes per tool reply (the JSON-RPC message); larger results are refused, saying what
+    /// to change (fewer rays, a smaller image, `every`, or `output_path`).
+    #[arg(long, default_value_t = DEFAULT.max_reply_bytes)]
+    pub max_reply_bytes: usize,
 }
 
 impl From<LimitArgs> for Limits {
     fn from(a: LimitArgs) -> Limits {
         // Destructured, so a field added to one struct and not the other does not compile.
-        let LimitArgs { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px } = a;
-        Limits { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px }
+        let LimitArgs { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px, max_reply_bytes } = a;
+        Limits { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px, max_reply_bytes }
     }
 }
 

@@ -30,6 +30,7 @@
 //! - `trajectory` — the pose sampler over the re-simulation core (get_trajectory, CSV/JSONL).
 //! - `failpoints` — crash points for the crash-loop test (feature `failpoints` only).
 //! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
+//! - `npy`     — NumPy `.npy` files for get_camera_image's depth and segmentation arrays.
 #![warn(missing_docs)]
 
 pub use physics_core::{command, digest, limits, outputs, value, world};
@@ -39,6 +40,7 @@ pub mod cli;
 pub mod client;
 pub mod failpoints;
 pub mod fold;
+pub mod npy;
 pub mod persistence;
 pub mod reads;
 pub mod replay;

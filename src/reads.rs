@@ -268,7 +268,7 @@ pub fn ray_test_batch(cx: &ReadContext, p: &RayTestBatch, max_rays: usize) -> Re
         return Err(format!("Too many rays: {} in one batch (at most {max_rays}, --max-rays)", from.len()));
     }
     let rays: Vec<_> = from.iter().copied().zip(to.iter().copied()).collect();
-    Ok(RayBatch { results: rays::cast_batch(cx.world.scene(), &rays) })
+    Ok(RayBatch { results: rays::cast_batch(cx.world.scene(), &rays), rays: None, hits: None, output_path: None })
 }
 
 /// get_all_collisions.
@@ -350,6 +350,9 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
             frame.depth.iter().map(|d| if d.is_finite() { r32(*d) } else { far }).collect()
         }),
         segmentation: include_segmentation.then(|| frame.segmentation.clone()),
+        png_path: None,
+        depth_path: None,
+        segmentation_path: None,
     };
     Ok(Rendered { png: frame.png()?, summary })
 }

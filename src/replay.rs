@@ -202,7 +202,7 @@ impl Replayer<'_> {
                 self.check_state(e)?;
             }
             Kind::Read => {
-                let args: Args = serde_json::from_str(&e.arguments).unwrap_or_default();
+                let args = read_arguments(self.log, &e.arguments);
                 let read = Read::recorded(&e.tool, &args).map_err(|why| Self::diverged(e, "read", "a read it can re-run", &why))?;
                 let world = self.world(e)?;
                 let hash = world.state_hash();
@@ -365,4 +365,16 @@ pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs
     let bytes = crate::trajectory::file_bytes(&t, &shown, "--trajectory")?;
     std::fs::write(out, bytes).map_err(|e| format!("could not write {shown}: {e}"))?;
     Ok(t)
+}
+
+/// A read's recorded arguments: inline, or — over 64 KB, as a large ray batch's are — the
+/// blob `{"blob": hash, "bytes": n}` points to (`Log::store_arguments`). Every read takes a
+/// sim_id, so real arguments are never that two-field object.
+fn read_arguments(log: &Log, stored: &str) -> Args {
+    let args: Args = serde_json::from_str(stored).unwrap_or_default();
+    let blob = match (args.len(), args.get("blob").and_then(Value::as_str), args.get("bytes")) {
+        (2, Some(hash), Some(_)) => log.get_blob(hash),
+        _ => None,
+    };
+    blob.and_then(|bytes| serde_json::from_slice(&bytes).ok()).unwrap_or(args)
 }

@@ -183,6 +183,7 @@ impl Sim {
                 .collect(),
             head_seq: self.log.head_seq(),
             last_seq: self.log.last_seq(),
+            truncated: false,
         })
     }
 

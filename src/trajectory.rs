@@ -67,6 +67,12 @@ pub fn check_reply_bound(samples: u64, numbers_per_sample: u64, every_name: &str
     Ok(())
 }
 
+/// The documented upper size, in bytes, of `samples` samples of `numbers_per_sample` numbers
+/// (what `check_reply_bound` checks against its fixed share of the default budget).
+pub fn reply_bound(samples: u64, numbers_per_sample: u64) -> u64 {
+    samples.saturating_mul(numbers_per_sample.saturating_mul(NUMBER_BYTES) + 40)
+}
+
 /// Numbers one sample of object `id` holds in `world` (base pose, velocities, joints).
 pub fn numbers_per_object(world: &World, id: u32, velocities: bool) -> u64 {
     let joints = world.robot(id).map_or(0, |_| world.link_count(id)) as u64;

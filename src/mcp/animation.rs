@@ -141,9 +141,7 @@ fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(A
 
 #[tool_router(router = animation_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// A looping GIF of any interval of the simulation's history (default: what the last
-    /// step_simulation did), re-simulated exactly from the log on a copy: the first state,
-    /// a frame every `every` steps, and the last state. Read-only.
+    /// Looping GIF of a past interval (default: the last step), re-simulated from the log.
     #[tool(
         input_schema = schema_for_type::<params::RenderAnimation>(),
         output_schema = schema_for_output::<AnimationSummary>(),

@@ -50,16 +50,13 @@ fn decide_remove(p: ConstraintRef) -> Result<Command, Refusal> {
 
 #[tool_router(router = constraint_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Join two objects, or an object and the world (child_id -1), with a fixed, prismatic,
-    /// spherical or revolute joint. Frames follow PyBullet: parent_frame_* in the parent's
-    /// body frame, child_frame_* in the child's (world coordinates for the world); joint_axis
-    /// in the parent's constraint frame. The joined bodies stop colliding with each other.
+    /// Join two objects, or one to the world (child_id -1), as PyBullet's createConstraint.
     #[tool(input_schema = schema_for_type::<params::CreateConstraint>())]
     async fn create_constraint(&self, args: JsonObject) -> Result<Json<ConstraintCreated>, String> {
         self.change("create_constraint", args, decide_create).await
     }
 
-    /// Remove a constraint; the bodies it joined move freely again.
+    /// Remove a constraint.
     #[tool(
         input_schema = schema_for_type::<params::ConstraintRef>(),
         annotations(destructive_hint = true)

@@ -30,15 +30,13 @@ fn decide_reset(p: ResetJoint) -> Result<Command, Refusal> {
 
 #[tool_router(router = mjcf_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// A link's world frame, centre of mass and its velocity (PyBullet's getLinkState;
-    /// link -1 = the base).
+    /// A link's world frame, centre of mass and velocity.
     #[tool(input_schema = schema_for_type::<params::LinkRef>(), annotations(read_only_hint = true))]
     async fn get_link_state(&self, args: JsonObject) -> Result<Json<LinkState>, String> {
         self.read("get_link_state", args, |sim, p: LinkRef| reads::link_state(&sim.read_context(), &p)).await
     }
 
-    /// Teleport one joint to a position and velocity (PyBullet's resetJointState); the links
-    /// below it follow. Motors stay as set.
+    /// Teleport a joint to a position and velocity; motors stay.
     #[tool(input_schema = schema_for_type::<params::ResetJoint>())]
     async fn reset_joint_state(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("reset_joint_state", args, decide_reset).await

@@ -10,16 +10,19 @@
 //! A tool returns `Result<Json<T>, String>` spelled out: rmcp's `#[tool]` macro finds the
 //! output schema by reading `Json<…>` in the written return type, so an alias for it would
 //! silently drop the tool's `outputSchema`. Both schemas of every tool are then made plain
-//! JSON Schema 2020-12 by `schema::plain` (see `tools`).
+//! JSON Schema 2020-12 by `schema::plain` (input schemas by `schema::input`, also leaner; see
+//! `tools`). Every reply passes the reply budget (`reply::fit`, in `call_tool`).
 
 mod animation;
 mod constraints;
+mod instructions;
 pub mod lenient;
 mod mjcf;
 mod objects;
 pub mod params;
 mod persistence;
 mod prompts;
+mod reply;
 mod resources;
 mod robots;
 mod schema;
@@ -99,7 +102,7 @@ impl PhysicsServer {
                 + PhysicsServer::mjcf_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
-                tool.input_schema = Arc::new(schema::plain(&tool.input_schema));
+                tool.input_schema = Arc::new(schema::input(&tool.input_schema));
                 tool.output_schema = tool.output_schema.as_deref().map(|s| Arc::new(schema::plain(s)));
             }
             router
@@ -228,6 +231,21 @@ impl PhysicsServer {
 
 #[tool_handler(router = self.tool_router)]
 impl ServerHandler for PhysicsServer {
+    /// Every tool call, then the reply budget (`reply::fit`): one place sees every result as
+    /// it goes out, so no tool can send a reply a client would drop.
+    async fn call_tool(
+        &self,
+        request: rmcp::model::CallToolRequestParams,
+        context: RequestContext<RoleServer>,
+    ) -> Result<rmcp::model::CallToolResponse, ErrorData> {
+        let tool = request.name.clone();
+        let tcc = rmcp::handler::server::tool::ToolCallContext::new(self, request, context);
+        match self.tool_router.call(tcc).await? {
+            rmcp::model::CallToolResponse::Complete(r) => Ok(reply::fit(&tool, r, self.reg.limits().max_reply_bytes).into()),
+            other => Ok(other),
+        }
+    }
+
     fn get_info(&self) -> ServerConfig {
         let capabilities = ServerCapabilities::builder()
             .enable_tools()
@@ -237,12 +255,7 @@ impl ServerHandler for PhysicsServer {
             .build();
         ServerConfig::new(capabilities)
             .with_server_info(Implementation::new("physics-mcp", env!("CARGO_PKG_VERSION")))
-            .with_instructions(
-                "Deterministic rigid-body physics (rapier3d), z-up, SI units, quaternions \
-                 [x, y, z, w]. Create a simulation, add bodies (mass 0 = static; there is no \
-                 implicit ground), step it, read states. Every call is recorded in the \
-                 simulation's event log. Resources: sim://{sim_id}/info, /history, /image.",
-            )
+            .with_instructions(instructions::INSTRUCTIONS)
     }
 
     async fn on_initialized(&self, cx: NotificationContext<RoleServer>) {

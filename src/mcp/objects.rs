@@ -123,38 +123,37 @@ fn decide_remove(p: ObjectRef) -> Result<Command, Refusal> {
 
 #[tool_router(router = object_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Add a box. `dimensions` are HALF-extents [hx, hy, hz] (PyBullet convention); mass 0
-    /// makes it static (e.g. a ground slab).
+    /// Add a box. dimensions are HALF-extents (PyBullet convention).
     #[tool(input_schema = schema_for_type::<params::AddBox>())]
     async fn add_box(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_box", args, decide_box).await
     }
 
-    /// Add a sphere; mass 0 makes it static.
+    /// Add a sphere.
     #[tool(input_schema = schema_for_type::<params::AddSphere>())]
     async fn add_sphere(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_sphere", args, decide_sphere).await
     }
 
-    /// Add a cylinder along the body's local z axis (`height` is the full height).
+    /// Add a cylinder along its local z axis; height is the full height.
     #[tool(input_schema = schema_for_type::<params::AddRound>())]
     async fn add_cylinder(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_cylinder", args, decide_cylinder).await
     }
 
-    /// Add a capsule along the body's local z axis (`height` is the cylindrical part).
+    /// Add a capsule along its local z axis; height is the cylindrical part.
     #[tool(input_schema = schema_for_type::<params::AddRound>())]
     async fn add_capsule(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_capsule", args, decide_capsule).await
     }
 
-    /// Teleport an object to a position and orientation (velocities are kept).
+    /// Teleport an object (velocities are kept).
     #[tool(input_schema = schema_for_type::<params::SetPose>())]
     async fn set_object_pose(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_object_pose", args, decide_pose).await
     }
 
-    /// Read an object's position, orientation [x, y, z, w], linear and angular velocity.
+    /// An object's position, orientation, linear and angular velocity.
     #[tool(
         input_schema = schema_for_type::<params::ObjectRef>(),
         annotations(read_only_hint = true)
@@ -164,36 +163,32 @@ impl PhysicsServer {
             .await
     }
 
-    /// Apply a force (N, world frame) during the NEXT SINGLE STEP only, then it is cleared
-    /// (PyBullet semantics). With `position` it acts at that world point (adding torque);
-    /// without, at the centre of mass.
+    /// Apply a force for the NEXT STEP ONLY, at position or else the centre of mass.
     #[tool(input_schema = schema_for_type::<params::ApplyForce>())]
     async fn apply_force(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("apply_force", args, decide_force).await
     }
 
-    /// Apply a torque (N·m, world frame) during the NEXT SINGLE STEP only, then it is cleared
-    /// (PyBullet semantics).
+    /// Apply a torque for the NEXT STEP ONLY.
     #[tool(input_schema = schema_for_type::<params::ApplyTorque>())]
     async fn apply_torque(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("apply_torque", args, decide_torque).await
     }
 
-    /// Set an object's linear and/or angular velocity (give at least one).
+    /// Set linear and/or angular velocity.
     #[tool(input_schema = schema_for_type::<params::SetVelocity>())]
     async fn set_object_velocity(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_object_velocity", args, decide_velocity).await
     }
 
-    /// Change mass (0 = static), friction, restitution, damping and contact properties.
-    /// Give at least one; each must be >= 0. Friction and restitution combine by multiplying.
+    /// Change mass, friction, restitution, damping or contact properties. Friction and restitution
+    /// multiply.
     #[tool(input_schema = schema_for_type::<params::ChangeDynamics>())]
     async fn change_dynamics(&self, args: JsonObject) -> Result<Json<DynamicsChanged>, String> {
         self.change("change_dynamics", args, decide_dynamics).await
     }
 
-    /// Read the dynamics properties in force: mass, friction, inertia, restitution, damping,
-    /// contact properties and body type.
+    /// Mass, friction, inertia, restitution, damping, contacts, body type.
     #[tool(
         input_schema = schema_for_type::<params::DynamicsRef>(),
         annotations(read_only_hint = true)
@@ -203,7 +198,7 @@ impl PhysicsServer {
             .await
     }
 
-    /// Remove an object from the simulation (undo brings it back).
+    /// Remove an object (undo brings it back).
     #[tool(
         input_schema = schema_for_type::<params::ObjectRef>(),
         annotations(destructive_hint = true)

@@ -117,10 +117,9 @@ pub struct NoParams {}
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CreateSimulation {
-    /// Gravity [gx, gy, gz] in m/s² (z-up; default [0, 0, -9.81]). A single number g or [g]
-    /// means [0, 0, g].
+    /// m/s² (default [0, 0, -9.81]); a number g means [0, 0, g].
     pub gravity: Option<Gravity>,
-    /// Show this simulation in the built-in web viewer (default false).
+    /// Web viewer (default false).
     pub gui: Option<Bool>,
 }
 
@@ -128,7 +127,7 @@ pub struct CreateSimulation {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SimRef {
-    /// Simulation id (from create_simulation or list_simulations).
+    /// Simulation id.
     pub sim_id: Text,
 }
 
@@ -138,11 +137,11 @@ pub struct SimRef {
 pub struct Step {
     /// Simulation id.
     pub sim_id: Text,
-    /// Number of fixed timesteps to take (default 1, at most --max-steps).
+    /// Default 1, at most --max-steps.
     pub steps: Option<Int<u64>>,
-    /// Also return `trajectory`: poses sampled every this many steps (get_trajectory's form).
+    /// Also return poses every N steps.
     pub sample_every: Option<Int<u64>>,
-    /// Objects to sample (default all).
+    /// Default all.
     pub sample_objects: Option<Vec<ObjectId>>,
 }
 
@@ -152,7 +151,7 @@ pub struct Step {
 pub struct SetTimestep {
     /// Simulation id.
     pub sim_id: Text,
-    /// Seconds per step (> 0; PyBullet's default is 1/240).
+    /// Seconds per step (default 1/240).
     pub timestep: PositiveGiven,
 }
 
@@ -162,15 +161,15 @@ pub struct SetTimestep {
 pub struct AddBox {
     /// Simulation id.
     pub sim_id: Text,
-    /// HALF-extents [hx, hy, hz] in metres (each > 0).
+    /// HALF-extents [hx, hy, hz] (m).
     pub dimensions: Vec3,
-    /// World position [x, y, z] of the box centre.
+    /// World (m).
     pub position: Vec3,
-    /// Mass in kg (default 1; 0 = static).
+    /// kg (default 1; 0 = static).
     pub mass: Option<NonNegative>,
-    /// RGBA (or RGB) color, components in [0, 1].
+    /// RGB(A) in [0, 1].
     pub color: Option<Color>,
-    /// Orientation quaternion [x, y, z, w] (default identity).
+    /// Default identity.
     pub orientation: Option<Quat>,
 }
 
@@ -180,15 +179,15 @@ pub struct AddBox {
 pub struct AddSphere {
     /// Simulation id.
     pub sim_id: Text,
-    /// Radius in metres (> 0).
+    /// Radius (m).
     pub radius: Positive,
-    /// World position [x, y, z] of the centre.
+    /// World (m).
     pub position: Vec3,
-    /// Mass in kg (default 1; 0 = static).
+    /// kg (default 1; 0 = static).
     pub mass: Option<NonNegative>,
-    /// RGBA (or RGB) color, components in [0, 1].
+    /// RGB(A) in [0, 1].
     pub color: Option<Color>,
-    /// Orientation quaternion [x, y, z, w] (default identity).
+    /// Default identity.
     pub orientation: Option<Quat>,
 }
 
@@ -198,18 +197,17 @@ pub struct AddSphere {
 pub struct AddRound {
     /// Simulation id.
     pub sim_id: Text,
-    /// Radius in metres (> 0).
+    /// Radius (m).
     pub radius: Positive,
-    /// Height in metres (> 0): full height for a cylinder, the cylindrical part for a capsule.
-    /// The axis is the body's local z.
+    /// Along local z (m).
     pub height: Positive,
-    /// World position [x, y, z] of the centre.
+    /// World (m).
     pub position: Vec3,
-    /// Mass in kg (default 1; 0 = static).
+    /// kg (default 1; 0 = static).
     pub mass: Option<NonNegative>,
-    /// RGBA (or RGB) color, components in [0, 1].
+    /// RGB(A) in [0, 1].
     pub color: Option<Color>,
-    /// Orientation quaternion [x, y, z, w] (default identity).
+    /// Default identity.
     pub orientation: Option<Quat>,
 }
 
@@ -219,7 +217,7 @@ pub struct AddRound {
 pub struct ObjectRef {
     /// Simulation id.
     pub sim_id: Text,
-    /// Object id (from add_* or load_urdf).
+    /// Object id.
     pub object_id: ObjectId,
 }
 
@@ -231,9 +229,9 @@ pub struct SetPose {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// New world position [x, y, z].
+    /// World (m).
     pub position: Vec3,
-    /// New orientation quaternion [x, y, z, w] (normalised; default identity).
+    /// Default identity.
     pub orientation: Option<Quat>,
 }
 
@@ -245,11 +243,11 @@ pub struct ApplyForce {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Force [fx, fy, fz] in newtons, world frame.
+    /// N, world frame.
     pub force: Vec3,
-    /// World point where the force acts (default: the centre of mass, so no torque).
+    /// World point (default: centre of mass).
     pub position: Option<Vec3>,
-    /// Link index (-1 = base, the only link of a primitive).
+    /// Default -1 (base).
     pub link_index: Option<Int<i64>>,
 }
 
@@ -261,9 +259,9 @@ pub struct ApplyTorque {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Torque [tx, ty, tz] in N·m, world frame.
+    /// N·m, world frame.
     pub torque: Vec3,
-    /// Link index (-1 = base).
+    /// Default -1 (base).
     pub link_index: Option<Int<i64>>,
 }
 
@@ -275,9 +273,9 @@ pub struct SetVelocity {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Linear velocity [vx, vy, vz] in m/s.
+    /// m/s.
     pub linear_velocity: Option<Vec3>,
-    /// Angular velocity [wx, wy, wz] in rad/s (world frame).
+    /// rad/s.
     pub angular_velocity: Option<Vec3>,
 }
 
@@ -289,25 +287,25 @@ pub struct ChangeDynamics {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Link index (-1 = base).
+    /// Default -1 (base).
     pub link_index: Option<Int<i64>>,
-    /// Mass in kg (0 makes the body static).
+    /// kg (0 = static).
     pub mass: Option<NonNegative>,
-    /// Coulomb friction coefficient (combined by multiplying, as in Bullet).
+    /// Coulomb coefficient.
     pub lateral_friction: Option<NonNegative>,
-    /// Spinning friction (stored and reported; rapier does not simulate it).
+    /// Stored, not simulated.
     pub spinning_friction: Option<NonNegative>,
-    /// Rolling friction (stored and reported; rapier does not simulate it).
+    /// Stored, not simulated.
     pub rolling_friction: Option<NonNegative>,
-    /// Restitution (combined by multiplying: a ball bounces only if the ground's is > 0 too).
+    /// Bounce needs both bodies > 0.
     pub restitution: Option<NonNegative>,
-    /// Linear damping (PyBullet default 0.04).
+    /// Default 0.04.
     pub linear_damping: Option<NonNegative>,
-    /// Angular damping (PyBullet default 0.04).
+    /// Default 0.04.
     pub angular_damping: Option<NonNegative>,
-    /// Contact stiffness (stored and reported; rapier's contact softness is global).
+    /// Stored, not simulated.
     pub contact_stiffness: Option<NonNegative>,
-    /// Contact damping (stored and reported; rapier's contact softness is global).
+    /// Stored, not simulated.
     pub contact_damping: Option<NonNegative>,
 }
 
@@ -319,7 +317,7 @@ pub struct DynamicsRef {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Link index (-1 = base).
+    /// Default -1 (base).
     pub link_index: Option<Int<i64>>,
 }
 
@@ -329,7 +327,7 @@ pub struct DynamicsRef {
 pub struct Count {
     /// Simulation id.
     pub sim_id: Text,
-    /// How many state-changing events to move over (default 1).
+    /// Default 1.
     pub count: Option<Int<u64>>,
 }
 
@@ -339,9 +337,9 @@ pub struct Count {
 pub struct HistoryPage {
     /// Simulation id.
     pub sim_id: Text,
-    /// Return events with seq greater than this (default 0: from the start).
+    /// Events after this seq (default 0).
     pub since_seq: Option<Int<u64>>,
-    /// At most this many events (1–1000, default 50).
+    /// 1-1000 (default 50).
     pub limit: Option<Int<u64>>,
 }
 
@@ -349,9 +347,9 @@ pub struct HistoryPage {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Fork {
-    /// The simulation to fork.
+    /// Simulation id.
     pub sim_id: Text,
-    /// A state-changing event of it to start from (default: its current head).
+    /// Default: the head.
     pub at_seq: Option<Int<u64>>,
 }
 
@@ -361,7 +359,7 @@ pub struct Fork {
 pub struct Save {
     /// Simulation id.
     pub sim_id: Text,
-    /// Where to write the JSON file, relative to the workspace (folders are created).
+    /// Workspace-relative .json path.
     pub file_path: Text,
 }
 
@@ -369,9 +367,9 @@ pub struct Save {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Load {
-    /// A saved JSON file, relative to the workspace.
+    /// Workspace-relative saved file.
     pub file_path: Text,
-    /// Show the loaded simulation in the web viewer (default false).
+    /// Web viewer (default false).
     pub gui: Option<Bool>,
 }
 
@@ -381,13 +379,13 @@ pub struct Load {
 pub struct LoadUrdf {
     /// Simulation id.
     pub sim_id: Text,
-    /// URDF file relative to the workspace, or a built-in: plane.urdf, cube.urdf, sphere.urdf.
+    /// Workspace-relative URDF, or a built-in.
     pub file_path: Text,
-    /// World position [x, y, z] of the base link frame (default [0, 0, 0]).
+    /// Base position (default origin).
     pub position: Option<Vec3>,
-    /// Base orientation [x, y, z, w] (default identity).
+    /// Default identity.
     pub orientation: Option<Quat>,
-    /// Fix the base to the world (default false; a base of mass 0 is static anyway).
+    /// Fix the base (default false).
     pub use_fixed_base: Option<Bool>,
 }
 
@@ -397,9 +395,9 @@ pub struct LoadUrdf {
 pub struct JointRef {
     /// Simulation id.
     pub sim_id: Text,
-    /// Object id of the robot.
+    /// Object id.
     pub object_id: ObjectId,
-    /// Joint index (PyBullet numbering, from 0).
+    /// PyBullet numbering.
     pub joint_index: Int<u32>,
 }
 
@@ -409,22 +407,21 @@ pub struct JointRef {
 pub struct MotorControl {
     /// Simulation id.
     pub sim_id: Text,
-    /// Object id of the robot.
+    /// Object id.
     pub object_id: ObjectId,
-    /// Joint index (PyBullet numbering).
+    /// PyBullet numbering.
     pub joint_index: Int<u32>,
     /// POSITION_CONTROL, VELOCITY_CONTROL or TORQUE_CONTROL.
     pub control_mode: Text,
-    /// Target position (rad or m); required for POSITION_CONTROL.
+    /// rad or m; required for POSITION_CONTROL.
     pub target_position: Option<Num>,
-    /// Target velocity (default 0).
+    /// Default 0.
     pub target_velocity: Option<Num>,
-    /// Maximum effort (POSITION/VELOCITY; default the URDF effort limit, else 500) or the
-    /// torque to apply (TORQUE_CONTROL; required).
+    /// Max effort (default: URDF limit, else 500); the torque for TORQUE_CONTROL.
     pub force: Option<Num>,
-    /// Position gain (default 0.1).
+    /// Default 0.1.
     pub position_gain: Option<NonNegative>,
-    /// Velocity gain (default 1.0).
+    /// Default 1.
     pub velocity_gain: Option<NonNegative>,
 }
 
@@ -434,21 +431,21 @@ pub struct MotorControl {
 pub struct InverseKinematics {
     /// Simulation id.
     pub sim_id: Text,
-    /// Object id of the robot.
+    /// Object id.
     pub object_id: ObjectId,
-    /// The link whose frame must reach the target.
+    /// The link to place.
     pub end_effector_link_index: Int<u32>,
-    /// Target position [x, y, z] (world).
+    /// World (m).
     pub target_position: Vec3,
-    /// Target orientation [x, y, z, w] (world), optional.
+    /// Optional.
     pub target_orientation: Option<Quat>,
-    /// Lower limits, one per movable joint (default: the URDF's).
+    /// Default: the URDF's.
     pub lower_limits: Option<NumList>,
-    /// Upper limits, one per movable joint (default: the URDF's).
+    /// Default: the URDF's.
     pub upper_limits: Option<NumList>,
-    /// Joint ranges, one per movable joint (accepted for PyBullet compatibility).
+    /// Accepted, ignored (PyBullet).
     pub joint_ranges: Option<NumList>,
-    /// Starting configuration, one per movable joint (default: the current one).
+    /// Start pose (default: current).
     pub rest_poses: Option<NumList>,
 }
 
@@ -460,27 +457,27 @@ pub struct GenerateRevolute {
     pub parent_shape: Text,
     /// box, sphere or cylinder.
     pub child_shape: Text,
-    /// Box half-extents [hx, hy, hz], sphere [radius], cylinder [radius, height].
+    /// Box half-extents, [radius] or [radius, height].
     pub parent_dimensions: NumList,
     /// As parent_dimensions.
     pub child_dimensions: NumList,
-    /// Parent mass in kg (default 1).
+    /// kg (default 1).
     pub parent_mass: Option<Positive>,
-    /// Child mass in kg (default 1).
+    /// kg (default 1).
     pub child_mass: Option<Positive>,
-    /// Joint axis in the parent frame (default [0, 0, 1]).
+    /// Parent frame (default [0, 0, 1]).
     pub joint_axis: Option<Vec3>,
-    /// Joint position in the parent frame (default [0, 0, 0]).
+    /// Parent frame (default origin).
     pub joint_origin: Option<Vec3>,
-    /// Lower limit in rad (default -3.14159).
+    /// rad (default -3.14159).
     pub joint_lower_limit: Option<Num>,
-    /// Upper limit in rad (default 3.14159).
+    /// rad (default 3.14159).
     pub joint_upper_limit: Option<Num>,
-    /// Effort limit (default 100).
+    /// Default 100.
     pub max_effort: Option<NonNegative>,
-    /// Velocity limit (default 10).
+    /// Default 10.
     pub max_velocity: Option<NonNegative>,
-    /// Where to write, relative to the workspace (default generated/revolute_<n>.urdf).
+    /// Default generated/revolute_<n>.urdf.
     pub output_path: Option<Text>,
 }
 
@@ -490,23 +487,21 @@ pub struct GenerateRevolute {
 pub struct CreateConstraint {
     /// Simulation id.
     pub sim_id: Text,
-    /// The parent object.
+    /// Parent object.
     pub parent_id: ObjectId,
-    /// The child object, or -1 for the world.
+    /// Child object, or -1: the world.
     pub child_id: Int<i64>,
-    /// fixed, prismatic, spherical (PyBullet's point2point) or revolute.
+    /// fixed, prismatic, spherical or revolute.
     pub joint_type: Text,
-    /// Free axis of a prismatic or revolute joint, in the parent's constraint frame
-    /// (default [0, 0, 1]).
+    /// Parent frame (default [0, 0, 1]).
     pub joint_axis: Option<Vec3>,
-    /// Joint position in the parent's body frame (default [0, 0, 0]).
+    /// Parent body frame (default origin).
     pub parent_frame_position: Option<Vec3>,
-    /// Joint position in the child's body frame, or in world coordinates when child_id is -1
-    /// (default [0, 0, 0]).
+    /// Child body frame, or world if child_id -1.
     pub child_frame_position: Option<Vec3>,
-    /// Joint orientation in the parent's frame, quaternion [x, y, z, w] (default identity).
+    /// Default identity.
     pub parent_frame_orientation: Option<Quat>,
-    /// Joint orientation in the child's frame (world when child_id is -1; default identity).
+    /// Default identity.
     pub child_frame_orientation: Option<Quat>,
 }
 
@@ -516,7 +511,7 @@ pub struct CreateConstraint {
 pub struct ConstraintRef {
     /// Simulation id.
     pub sim_id: Text,
-    /// Constraint id (from create_constraint).
+    /// Constraint id.
     pub constraint_id: Int<u32>,
 }
 
@@ -526,9 +521,9 @@ pub struct ConstraintRef {
 pub struct RayTest {
     /// Simulation id.
     pub sim_id: Text,
-    /// Start of the ray, world [x, y, z].
+    /// Start, world.
     pub ray_from: Vec3,
-    /// End of the ray, world [x, y, z].
+    /// End, world.
     pub ray_to: Vec3,
 }
 
@@ -538,10 +533,12 @@ pub struct RayTest {
 pub struct RayTestBatch {
     /// Simulation id.
     pub sim_id: Text,
-    /// Starts of the rays (at least 1, at most --max-rays).
+    /// Starts (at most --max-rays).
     pub rays_from: Vec3List,
-    /// Ends of the rays, as many as rays_from.
+    /// Ends, one per start.
     pub rays_to: Vec3List,
+    /// New .json file.
+    pub output_path: Option<Text>,
 }
 
 /// get_collisions_for_pair parameters.
@@ -550,7 +547,7 @@ pub struct RayTestBatch {
 pub struct CollisionPair {
     /// Simulation id.
     pub sim_id: Text,
-    /// Object A (contact normals point from B to A).
+    /// Object A.
     pub obj_a: ObjectId,
     /// Object B.
     pub obj_b: ObjectId,
@@ -560,11 +557,11 @@ pub struct CollisionPair {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ViewMatrix {
-    /// Camera position [x, y, z].
+    /// Eye.
     pub camera_eye_position: Vec3d,
-    /// Point looked at [x, y, z].
+    /// Target.
     pub camera_target_position: Vec3d,
-    /// Up direction [x, y, z] (not parallel to the view direction).
+    /// Up.
     pub camera_up_vector: Vec3d,
 }
 
@@ -572,17 +569,17 @@ pub struct ViewMatrix {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ViewMatrixYawPitch {
-    /// Distance from the camera to the target (m).
+    /// Distance (m).
     pub distance: Num64,
-    /// Yaw in degrees.
+    /// Degrees.
     pub yaw: Num64,
-    /// Pitch in degrees.
+    /// Degrees.
     pub pitch: Num64,
-    /// Point looked at [x, y, z].
+    /// Target.
     pub target_position: Vec3d,
-    /// 2 = z up (default), 1 = y up.
+    /// 2: z up (default), 1: y up.
     pub up_axis_index: Option<Int<u8>>,
-    /// Roll in degrees: only 0 (accepted for PyBullet compatibility).
+    /// Only 0.
     pub roll: Option<Num64>,
 }
 
@@ -590,13 +587,13 @@ pub struct ViewMatrixYawPitch {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ProjectionMatrix {
-    /// Vertical field of view in degrees, in (0, 180).
+    /// Vertical, degrees.
     pub fov: Num64,
-    /// Width / height, > 0.
+    /// Width / height.
     pub aspect: Num64,
-    /// Near clipping distance, > 0.
+    /// m, > 0.
     pub near_plane: Num64,
-    /// Far clipping distance, > near_plane.
+    /// m, > near_plane.
     pub far_plane: Num64,
 }
 
@@ -606,22 +603,22 @@ pub struct ProjectionMatrix {
 pub struct CameraImage {
     /// Simulation id.
     pub sim_id: Text,
-    /// Image width in pixels (width x height at most --max-image-px).
+    /// Pixels.
     pub width: Int<u32>,
-    /// Image height in pixels.
+    /// Pixels.
     pub height: Int<u32>,
-    /// 16 floats, column-major (from compute_view_matrix*); default: the simulation's viewer
-    /// camera (set_camera).
+    /// 16 floats (default: set_camera).
     pub view_matrix: Option<Matrix>,
-    /// 16 floats, column-major (from compute_projection_matrix); default: fov 60, the image's
-    /// aspect, near 0.01, far 100.
+    /// 16 floats (default: fov 60).
     pub projection_matrix: Option<Matrix>,
-    /// Accepted for PyBullet compatibility and ignored (there is one CPU renderer).
+    /// Ignored (PyBullet).
     pub renderer: Option<serde_json::Value>,
-    /// Also return the depth of every pixel (metres along the view axis, row-major).
+    /// Add per-pixel depth (m).
     pub include_depth: Option<Bool>,
-    /// Also return the object id of every pixel (-1 background, row-major).
+    /// Add per-pixel object id (-1: none).
     pub include_segmentation: Option<Bool>,
+    /// New .png file (arrays as <stem>.depth.npy, .seg.npy).
+    pub output_path: Option<Text>,
 }
 
 /// enable_debug_visualization parameters.
@@ -630,9 +627,9 @@ pub struct CameraImage {
 pub struct DebugVisualization {
     /// Simulation id.
     pub sim_id: Text,
-    /// Draw contact points (default true).
+    /// Contact points (default true).
     pub show_contacts: Option<Bool>,
-    /// Draw body frames (default false).
+    /// Body frames (default false).
     pub show_frames: Option<Bool>,
 }
 
@@ -642,13 +639,13 @@ pub struct DebugVisualization {
 pub struct SetCamera {
     /// Simulation id.
     pub sim_id: Text,
-    /// Distance from the camera to the target (m, > 0).
+    /// Distance (m).
     pub distance: Positive,
-    /// Yaw in degrees.
+    /// Degrees.
     pub yaw: Num,
-    /// Pitch in degrees (negative looks down).
+    /// Degrees (< 0 looks down).
     pub pitch: Num,
-    /// The point looked at [x, y, z].
+    /// Point looked at.
     pub target: Vec3,
 }
 
@@ -658,18 +655,17 @@ pub struct SetCamera {
 pub struct GetTrajectory {
     /// Simulation id.
     pub sim_id: Text,
-    /// State-changing event whose resulting state starts the interval (default: the state
-    /// just before the last step_simulation).
+    /// Default: before the last step.
     pub from_seq: Option<Int<u64>>,
-    /// State-changing event that ends the interval (default: the head).
+    /// Default: the head.
     pub to_seq: Option<Int<u64>>,
-    /// Steps between samples (default: about 100 samples).
+    /// Default: ~100 samples.
     pub every: Option<Int<u64>>,
-    /// Objects to sample (default: all).
+    /// Default all.
     pub object_ids: Option<Vec<ObjectId>>,
-    /// Also sample velocities (default false).
+    /// Default false.
     pub include_velocities: Option<Bool>,
-    /// Write the whole table to this .csv or .jsonl file in the workspace; reply a summary.
+    /// New .csv or .jsonl file.
     pub output_path: Option<Text>,
 }
 
@@ -679,24 +675,23 @@ pub struct GetTrajectory {
 pub struct RenderAnimation {
     /// Simulation id.
     pub sim_id: Text,
-    /// The interval starts at the state after this state-changing event of the chain
-    /// (default: just before the most recent step_simulation).
+    /// Default: before the last step.
     pub from_seq: Option<Int<u64>>,
-    /// The interval ends at the state after this state-changing event (default: the head).
+    /// Default: the head.
     pub to_seq: Option<Int<u64>>,
-    /// Steps between frames (default: about 100 frames over the interval).
+    /// Default: ~100 frames.
     pub every: Option<Int<u64>>,
-    /// Frame width in pixels (default 320; width x height at most --max-image-px).
+    /// Pixels (default 320).
     pub width: Option<Int<u32>>,
-    /// Frame height in pixels (default 240).
+    /// Pixels (default 240).
     pub height: Option<Int<u32>>,
-    /// Frames per second when played, 1 to 50 (default 30).
+    /// 1-50 (default 30).
     pub fps: Option<Int<u32>>,
-    /// 16 floats, column-major; default: the viewer camera (set_camera) at each frame.
+    /// 16 floats (default: set_camera).
     pub view_matrix: Option<Matrix>,
-    /// 16 floats, column-major; default: fov 60, the frames' aspect, near 0.01, far 100.
+    /// 16 floats (default: fov 60).
     pub projection_matrix: Option<Matrix>,
-    /// Write the GIF to this .gif file in the workspace instead of returning it inline.
+    /// New .gif file.
     pub output_path: Option<Text>,
 }
 
@@ -706,9 +701,9 @@ pub struct RenderAnimation {
 pub struct LinkRef {
     /// Simulation id.
     pub sim_id: Text,
-    /// Object id of the robot.
+    /// Object id.
     pub object_id: ObjectId,
-    /// Link index (PyBullet numbering; -1 = the base).
+    /// -1 = base.
     pub link_index: Int<i32>,
 }
 
@@ -718,12 +713,12 @@ pub struct LinkRef {
 pub struct ResetJoint {
     /// Simulation id.
     pub sim_id: Text,
-    /// Object id of the robot.
+    /// Object id.
     pub object_id: ObjectId,
-    /// Joint index (PyBullet numbering).
+    /// PyBullet numbering.
     pub joint_index: Int<u32>,
-    /// New joint position (rad or m).
+    /// Position, rad or m.
     pub target_value: Num,
-    /// New joint velocity (default 0).
+    /// Default 0.
     pub target_velocity: Option<Num>,
 }

@@ -10,17 +10,14 @@ use crate::outputs::{Loaded, Saved};
 
 #[tool_router(router = persistence_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Save a simulation to a JSON file in the workspace: the old server's readable fields
-    /// plus its full, verifiable history, so loading it gives the exact same state.
+    /// Save with full history to a workspace JSON file (exact on load).
     #[tool(input_schema = schema_for_type::<params::Save>())]
     async fn save_simulation(&self, args: JsonObject) -> Result<Json<Saved>, String> {
         let reg = self.reg.clone();
         self.with_sim(args, move |sim, a, _| sim.save(a, &reg)).await.map(Json)
     }
 
-    /// Load a saved JSON file (this server's, or the old PyBullet server's) into a new
-    /// simulation. Files with history load exactly (same state hash) and evolve bit for bit
-    /// like the original; long refolds send progress notifications.
+    /// Load a saved JSON file (ours or the PyBullet server's) as a new simulation.
     #[tool(input_schema = schema_for_type::<params::Load>())]
     async fn load_simulation(
         &self,

@@ -55,10 +55,7 @@ fn decide_motor(p: MotorControl) -> Result<Command, Refusal> {
 
 #[tool_router(router = robot_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Load a URDF robot from the workspace (or the built-in plane.urdf, cube.urdf,
-    /// sphere.urdf). Joints are numbered as PyBullet numbers them and start free (no motor).
-    /// The URDF and its meshes are stored in the simulation's log, so replay, undo and load
-    /// never depend on the files again.
+    /// Load a URDF (workspace path or plane/cube/sphere.urdf); PyBullet joint numbering, no motors.
     #[tool(input_schema = schema_for_type::<params::LoadUrdf>())]
     async fn load_urdf(&self, args: JsonObject) -> Result<Json<UrdfLoaded>, String> {
         let reg = self.reg.clone();
@@ -66,37 +63,32 @@ impl PhysicsServer {
             .await
     }
 
-    /// Number of joints of an object (fixed joints included; 0 for primitives).
+    /// Number of joints (fixed ones included; 0 for primitives).
     #[tool(input_schema = schema_for_type::<params::ObjectRef>(), annotations(read_only_hint = true))]
     async fn get_num_joints(&self, args: JsonObject) -> Result<Json<NumJoints>, String> {
         self.read("get_num_joints", args, |sim, p| reads::num_joints(&sim.read_context(), &p)).await
     }
 
-    /// A joint's name, type, limits (lower 0 / upper -1 = none), effort and velocity limits,
-    /// axis, child link name and parent link index.
+    /// A joint's name, type, limits (lower 0, upper -1: none), axis and links.
     #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
     async fn get_joint_info(&self, args: JsonObject) -> Result<Json<JointInfo>, String> {
         self.read("get_joint_info", args, |sim, p| reads::joint_info(&sim.read_context(), &p)).await
     }
 
-    /// A joint's position, velocity, reaction forces (zeros: no force/torque sensor) and the
-    /// torque its motor applied in the last step.
+    /// A joint's position, velocity, reaction forces (zeros), last motor torque.
     #[tool(input_schema = schema_for_type::<params::JointRef>(), annotations(read_only_hint = true))]
     async fn get_joint_state(&self, args: JsonObject) -> Result<Json<JointState>, String> {
         self.read("get_joint_state", args, |sim, p| reads::joint_state(&sim.read_context(), &p)).await
     }
 
-    /// Set a joint motor, acting on every later step until changed. POSITION_CONTROL and
-    /// VELOCITY_CONTROL drive the joint velocity toward position_gain·(target_position − q)/dt
-    /// + velocity_gain·target_velocity (VELOCITY_CONTROL: target_velocity) with at most `force`
-    /// of effort (default: the URDF effort limit, else 500); TORQUE_CONTROL applies `force`.
+    /// Set a joint motor until changed: POSITION_/VELOCITY_CONTROL drive to the targets with at
+    /// most force; TORQUE_CONTROL applies force.
     #[tool(input_schema = schema_for_type::<params::MotorControl>())]
     async fn set_joint_motor_control(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_joint_motor_control", args, decide_motor).await
     }
 
-    /// Joint positions (one per movable joint, PyBullet order) that put the end-effector
-    /// link's frame at target_position (and target_orientation), within joint limits.
+    /// Joint positions (per movable joint) reaching the target within limits.
     #[tool(input_schema = schema_for_type::<params::InverseKinematics>(), annotations(read_only_hint = true))]
     async fn calculate_inverse_kinematics(&self, args: JsonObject) -> Result<Json<IkSolution>, String> {
         self.read("calculate_inverse_kinematics", args, |sim, p| {
@@ -105,8 +97,7 @@ impl PhysicsServer {
         .await
     }
 
-    /// Write a two-link URDF (parent and child primitives joined by a revolute joint) inside
-    /// the workspace, ready for load_urdf. Default path: generated/revolute_<n>.urdf.
+    /// Write a two-link revolute URDF in the workspace, for load_urdf.
     #[tool(input_schema = schema_for_type::<params::GenerateRevolute>())]
     async fn generate_revolute_joint(&self, args: JsonObject) -> Result<Json<GeneratedUrdf>, String> {
         let reg = self.reg.clone();

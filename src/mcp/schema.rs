@@ -2,8 +2,9 @@
 //!
 //! schemars writes what a strict validator or a model does not need and may not understand:
 //! `$schema` and `title` boilerplate, and integer and float `format`s (`uint32`, `double`…)
-//! that JSON Schema does not define. `plain` drops them, keeping a 32-bit integer's range as
-//! `minimum`/`maximum` (schemars already gives the 8- and 16-bit ranges and unsigned minima).
+//! that JSON Schema does not define. `plain` drops them, keeping an unsigned 32-bit integer's
+//! sign as `minimum: 0` (schemars already gives the 8- and 16-bit ranges and unsigned minima).
+//! `input` also trims what only costs a model's context (see there).
 
 use rmcp::model::JsonObject;
 use serde_json::Value;
@@ -27,11 +28,39 @@ const NAMED_SCHEMAS: &[&str] = &["properties", "patternProperties", "$defs", "de
 /// Keywords whose value is a list of subschemas.
 const SCHEMA_LISTS: &[&str] = &["allOf", "anyOf", "oneOf", "prefixItems"];
 
-/// `schema` as plain JSON Schema 2020-12: no `$schema`, no `title`, only standard `format`s.
+/// `schema` as plain JSON Schema 2020-12: no `$schema`, no `title`, only standard `format`s;
+/// and no top-level `description` (the Rust type's doc comment: the tool's own description
+/// is what a client shows).
 pub(crate) fn plain(schema: &JsonObject) -> JsonObject {
     let mut schema = schema.clone();
     schema.remove("$schema");
+    schema.remove("description");
     clean(&mut schema);
+    schema
+}
+
+/// A tool's input schema: `plain`, and an optional parameter's type without `"null"` — being
+/// left out of `required` already says it may be omitted, and every byte of an input schema
+/// is in a model's context on every turn (the server still reads `null` as "not given").
+/// Output schemas keep `null`, since results do carry it.
+pub(crate) fn input(schema: &JsonObject) -> JsonObject {
+    let mut schema = plain(schema);
+    let required: Vec<Value> = schema.get("required").and_then(Value::as_array).cloned().unwrap_or_default();
+    if let Some(Value::Object(props)) = schema.get_mut("properties") {
+        for (name, prop) in props.iter_mut() {
+            if required.iter().any(|r| r.as_str() == Some(name)) {
+                continue;
+            }
+            let Some(ty) = prop.get_mut("type") else { continue };
+            if let Value::Array(types) = ty {
+                if types.len() == 2 && types.iter().any(|t| t == "null") {
+                    if let Some(other) = types.iter().find(|t| *t != "null").cloned() {
+                        *ty = other;
+                    }
+                }
+            }
+        }
+    }
     schema
 }
 
@@ -43,13 +72,14 @@ fn clean(schema: &mut JsonObject) {
     if let Some(format) = format.filter(|f| !STANDARD_FORMATS.contains(&f.as_str())) {
         schema.remove("format");
         let range = match format.as_str() {
-            "int32" => Some((i64::from(i32::MIN), i64::from(i32::MAX))),
-            "uint32" => Some((0, i64::from(u32::MAX))),
+            // Only the sign: no id or index comes near 2^31, a full 32-bit range would cost
+            // each such parameter ~20 bytes of every model's context, and the server refuses
+            // out-of-range values with a sentence anyway.
+            "uint32" => Some(0),
             _ => None,
         };
-        if let Some((min, max)) = range {
+        if let Some(min) = range {
             schema.entry("minimum").or_insert(min.into());
-            schema.entry("maximum").or_insert(max.into());
         }
     }
     for (keyword, value) in schema.iter_mut() {
@@ -77,10 +107,34 @@ mod tests {
     }
 
     #[test]
+    fn input_schemas_drop_null_from_optional_parameters_only() {
+        let raw = object(json!({
+            "type": "object",
+            "properties": {
+                "a": {"type": ["number", "null"]},
+                "b": {"type": ["array", "null"], "items": {"type": "number"}},
+                "c": {"type": ["string", "null"]}
+            },
+            "required": ["c"]
+        }));
+        let want = object(json!({
+            "type": "object",
+            "properties": {
+                "a": {"type": "number"},
+                "b": {"type": "array", "items": {"type": "number"}},
+                "c": {"type": ["string", "null"]}
+            },
+            "required": ["c"]
+        }));
+        assert_eq!(input(&raw), want);
+    }
+
+    #[test]
     fn drops_boilerplate_and_nonstandard_formats_at_every_depth() {
         let raw = object(json!({
             "$schema": "https://json-schema.org/draft/2020-12/schema",
             "title": "Thing",
+            "description": "The Rust type's doc comment.",
             "type": "object",
             "properties": {
                 "title": {"type": "string", "title": "kept as a property name"},
@@ -97,10 +151,10 @@ mod tests {
             "type": "object",
             "properties": {
                 "title": {"type": "string"},
-                "id": {"type": "integer", "minimum": 0, "maximum": 4294967295u32},
+                "id": {"type": "integer", "minimum": 0},
                 "at": {"type": "string", "format": "date-time"},
                 "xs": {"type": "array", "items": {"type": "number"}},
-                "n": {"anyOf": [{"type": "integer", "minimum": -2147483648i64, "maximum": 2147483647}, {"type": "null"}]},
+                "n": {"anyOf": [{"type": "integer"}, {"type": "null"}]},
                 "big": {"type": "integer", "minimum": 0},
                 "d": {"type": "object", "default": {"format": "data, not a keyword"}}
             },

@@ -1,18 +1,24 @@
-//! Sensing tools: rays, contacts, camera matrices and images.
+//! Sensing tools: rays, contacts, camera matrices and images; ray batches and images can go
+//! to files (`output_path`) when they would not fit the reply budget.
 
 use base64::Engine;
 use rmcp::handler::server::common::{schema_for_output, schema_for_type};
 use rmcp::handler::server::wrapper::Json;
 use rmcp::model::{CallToolResult, ContentBlock, JsonObject};
 use rmcp::{tool, tool_router};
+use serde::Serialize;
 
 use super::lenient::int_or;
 use super::params::{self, CollisionPair, ProjectionMatrix as ProjectionParams, RayTest, RayTestBatch, SimRef, ViewMatrix as ViewParams, ViewMatrixYawPitch};
+use super::reply;
+use super::time::new_output;
 use super::PhysicsServer;
+use crate::npy;
 use crate::outputs::{CameraImage, Contacts, ProjectionMatrix, RayBatch, RayHit, ViewMatrix};
 use crate::reads;
 use crate::sensing::camera;
 use crate::value::Refusal;
+use crate::workspace::Sandbox;
 
 fn view_matrix(p: ViewParams) -> Result<ViewMatrix, Refusal> {
     let (eye, target, up) = (p.camera_eye_position.0, p.camera_target_position.0, p.camera_up_vector.0);
@@ -56,31 +62,32 @@ fn projection_matrix(p: ProjectionParams) -> Result<ProjectionMatrix, Refusal> {
 
 #[tool_router(router = sensing_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Cast one ray: the first object it enters between ray_from and ray_to (a shape that
-    /// contains ray_from is not reported). Sees poses as they are now.
+    /// First object hit from ray_from to ray_to (shapes containing ray_from skipped).
     #[tool(input_schema = schema_for_type::<params::RayTest>(), annotations(read_only_hint = true))]
     async fn ray_test(&self, args: JsonObject) -> Result<Json<RayHit>, String> {
         self.read("ray_test", args, |sim, p: RayTest| reads::ray_test(&sim.read_context(), &p)).await
     }
 
-    /// Cast many rays at once (at most --max-rays); results in the order given.
+    /// Cast many rays; results in order. Over ~4,000 rays, give output_path.
     #[tool(input_schema = schema_for_type::<params::RayTestBatch>(), annotations(read_only_hint = true))]
     async fn ray_test_batch(&self, args: JsonObject) -> Result<Json<RayBatch>, String> {
-        let max = self.reg.limits().max_rays;
-        self.read_blocking("ray_test_batch", args, move |sim, p: RayTestBatch| {
-            reads::ray_test_batch(&sim.read_context(), &p, max)
-        })
-        .await
+        let (max, budget) = (self.reg.limits().max_rays, self.reg.limits().max_reply_bytes);
+        let sandbox = self.reg.sandbox().clone();
+        let Json(out) = self
+            .read_blocking("ray_test_batch", args, move |sim, p: RayTestBatch| {
+                ray_batch_to(&sim.read_context(), &p, max, budget, &sandbox)
+            })
+            .await?;
+        Ok(Json(out.reply()))
     }
 
-    /// Every contact point of the last step: objects and links, points on A and B, normal
-    /// from B to A, distance (negative = penetration) and normal force.
+    /// Contact points of the last step (normal B to A; distance < 0: penetration).
     #[tool(input_schema = schema_for_type::<params::SimRef>(), annotations(read_only_hint = true))]
     async fn get_all_collisions(&self, args: JsonObject) -> Result<Json<Contacts>, String> {
         self.read("get_all_collisions", args, |sim, _: SimRef| reads::all_collisions(&sim.read_context())).await
     }
 
-    /// The contact points of the last step between two objects (A = obj_a).
+    /// Contact points of the last step between obj_a and obj_b.
     #[tool(input_schema = schema_for_type::<params::CollisionPair>(), annotations(read_only_hint = true))]
     async fn get_collisions_for_pair(&self, args: JsonObject) -> Result<Json<Contacts>, String> {
         self.read("get_collisions_for_pair", args, |sim, p: CollisionPair| {
@@ -89,45 +96,167 @@ impl PhysicsServer {
         .await
     }
 
-    /// A view matrix from eye, target and up (PyBullet's computeViewMatrix; 16 floats,
-    /// column-major).
+    /// View matrix from eye, target and up.
     #[tool(input_schema = schema_for_type::<params::ViewMatrix>(), annotations(read_only_hint = true))]
     async fn compute_view_matrix(&self, args: JsonObject) -> Result<Json<ViewMatrix>, String> {
         params::parse("compute_view_matrix", &args).and_then(view_matrix).map(Json)
     }
 
-    /// A view matrix orbiting a target (PyBullet's computeViewMatrixFromYawPitchRoll, roll 0).
+    /// View matrix orbiting a target (roll 0).
     #[tool(input_schema = schema_for_type::<params::ViewMatrixYawPitch>(), annotations(read_only_hint = true))]
     async fn compute_view_matrix_from_yaw_pitch(&self, args: JsonObject) -> Result<Json<ViewMatrix>, String> {
         params::parse("compute_view_matrix_from_yaw_pitch", &args).and_then(view_matrix_from_yaw_pitch).map(Json)
     }
 
-    /// A perspective projection matrix (PyBullet's computeProjectionMatrixFOV).
+    /// Perspective projection matrix.
     #[tool(input_schema = schema_for_type::<params::ProjectionMatrix>(), annotations(read_only_hint = true))]
     async fn compute_projection_matrix(&self, args: JsonObject) -> Result<Json<ProjectionMatrix>, String> {
         params::parse("compute_projection_matrix", &args).and_then(projection_matrix).map(Json)
     }
 
-    /// Render the simulation on the CPU: a PNG image plus which objects are visible and the
-    /// depth range; full depth (metres along the view axis) and segmentation (object id per
-    /// pixel) arrays only when asked.
+    /// Render a PNG with the visible objects and depth range; depth and segmentation on request.
     #[tool(
         input_schema = schema_for_type::<params::CameraImage>(),
         output_schema = schema_for_output::<CameraImage>(),
         annotations(read_only_hint = true)
     )]
     async fn get_camera_image(&self, args: JsonObject) -> Result<CallToolResult, String> {
-        let max = self.reg.limits().max_image_px;
-        let Json(rendered) = self
-            .read_blocking("get_camera_image", args, move |sim, p| {
-                reads::camera_image(&sim.read_context(), &p, max)
-            })
+        let (max, budget) = (self.reg.limits().max_image_px, self.reg.limits().max_reply_bytes);
+        let sandbox = self.reg.sandbox().clone();
+        let Json(out) = self
+            .read_blocking("get_camera_image", args, move |sim, p| camera_image_to(&sim.read_context(), &p, max, budget, &sandbox))
             .await?;
-        let summary = serde_json::to_value(&rendered.summary)
+        let inline_png = (out.files.is_none()).then(|| base64::engine::general_purpose::STANDARD.encode(&out.rendered.png));
+        let summary = serde_json::to_value(out.reply())
             .map_err(|e| format!("Internal error: unexpected result shape: {e}"))?;
-        let png = base64::engine::general_purpose::STANDARD.encode(&rendered.png);
         let mut result = CallToolResult::structured(summary);
-        result.content.insert(0, ContentBlock::image(png, "image/png"));
+        if let Some(png) = inline_png {
+            result.content.insert(0, ContentBlock::image(png, "image/png"));
+        }
         Ok(result)
     }
+}
+
+/// A ray batch as computed and recorded (the full results: what replay recomputes and
+/// hashes), and the file they went to when output_path was given.
+#[derive(Serialize)]
+struct RaysOut {
+    #[serde(flatten)]
+    batch: RayBatch,
+    #[serde(skip)]
+    file: Option<String>,
+}
+
+impl RaysOut {
+    /// The reply: the full batch, or with output_path a summary naming the file.
+    fn reply(self) -> RayBatch {
+        let Some(path) = self.file else { return self.batch };
+        let hits = self.batch.results.iter().filter(|h| h.hit).count() as u64;
+        RayBatch { rays: Some(self.batch.results.len() as u64), hits: Some(hits), output_path: Some(path), results: Vec::new() }
+    }
+}
+
+/// ray_test_batch: refused before casting when the rays could not fit the reply budget
+/// (`reply::RAY_BYTES_MAX` each) and no output_path is given; with one, the full results
+/// are written there as JSON (never over an existing file).
+fn ray_batch_to(cx: &reads::ReadContext, p: &RayTestBatch, max: usize, budget: usize, sandbox: &Sandbox) -> Result<RaysOut, Refusal> {
+    let target = p.output_path.as_ref().map(|t| output_target(sandbox, &t.0, ".json")).transpose()?;
+    let n = p.rays_from.0.len();
+    if target.is_none() && n <= max && n == p.rays_to.0.len() {
+        reply::check_bound("ray_test_batch", n as u64, reply::RAY_BYTES_MAX, budget)?;
+    }
+    let batch = reads::ray_test_batch(cx, p, max)?;
+    let file = match target {
+        Some(target) => {
+            let bytes = serde_json::to_vec(&batch).map_err(|e| format!("Internal error: {e}"))?;
+            sandbox.write_atomic(&target, &bytes)?;
+            Some(target.display().to_string())
+        }
+        None => None,
+    };
+    Ok(RaysOut { batch, file })
+}
+
+/// The files get_camera_image wrote with output_path: (png, depth, segmentation).
+type CameraFiles = (String, Option<String>, Option<String>);
+
+/// A rendered image as recorded (the full structured result: what replay recomputes and
+/// hashes), and the files it went to when output_path was given.
+#[derive(Serialize)]
+struct CameraOut {
+    #[serde(flatten)]
+    rendered: reads::Rendered,
+    #[serde(skip)]
+    files: Option<CameraFiles>,
+}
+
+impl CameraOut {
+    /// The structured reply: the full result, or with output_path the summary with the
+    /// files' paths instead of the arrays.
+    fn reply(self) -> CameraImage {
+        let mut s = self.rendered.summary;
+        if let Some((png, depth, seg)) = self.files {
+            (s.depth, s.segmentation) = (None, None);
+            (s.png_path, s.depth_path, s.segmentation_path) = (Some(png), depth, seg);
+        }
+        s
+    }
+}
+
+/// get_camera_image: refused before rendering when the requested depth and segmentation
+/// arrays could not fit the reply budget and no output_path is given; with one, the PNG and
+/// the arrays (`.npy`) are written beside each other, none over an existing file.
+fn camera_image_to(cx: &reads::ReadContext, p: &params::CameraImage, max_px: usize, budget: usize, sandbox: &Sandbox) -> Result<CameraOut, Refusal> {
+    let depth = p.include_depth.as_ref().is_some_and(|b| b.0);
+    let seg = p.include_segmentation.as_ref().is_some_and(|b| b.0);
+    let targets = match &p.output_path {
+        Some(t) => {
+            let png = output_target(sandbox, &t.0, ".png")?;
+            let stem = &t.0[..t.0.len() - ".png".len()];
+            let depth = depth.then(|| output_target(sandbox, &format!("{stem}.depth.npy"), ".npy")).transpose()?;
+            let seg = seg.then(|| output_target(sandbox, &format!("{stem}.seg.npy"), ".npy")).transpose()?;
+            Some((png, depth, seg))
+        }
+        None => {
+            let px = (p.width.get().max(0) as u64).saturating_mul(p.height.get().max(0) as u64);
+            let per_px = usize::from(depth) * reply::DEPTH_BYTES_MAX + usize::from(seg) * reply::SEGMENT_BYTES_MAX;
+            if px <= max_px as u64 {
+                reply::check_bound("get_camera_image", px, per_px, budget)?;
+            }
+            None
+        }
+    };
+    let rendered = reads::camera_image(cx, p, max_px)?;
+    let Some((png, depth_at, seg_at)) = targets else {
+        return Ok(CameraOut { rendered, files: None });
+    };
+    let (w, h) = (rendered.summary.width as usize, rendered.summary.height as usize);
+    let show = |p: &std::path::Path| p.display().to_string();
+    // The arrays first and the PNG last: a PNG present means its arrays are too.
+    let depth_file = match (&depth_at, &rendered.summary.depth) {
+        (Some(at), Some(d)) => {
+            let values: Vec<f32> = d.iter().map(|v| *v as f32).collect();
+            sandbox.write_atomic(at, &npy::encode(h, w, &values))?;
+            Some(show(at))
+        }
+        _ => None,
+    };
+    let seg_file = match (&seg_at, &rendered.summary.segmentation) {
+        (Some(at), Some(s)) => {
+            let values: Vec<i32> = s.iter().map(|v| i32::try_from(*v).unwrap_or(i32::MAX)).collect();
+            sandbox.write_atomic(at, &npy::encode(h, w, &values))?;
+            Some(show(at))
+        }
+        _ => None,
+    };
+    sandbox.write_atomic(&png, &rendered.png)?;
+    Ok(CameraOut { rendered, files: Some((show(&png), depth_file, seg_file)) })
+}
+
+/// A new output file in the workspace for parameter output_path, which must end in `ext`.
+fn output_target(sandbox: &Sandbox, user: &str, ext: &str) -> Result<std::path::PathBuf, Refusal> {
+    if !user.to_ascii_lowercase().ends_with(ext) || user.len() <= ext.len() {
+        return Err(format!("output_path must name a {ext} file; got {user}"));
+    }
+    new_output(sandbox, user)
 }

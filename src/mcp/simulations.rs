@@ -30,8 +30,7 @@ fn decide_timestep(p: SetTimestep) -> Result<Command, Refusal> {
 
 #[tool_router(router = simulation_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Create a new, empty physics simulation (no implicit ground: add a static box or
-    /// load plane.urdf). Returns its id.
+    /// Create an empty simulation (no ground: add a static box or plane.urdf); returns its id.
     #[tool(input_schema = schema_for_type::<params::CreateSimulation>())]
     async fn create_simulation(&self, args: JsonObject) -> Result<Json<Created>, String> {
         let p: CreateSimulation = params::parse("create_simulation", &args)?;
@@ -53,7 +52,7 @@ impl PhysicsServer {
         self.simulations_changed(Ok(Json(created)))
     }
 
-    /// List the live simulations with their object counts and simulated time.
+    /// Live simulations.
     #[tool(
         input_schema = schema_for_type::<params::NoParams>(),
         annotations(read_only_hint = true)
@@ -67,7 +66,7 @@ impl PhysicsServer {
             .map_err(|_| "Internal error: could not list simulations".to_string())
     }
 
-    /// Destroy a simulation and delete its log (this cannot be undone).
+    /// Destroy a simulation and delete its log (cannot be undone).
     #[tool(
         input_schema = schema_for_type::<params::SimRef>(),
         annotations(destructive_hint = true)
@@ -82,9 +81,7 @@ impl PhysicsServer {
         self.simulations_changed(out)
     }
 
-    /// Advance the simulation by `steps` fixed timesteps (default 1). Long runs send MCP
-    /// progress notifications when the request has a progress token, and can be cancelled:
-    /// the steps already taken stay applied and are what the log records.
+    /// Advance by steps timesteps; long runs can be cancelled.
     #[tool(input_schema = schema_for_type::<params::Step>())]
     async fn step_simulation(
         &self,
@@ -125,14 +122,13 @@ impl PhysicsServer {
         out
     }
 
-    /// Set the simulation's fixed timestep in seconds (PyBullet's default is 1/240).
+    /// Set the fixed timestep.
     #[tool(input_schema = schema_for_type::<params::SetTimestep>())]
     async fn set_timestep(&self, args: JsonObject) -> Result<Json<TimestepSet>, String> {
         self.change("set_timestep", args, decide_timestep).await
     }
 
-    /// Summarise a simulation: gravity, timestep, time, steps, objects, constraints, the
-    /// head of its event log and its state hash.
+    /// Gravity, timestep, time, steps, objects, constraints, head, state hash.
     #[tool(
         input_schema = schema_for_type::<params::SimRef>(),
         annotations(read_only_hint = true)

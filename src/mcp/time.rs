@@ -144,8 +144,7 @@ impl PhysicsServer {
 
 #[tool_router(router = time_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Poses (and velocities, robot joint positions) sampled over any past interval of the
-    /// simulation, re-simulated exactly from its log: columnar arrays, one entry per sample.
+    /// Poses sampled over a past interval, re-simulated from the log (columnar).
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
     async fn get_trajectory(&self, args: JsonObject) -> Result<Json<Trajectory>, String> {
         let parsed = trajectory_args(&args);
@@ -194,6 +193,9 @@ pub(crate) fn sampled_step(
         trajectory::check_cells(samples, listed.len() as u64, "sample_every")?;
         let numbers = listed.iter().map(|id| trajectory::numbers_per_object(w, *id, false)).sum();
         trajectory::check_reply_bound(samples, numbers, "sample_every")?;
+        // And against --max-reply-bytes, which may be lower than the default: the central
+        // reply check could only refuse after the steps were taken.
+        super::reply::check_structured_bound("step_simulation", trajectory::reply_bound(samples, numbers), limits.max_reply_bytes)?;
         Ok((cmd, every, ids))
     })();
     let (cmd, every, ids) = match checked {

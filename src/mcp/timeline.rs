@@ -7,7 +7,7 @@ use rmcp::{tool, tool_router};
 
 use super::lenient::{int_or, Int};
 use super::params::{self, Count, Fork, HistoryPage, SimRef};
-use super::PhysicsServer;
+use super::{reply, PhysicsServer};
 use crate::outputs::{Forked, History, Redone, Undone, Verified};
 use crate::timeline::HISTORY_MAX_LIMIT;
 use crate::value::Refusal;
@@ -21,6 +21,37 @@ fn count(p: Count) -> Result<u64, Refusal> {
         .ok_or_else(|| format!("count must be an integer >= 1; got {n}"))
 }
 
+/// A history page that fits the reply budget: the most events, in order, whose reply (as
+/// `reply::fit` will send it) fits, with `truncated` set when some were left for the next page.
+/// Each event is small — arguments over 64 KB are shown as a blob reference — so at least one
+/// always fits the default budget; if not, the reply check refuses it with a sentence.
+fn within_budget(mut h: History, budget: usize) -> History {
+    let n = h.events.len();
+    let events: Vec<serde_json::Value> = h.events.iter().map(|e| serde_json::to_value(e).unwrap_or_default()).collect();
+    let fits = |k: usize| {
+        let mut page = serde_json::to_value(History { events: Vec::new(), head_seq: h.head_seq, last_seq: h.last_seq, truncated: k < n })
+            .unwrap_or_default();
+        page["events"] = serde_json::Value::Array(events[..k].to_vec());
+        reply::reply_bytes("get_history", page) <= budget
+    };
+    if n == 0 || fits(n) {
+        return h;
+    }
+    // The largest k in [1, n) that fits (fitting is monotone in k): binary search.
+    let (mut lo, mut hi) = (1, n - 1);
+    while lo < hi {
+        let mid = (lo + hi).div_ceil(2);
+        if fits(mid) {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    h.events.truncate(lo);
+    h.truncated = true;
+    h
+}
+
 /// An event seq parameter: an integer ≥ 0.
 fn seq(name: &str, v: Option<Int<u64>>) -> Result<Option<u64>, Refusal> {
     v.map(|n| u64::try_from(n.get()).map_err(|_| format!("{name} must be an event seq (integer >= 0); got {}", n.get())))
@@ -29,9 +60,7 @@ fn seq(name: &str, v: Option<Int<u64>>) -> Result<Option<u64>, Refusal> {
 
 #[tool_router(router = timeline_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Undo the last `count` state-changing calls (default 1): the world returns exactly to
-    /// the state before them (ids, time and all). Read-only calls are skipped. Redo reverses
-    /// it until a new state-changing call starts a new branch.
+    /// Undo the last count state-changing calls exactly (ids too); reads are skipped.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn undo(&self, args: JsonObject) -> Result<Json<Undone>, String> {
         self.with_sim(args, |sim, a, _| match params::parse("undo", a).and_then(count) {
@@ -42,7 +71,7 @@ impl PhysicsServer {
         .map(Json)
     }
 
-    /// Redo the `count` most recently undone calls (default 1), bit for bit.
+    /// Redo the count most recently undone calls.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn redo(&self, args: JsonObject) -> Result<Json<Redone>, String> {
         self.with_sim(args, |sim, a, _| match params::parse("redo", a).and_then(count) {
@@ -53,26 +82,25 @@ impl PhysicsServer {
         .map(Json)
     }
 
-    /// Page through the simulation's event log: every call on it (reads and refusals too),
-    /// with arguments, kind, parent and state hash. Returns events with seq > since_seq.
+    /// Page through the event log (every call, reads and refusals too).
     #[tool(
         input_schema = schema_for_type::<params::HistoryPage>(),
         annotations(read_only_hint = true)
     )]
     async fn get_history(&self, args: JsonObject) -> Result<Json<History>, String> {
-        self.read_blocking("get_history", args, |sim, p: HistoryPage| {
+        let budget = self.reg.limits().max_reply_bytes;
+        self.read_blocking("get_history", args, move |sim, p: HistoryPage| {
             let since = seq("since_seq", p.since_seq)?.unwrap_or(0);
             let limit = int_or(p.limit, 50);
             if !(1..=HISTORY_MAX_LIMIT as i64).contains(&limit) {
                 return Err(format!("limit must be an integer from 1 to {HISTORY_MAX_LIMIT}; got {limit}"));
             }
-            sim.history(since, limit as usize)
+            sim.history(since, limit as usize).map(|h| within_budget(h, budget))
         })
         .await
     }
 
-    /// Fork a simulation at one of its state-changing events (default: now) into a new,
-    /// independent simulation that inherits its history and evolves bit for bit alike.
+    /// New simulation from an event (default: now), inheriting its history.
     #[tool(input_schema = schema_for_type::<params::Fork>())]
     async fn fork_simulation(&self, args: JsonObject) -> Result<Json<Forked>, String> {
         let p: Fork = params::parse("fork_simulation", &args)?;
@@ -89,8 +117,7 @@ impl PhysicsServer {
         self.simulations_changed(out)
     }
 
-    /// Refold the simulation's history in a fresh world and check every recorded state hash
-    /// and snapshot; reports the first divergence, if any.
+    /// Refold the history, checking every hash; reports the first divergence.
     #[tool(
         input_schema = schema_for_type::<params::SimRef>(),
         annotations(read_only_hint = true)

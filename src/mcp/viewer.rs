@@ -31,16 +31,13 @@ fn decide_camera(p: SetCamera) -> Result<Command, Refusal> {
 
 #[tool_router(router = viewer_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Choose what the viewer draws besides the bodies: contact points (default true) and body
-    /// frames (default false). Recorded with the simulation.
+    /// What the viewer draws besides bodies.
     #[tool(input_schema = schema_for_type::<params::DebugVisualization>())]
     async fn enable_debug_visualization(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("enable_debug_visualization", args, decide_debug).await
     }
 
-    /// Place the viewer's camera: distance (m), yaw and pitch (degrees) around a target point
-    /// (PyBullet's resetDebugVisualizerCamera). get_camera_image uses it when no matrices are
-    /// given.
+    /// Place the viewer camera; get_camera_image's default view.
     #[tool(input_schema = schema_for_type::<params::SetCamera>())]
     async fn set_camera(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_camera", args, decide_camera).await

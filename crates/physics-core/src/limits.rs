@@ -17,6 +17,9 @@ pub struct Limits {
     pub max_rays: usize,
     /// Pixels per camera image.
     pub max_image_px: usize,
+    /// Bytes per tool reply (the serialized JSON-RPC message): the Python MCP SDK drops SSE
+    /// events over 1 MiB, so a larger reply would be lost, not just slow.
+    pub max_reply_bytes: usize,
 }
 
 /// SPEC's defaults: one table for the CLI flags and `Default`.
@@ -27,6 +30,7 @@ pub const DEFAULT: Limits = Limits {
     max_steps: 1_000_000,
     max_rays: 16_384,
     max_image_px: 1_048_576,
+    max_reply_bytes: 1_048_576,
 };
 
 impl Default for Limits {
@@ -46,6 +50,7 @@ impl Limits {
             max_steps: u64::MAX,
             max_rays: usize::MAX,
             max_image_px: usize::MAX,
+            max_reply_bytes: usize::MAX,
         }
     }
 }

@@ -344,6 +344,10 @@ pub struct History {
     pub head_seq: u64,
     /// The last event appended, of any kind.
     pub last_seq: u64,
+    /// Fewer than `limit` events were returned to keep the reply within the reply budget:
+    /// ask again from the last seq returned.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub truncated: bool,
 }
 
 /// Result of fork_simulation.
@@ -533,8 +537,18 @@ pub struct RayHit {
 /// Result of ray_test_batch: one result per ray, in the order given.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct RayBatch {
-    /// The results, in the order of the rays.
+    /// The results, in the order of the rays (absent when they went to `output_path`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub results: Vec<RayHit>,
+    /// Number of rays cast (only with output_path).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rays: Option<u64>,
+    /// Number of rays that hit something (only with output_path).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hits: Option<u64>,
+    /// The .json file the full results were written to (then the result is this summary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_path: Option<String>,
 }
 
 /// One contact point (PyBullet's getContactPoints fields).
@@ -609,6 +623,17 @@ pub struct CameraImage {
     /// Object id per pixel (−1 background), row-major; only with include_segmentation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub segmentation: Option<Vec<i64>>,
+    /// The PNG file written (only with output_path; the image is then not inline).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub png_path: Option<String>,
+    /// The depth array as a NumPy file (`<f4`, shape (height, width)); with output_path and
+    /// include_depth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_path: Option<String>,
+    /// The segmentation array as a NumPy file (`<i4`, shape (height, width)); with
+    /// output_path and include_segmentation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segmentation_path: Option<String>,
 }
 
 /// What `World::create` and `World::apply` return: the result of a state-changing command,
