@@ -48,8 +48,8 @@ def check(cond, what):
 
 
 def structured(result, tool):
-    check(not result.isError, f"{tool} was refused: {result.content}")
-    return result.structuredContent
+    check(not result.is_error, f"{tool} was refused: {result.content}")
+    return result.structured_content
 
 
 async def modern_session(url, workspace):
@@ -63,7 +63,7 @@ async def modern_session(url, workspace):
 
         sim = structured(await client.call_tool("create_simulation", {}), "create_simulation")["simulation_id"]
         structured(
-            await client.call_tool("add_box", {"sim_id": sim, "half_extents": [5, 5, 0.5], "mass": 0, "position": [0, 0, -0.5]}),
+            await client.call_tool("add_box", {"sim_id": sim, "dimensions": [10, 10, 1], "mass": 0, "position": [0, 0, -0.5]}),
             "add_box",
         )
         structured(await client.call_tool("step_simulation", {"sim_id": sim, "steps": 10}), "step_simulation")
@@ -128,7 +128,7 @@ if __name__ == "__main__":
         sys.exit(__doc__)
     warnings.simplefilter("error")  # any warning fails the check
     complaints = Complaints()
-    logging.basicConfig(level=logging.INFO, handlers=[logging.StreamHandler(sys.stderr)])
+    logging.basicConfig(level=logging.WARNING, handlers=[logging.StreamHandler(sys.stderr)])
     logging.getLogger().addHandler(complaints)
     try:
         asyncio.run(main(sys.argv[1], sys.argv[2]))
