@@ -69,7 +69,8 @@ pub use resources::Sessions;
 #[derive(Clone)]
 pub struct PhysicsServer {
     reg: Arc<Registry>,
-    /// Every session of this server, for resource-list notifications.
+    /// What every session of this server shares: peers for resource-list notifications and
+    /// the resource subscriptions.
     sessions: Sessions,
     /// `http://host:port` of the web viewer (HTTP only; stdio has none).
     viewer_base: Option<Arc<str>>,

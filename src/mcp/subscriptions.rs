@@ -141,12 +141,6 @@ impl Subscriptions {
         }
     }
 
-    /// Simulation `id` is gone: forget its pacing (its subscribers keep their URIs; a new
-    /// simulation never reuses an id).
-    pub fn forget(&self, id: &str) {
-        self.hub().pace.remove(id);
-    }
-
     /// Sends `notifications/resources/updated` for every subscribed URI of simulation `id`,
     /// in the background: a slow or gone client never holds up a tool's reply.
     fn send(&self, id: &str) {
