@@ -712,6 +712,12 @@ impl Registry {
         })
     }
 
+    /// The simulations skipped as damaged at start, with why (for the operator's log
+    /// messages; list_simulations shows them too).
+    pub fn damaged_at_start(&self) -> impl Iterator<Item = (&str, &str)> {
+        self.damaged.iter().map(|(id, why)| (id.as_str(), why.as_str()))
+    }
+
     /// The server's configuration (resolved directories).
     pub fn config(&self) -> &Config {
         &self.config

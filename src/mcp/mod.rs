@@ -17,6 +17,7 @@ mod animation;
 mod constraints;
 mod instructions;
 pub mod lenient;
+mod logging;
 mod mjcf;
 mod objects;
 pub mod params;
@@ -29,6 +30,7 @@ mod schema;
 pub mod session_limit;
 mod sensing;
 mod simulations;
+mod subscriptions;
 mod time;
 mod timeline;
 mod viewer;
@@ -38,16 +40,21 @@ use std::sync::{Arc, LazyLock};
 
 use rmcp::handler::server::router::tool::ToolRouter;
 use rmcp::handler::server::wrapper::Json;
+use rmcp::handler::server::tool::ToolCallContext;
+#[allow(deprecated)]
+use rmcp::model::{LoggingLevel, SetLevelRequestParams, SubscribeRequestParams, UnsubscribeRequestParams};
 use rmcp::model::{
+    CallToolRequestParams, CallToolResponse, SubscriptionFilter,
     ErrorData, GetPromptRequestParams, GetPromptResponse, Implementation, ListPromptsResult,
     ListResourceTemplatesResult, ListResourcesResult, PaginatedRequestParams, ReadResourceRequestParams,
     ReadResourceResponse, ServerCapabilities, ServerConfig,
 };
-use rmcp::service::{NotificationContext, RequestContext};
+use rmcp::service::{NotificationContext, RequestContext, SubscriptionContext};
 use rmcp::{tool_handler, RoleServer, ServerHandler};
 use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
+use serde_json::json;
 
 use crate::command::Command;
 use crate::limits::Limits;
@@ -66,10 +73,15 @@ pub use resources::Sessions;
 #[derive(Clone)]
 pub struct PhysicsServer {
     reg: Arc<Registry>,
-    /// Every session of this server, for resource-list notifications.
+    /// What every session of this server shares: peers for resource-list notifications and
+    /// the resource subscriptions.
     sessions: Sessions,
     /// `http://host:port` of the web viewer (HTTP only; stdio has none).
     viewer_base: Option<Arc<str>>,
+    /// This session's number (its `resources/subscribe` subscriptions are kept under it).
+    session: u64,
+    /// This session's logging level (`logging/setLevel`).
+    log: logging::SessionLog,
     tool_router: ToolRouter<PhysicsServer>,
 }
 
@@ -77,10 +89,13 @@ impl PhysicsServer {
     /// A session's server over `reg` with every tool routed; `sessions` is shared by all
     /// sessions of one process so each hears when simulations come and go.
     pub fn new(reg: Arc<Registry>, sessions: Sessions) -> Self {
+        static NEXT_SESSION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
         Self {
             reg,
             sessions,
             viewer_base: None,
+            session: NEXT_SESSION.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            log: logging::SessionLog::default(),
             tool_router: Self::tools(),
         }
     }
@@ -139,6 +154,10 @@ impl PhysicsServer {
     }
 
     /// Runs `f` on the simulation named by `sim_id`, on the blocking pool, holding its lock.
+    ///
+    /// Every call that can move a simulation's head (state-changing tools, undo, redo,
+    /// sampled steps) runs through here, so this is the one place that tells the resource
+    /// subscribers: when the head moved, `Subscriptions::head_moved` paces the notifications.
     async fn with_sim<T: Send + 'static>(
         &self,
         args: Args,
@@ -147,12 +166,19 @@ impl PhysicsServer {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
         let reg = self.reg.clone();
-        tokio::task::spawn_blocking(move || {
+        let (out, moved) = tokio::task::spawn_blocking(move || {
             let mut guard = lock_sim(&sim);
-            f(&mut guard, &args, reg.limits())
+            let before = (guard.log().head_seq(), guard.state_hash().to_string());
+            let out = f(&mut guard, &args, reg.limits());
+            let moved = guard.log().head_seq() != before.0 || guard.state_hash() != before.1;
+            (out, moved)
         })
         .await
-        .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?
+        .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?;
+        if moved {
+            self.sessions.subscriptions().head_moved(&id);
+        }
+        out
     }
 
     /// A state-changing call whose steps may be watched (progress) or stopped (cancel): the
@@ -229,28 +255,18 @@ impl PhysicsServer {
     }
 }
 
+// rmcp marks MCP logging and resources/subscribe deprecated (SEP-2577, 2026-07-28); clients
+// of 2025-11-25 and before still use them, so this server keeps serving them.
+#[allow(deprecated)]
 #[tool_handler(router = self.tool_router)]
 impl ServerHandler for PhysicsServer {
-    /// Every tool call, then the reply budget (`reply::fit`): one place sees every result as
-    /// it goes out, so no tool can send a reply a client would drop.
-    async fn call_tool(
-        &self,
-        request: rmcp::model::CallToolRequestParams,
-        context: RequestContext<RoleServer>,
-    ) -> Result<rmcp::model::CallToolResponse, ErrorData> {
-        let tool = request.name.clone();
-        let tcc = rmcp::handler::server::tool::ToolCallContext::new(self, request, context);
-        match self.tool_router.call(tcc).await? {
-            rmcp::model::CallToolResponse::Complete(r) => Ok(reply::fit(&tool, r, self.reg.limits().max_reply_bytes).into()),
-            other => Ok(other),
-        }
-    }
-
     fn get_info(&self) -> ServerConfig {
         let capabilities = ServerCapabilities::builder()
+            .enable_logging()
             .enable_tools()
             .enable_resources()
             .enable_resources_list_changed()
+            .enable_resources_subscribe()
             .enable_prompts()
             .build();
         ServerConfig::new(capabilities)
@@ -260,6 +276,73 @@ impl ServerHandler for PhysicsServer {
 
     async fn on_initialized(&self, cx: NotificationContext<RoleServer>) {
         self.sessions.join(cx.peer);
+    }
+
+    /// Every tool call, through the router, then the reply budget (`reply::fit`); a refused
+    /// call's sentence (the budget's own included) also goes to the session's log at `info`.
+    /// One place sees every result as it goes out, so no tool can send a reply a client would
+    /// drop or forget to log a refusal.
+    async fn call_tool(
+        &self,
+        request: CallToolRequestParams,
+        cx: RequestContext<RoleServer>,
+    ) -> Result<CallToolResponse, ErrorData> {
+        let peer = cx.peer.clone();
+        let tool = request.name.clone();
+        let response = match self.tool_router.call(ToolCallContext::new(self, request, cx)).await? {
+            CallToolResponse::Complete(r) => CallToolResponse::Complete(reply::fit(&tool, r, self.reg.limits().max_reply_bytes)),
+            other => other,
+        };
+        if let CallToolResponse::Complete(result) = &response {
+            if result.is_error == Some(true) {
+                let why: Vec<&str> = result.content.iter().filter_map(|c| c.as_text().map(|t| t.text.as_str())).collect();
+                self.log.send(&peer, LoggingLevel::Info, json!({"tool": tool, "refused": why.join(" ")}));
+            }
+        }
+        Ok(response)
+    }
+
+    /// logging/setLevel: this session hears messages at `level` and above; the simulations
+    /// skipped as damaged at start are told now (no session existed then).
+    async fn set_level(&self, request: SetLevelRequestParams, cx: RequestContext<RoleServer>) -> Result<(), ErrorData> {
+        self.log.set(request.level);
+        for (id, why) in self.reg.damaged_at_start() {
+            self.log.send(
+                &cx.peer,
+                LoggingLevel::Warning,
+                json!({"simulation_id": id, "skipped_at_start": why}),
+            );
+        }
+        Ok(())
+    }
+
+    /// resources/subscribe (sessions before 2026-07-28): updates of a `sim://` URI. Any URI
+    /// is accepted — one naming no simulation (yet) just never changes, as the protocol's
+    /// conformance suite expects of an unknown URI.
+    async fn subscribe(&self, request: SubscribeRequestParams, cx: RequestContext<RoleServer>) -> Result<(), ErrorData> {
+        self.sessions.subscriptions().subscribe(self.session, cx.peer, request.uri);
+        Ok(())
+    }
+
+    /// resources/unsubscribe: no more updates of that URI for this session (unknown URIs
+    /// are fine: the session is then simply not subscribed).
+    async fn unsubscribe(&self, request: UnsubscribeRequestParams, _cx: RequestContext<RoleServer>) -> Result<(), ErrorData> {
+        self.sessions.subscriptions().unsubscribe(self.session, &request.uri);
+        Ok(())
+    }
+
+    /// subscriptions/listen (2026-07-28): list changes and `sim://` URI updates.
+    fn accepted_subscription_filter(&self, requested: &SubscriptionFilter) -> Option<SubscriptionFilter> {
+        Some(subscriptions::accepted_filter(requested))
+    }
+
+    /// Holds one listen stream open until the client cancels it, delivering its updates.
+    async fn listen(&self, cx: SubscriptionContext) -> Result<(), ErrorData> {
+        let subs = self.sessions.subscriptions();
+        let n = subs.listen(cx.sink().clone());
+        cx.cancelled().await;
+        subs.stop_listening(n);
+        Ok(())
     }
 
     async fn list_resources(

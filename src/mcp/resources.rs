@@ -15,6 +15,7 @@ use rmcp::model::{ErrorData, ListResourceTemplatesResult, ListResourcesResult, R
 use rmcp::{Peer, RoleServer};
 use serde_json::{json, Value};
 
+use super::subscriptions::Subscriptions;
 use super::PhysicsServer;
 use crate::reads;
 use crate::sim::{lock_sim, Sim};
@@ -164,23 +165,33 @@ impl PhysicsServer {
     }
 }
 
-/// Every live session's peer, shared by all sessions of one server.
+/// What every session of one server shares: the live sessions' peers (for resource-list
+/// notifications) and the resource subscriptions.
 #[derive(Clone, Default)]
-pub struct Sessions(Arc<Mutex<Vec<Peer<RoleServer>>>>);
+pub struct Sessions {
+    peers: Arc<Mutex<Vec<Peer<RoleServer>>>>,
+    subscriptions: Subscriptions,
+}
 
 impl Sessions {
     /// Remembers a session once its client has initialized.
     pub fn join(&self, peer: Peer<RoleServer>) {
-        if let Ok(mut peers) = self.0.lock() {
+        if let Ok(mut peers) = self.peers.lock() {
             peers.retain(|p| !p.is_transport_closed());
             peers.push(peer);
         }
     }
 
-    /// Tells every live session that the resource list changed (a simulation came or went).
-    /// Sent in the background: a slow or gone client never holds up the tool's reply.
+    /// The subscriptions of every session.
+    pub fn subscriptions(&self) -> &Subscriptions {
+        &self.subscriptions
+    }
+
+    /// Tells every live session (and every `subscriptions/listen` stream that asked) that the
+    /// resource list changed (a simulation came or went). Sent in the background: a slow or
+    /// gone client never holds up the tool's reply.
     pub fn resource_list_changed(&self) {
-        let peers: Vec<Peer<RoleServer>> = match self.0.lock() {
+        let peers: Vec<Peer<RoleServer>> = match self.peers.lock() {
             Ok(mut peers) => {
                 peers.retain(|p| !p.is_transport_closed());
                 peers.clone()
@@ -191,6 +202,13 @@ impl Sessions {
             tokio::spawn(async move {
                 if let Err(e) = peer.notify_resource_list_changed().await {
                     tracing::debug!("resource list notification not delivered: {e}");
+                }
+            });
+        }
+        for sink in self.subscriptions.list_listeners() {
+            tokio::spawn(async move {
+                if let Err(e) = sink.notify_resource_list_changed().await {
+                    tracing::debug!("resource list notification not delivered on a listen stream: {e}");
                 }
             });
         }

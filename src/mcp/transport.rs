@@ -114,12 +114,24 @@ async fn shutdown_signal(ct: CancellationToken) {
     ct.cancel();
 }
 
-/// MCP sessions (in memory): no priming events (see above), and an idle session lives for
+/// SSE priming events (an empty event with an id and a `retry:` field at the start of every
+/// stream) are off: they exist so a client can resume a cut stream from an event store, which
+/// this server does not keep (sessions live in memory), and they cost every reply an event.
+/// README "Connecting a client" has the measurement; `PHYSICS_MCP_SSE_RETRY_MS=<ms>` turns
+/// them on (for repeating that measurement and for clients that insist).
+fn sse_retry() -> Option<std::time::Duration> {
+    std::env::var("PHYSICS_MCP_SSE_RETRY_MS")
+        .ok()
+        .and_then(|ms| ms.trim().parse::<u64>().ok())
+        .map(std::time::Duration::from_millis)
+}
+
+/// MCP sessions (in memory): priming events as `sse_retry` says, and an idle session lives for
 /// `SESSION_IDLE` instead of rmcp's 5 minutes — an agent often thinks longer than that
 /// between calls, and an expired session makes its client start over.
 fn session_manager() -> Arc<LocalSessionManager> {
     let mut manager = LocalSessionManager::default();
-    manager.session_config.sse_retry = None;
+    manager.session_config.sse_retry = sse_retry();
     manager.session_config.keep_alive = Some(SESSION_IDLE);
     Arc::new(manager)
 }
@@ -149,10 +161,9 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     origins.extend(opts.allow_origin.iter().cloned());
     let hosts_for_viewer = hosts.clone();
     let ct = CancellationToken::new();
-    // No SSE priming events: they exist so a client can resume a stream from an event store,
-    // and without one (sessions live in memory) they only add an event to parse per reply.
+    // SSE priming events: off unless asked for (see `sse_retry`).
     let config = StreamableHttpServerConfig::default()
-        .with_sse_retry(None)
+        .with_sse_retry(sse_retry())
         .with_allowed_hosts(hosts)
         .with_allowed_origins(origins)
         .with_cancellation_token(ct.child_token());
