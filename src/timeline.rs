@@ -26,6 +26,22 @@ pub(crate) fn store_err(e: StoreError) -> Refusal {
     format!("The simulation's log could not be read: {e}")
 }
 
+/// Deepest nesting of recorded arguments that get_history echoes as JSON; deeper parts are
+/// shown as their compact JSON text. A request nested just under a client's parser limit
+/// (serde_json's is 128) would otherwise come back deeper than it, inside the reply's own
+/// envelope, and the client could not read the reply at all.
+pub const ARGUMENTS_DEPTH: usize = 32;
+
+/// `v` with everything nested deeper than `depth` levels replaced by its compact JSON text.
+pub fn shallow(v: Value, depth: usize) -> Value {
+    match v {
+        Value::Array(_) | Value::Object(_) if depth == 0 => Value::String(v.to_string()),
+        Value::Array(items) => Value::Array(items.into_iter().map(|x| shallow(x, depth - 1)).collect()),
+        Value::Object(map) => Value::Object(map.into_iter().map(|(k, x)| (k, shallow(x, depth - 1))).collect()),
+        other => other,
+    }
+}
+
 /// One line describing an event for get_history.
 fn summary(e: &Event) -> String {
     let text = match (e.kind, e.result.as_deref()) {
@@ -173,7 +189,7 @@ impl Sim {
                     kind: e.kind.as_str().into(),
                     parent: e.parent,
                     tool: e.tool.clone(),
-                    arguments: serde_json::from_str(&e.arguments).unwrap_or(Value::Null),
+                    arguments: shallow(serde_json::from_str(&e.arguments).unwrap_or(Value::Null), ARGUMENTS_DEPTH),
                     ok: e.ok,
                     mutates: e.mutates,
                     inherited: e.inherited,
@@ -360,5 +376,18 @@ impl Registry {
         }
         table.insert(sim.id().to_string(), Arc::new(Mutex::new(sim)));
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shallow;
+    use serde_json::json;
+
+    #[test]
+    fn arguments_deeper_than_the_bound_are_shown_as_text() {
+        let deep = json!({"a": [[[1]]], "b": 2});
+        assert_eq!(shallow(deep.clone(), 8), deep);
+        assert_eq!(shallow(deep, 2), json!({"a": ["[[1]]"], "b": 2}));
     }
 }

@@ -163,9 +163,12 @@ impl Client {
             Value::Object(m) => m,
             other => panic!("arguments must be an object, got {other}"),
         };
-        self.service
-            .call_tool(CallToolRequestParams::new(tool.to_string()).with_arguments(args))
+        // A reply the client cannot read makes rmcp's client resume the stream forever; a
+        // bound turns that hang into a failure naming the call.
+        let call = self.service.call_tool(CallToolRequestParams::new(tool.to_string()).with_arguments(args));
+        tokio::time::timeout(Duration::from_secs(600), call)
             .await
+            .unwrap_or_else(|_| panic!("{tool}: no reply within 600 s"))
             .unwrap_or_else(|e| panic!("{tool} failed at the protocol level: {e}"))
     }
 
