@@ -10,7 +10,7 @@ use rmcp::{tool, tool_router};
 use super::params::{self, LinkRef, ResetJoint};
 use super::PhysicsServer;
 use crate::command::Command;
-use crate::outputs::{LinkState, Message};
+use crate::outputs::{LinkState, Message, MjcfLoaded};
 use crate::reads;
 use crate::value::Refusal;
 
@@ -30,6 +30,18 @@ fn decide_reset(p: ResetJoint) -> Result<Command, Refusal> {
 
 #[tool_router(router = mjcf_router, vis = "pub(crate)")]
 impl PhysicsServer {
+    /// Load a MuJoCo MJCF model (Gymnasium, dm_control, Menagerie style) from the workspace as
+    /// one robot: link -1 is the worldbody (or a free-joint root), one joint per hinge/slide
+    /// in file order, joint positions are MuJoCo's qpos. `ignored` lists what of the file is
+    /// not simulated. The text (includes spliced) is stored in the log, so replay, undo and
+    /// load never read the files again.
+    #[tool(input_schema = schema_for_type::<params::LoadMjcf>())]
+    async fn load_mjcf(&self, args: JsonObject) -> Result<Json<MjcfLoaded>, String> {
+        let reg = self.reg.clone();
+        self.change("load_mjcf", args, move |p: params::LoadMjcf| crate::mjcf_files::load_mjcf_command(reg.sandbox(), &p))
+            .await
+    }
+
     /// A link's world frame, centre of mass and its velocity (PyBullet's getLinkState;
     /// link -1 = the base).
     #[tool(input_schema = schema_for_type::<params::LinkRef>(), annotations(read_only_hint = true))]
