@@ -294,8 +294,9 @@ async fn bad_mjcf_inputs_are_refused_naming_the_problem_and_change_nothing() {
         assert_eq!(c.hash(s).await, hash, "{args}: a refusal changed the state");
     }
     let n = c.call("get_simulation_info", json!({"sim_id": s})).await;
-    assert_eq!(n["num_objects"].as_u64(), Some(1), "{n}");
-    let _ = ant;
+    let objects = n["objects"].as_array().unwrap();
+    assert_eq!(objects.len(), 1, "only the ant: {n}");
+    assert_eq!(objects[0]["object_id"].as_u64(), Some(ant));
 }
 
 fn replay_cli(log: &Path) -> (bool, String) {
