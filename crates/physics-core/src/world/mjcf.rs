@@ -75,6 +75,11 @@ const REFUSED_ELEMENTS: [(&str, &str); 6] = [
     ("include", "<include> must be resolved by the server before loading"),
 ];
 
+/// Whether an attribute's number(s) say anything but zero (an unreadable value counts as set).
+fn nonzero(v: &str) -> bool {
+    v.split_whitespace().any(|x| x.parse::<f64>() != Ok(0.0))
+}
+
 /// Scans the text: the root must be `<mujoco>`, no refused element, and notes what is ignored.
 fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
     use xml::reader::{EventReader, XmlEvent};
@@ -104,7 +109,7 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
                 let attr = |n: &str| attributes.iter().find(|a| a.name.local_name == n).map(|a| a.value.clone());
                 if tag == "option" {
                     for a in ["viscosity", "density"] {
-                        if attr(a).is_some_and(|v| v.trim().parse::<f64>().map_or(true, |x| x != 0.0)) {
+                        if attr(a).is_some_and(|v| nonzero(&v)) {
                             note(format!("<option {a}>: fluid forces are not simulated"));
                         }
                     }
@@ -123,7 +128,7 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
                     }
                 }
                 for a in ["margin", "gap"] {
-                    if (tag == "geom" || tag == "joint") && attr(a).is_some_and(|v| v.trim().parse::<f64>().map_or(true, |x| x != 0.0)) {
+                    if (tag == "geom" || tag == "joint") && attr(a).is_some_and(|v| nonzero(&v)) {
                         note(format!("{a} (on <{tag}>): contacts start at touch"));
                     }
                 }
@@ -133,7 +138,7 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
                         ("frictionloss", "joint dry friction is not simulated"),
                         ("springdamper", "joint springs are not simulated"),
                     ] {
-                        if attr(a).is_some_and(|v| v.split_whitespace().any(|x| x.parse::<f64>().map_or(true, |x| x != 0.0))) {
+                        if attr(a).is_some_and(|v| nonzero(&v)) {
                             note(format!("joint {a}: {why}"));
                         }
                     }
