@@ -366,3 +366,48 @@ async fn an_mjcf_robot_survives_undo_fork_save_load_restart_and_replay() {
     let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
     assert_eq!(v["ok"], true, "{v}");
 }
+
+/// Two spheres hung side by side over a floor: `a` may touch the floor (contype 1), `b` may not
+/// (contype 2, conaffinity 2: no bit shared with the floor's 1, in either direction).
+const CONTYPE_XML: &str = r#"<mujoco model="contype">
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 1" contype="1" conaffinity="1"/>
+    <body name="slider_a" pos="0 0 0.5">
+      <joint name="za" type="slide" axis="0 0 1"/>
+      <geom name="a" type="sphere" size="0.1" mass="1" contype="1" conaffinity="0"/>
+    </body>
+    <body name="slider_b" pos="1 0 0.5">
+      <joint name="zb" type="slide" axis="0 0 1"/>
+      <geom name="b" type="sphere" size="0.1" mass="1" contype="2" conaffinity="2"/>
+    </body>
+  </worldbody>
+  <keyframe>
+    <key name="low" qpos="-0.2 -0.1"/>
+  </keyframe>
+</mujoco>"#;
+
+#[tokio::test(flavor = "multi_thread")]
+async fn keyframes_set_qpos_and_contype_conaffinity_filter_contacts() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    std::fs::write(server.workspace.join("contype.xml"), CONTYPE_XML).unwrap();
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let id = c.call("load_mjcf", json!({"sim_id": sim, "file_path": "contype.xml", "keyframe": "low"})).await["object_id"]
+        .as_u64()
+        .unwrap();
+    for (joint, want) in [(0, -0.2), (1, -0.1)] {
+        let s = c.call("get_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": joint})).await;
+        let got = s["joint_position"].as_f64().unwrap();
+        assert!((got - want).abs() < 1e-6, "keyframe joint {joint}: {got} vs {want}");
+        let l = c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": joint})).await;
+        let z = l["link_world_position"][2].as_f64().unwrap();
+        assert!((z - (0.5 + want)).abs() < 1e-6, "keyframe link {joint} at z {z}");
+    }
+    c.step(&sim, 480).await;
+    let z = |l: Value| l["link_world_position"][2].as_f64().unwrap();
+    let a = z(c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 0})).await);
+    let b = z(c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 1})).await);
+    assert!((a - 0.1).abs() < 0.02, "sphere a should rest on the floor (contype 1 meets its conaffinity 1): z {a}");
+    assert!(b < -1.0, "sphere b should fall through the floor (no shared bit): z {b}");
+}

@@ -473,7 +473,8 @@ impl World {
                 joint.set_limits(axis, l);
             }
             joint.motor_axes = JointAxesMask::empty();
-            joint.contacts_enabled = false;
+            // MuJoCo excludes contacts between a body and its parent, except the worldbody.
+            joint.contacts_enabled = parent_body == 0;
             let (Some(&ph), Some(&ch)) = (handle_of.get(&parent_body), handle_of.get(&child_body)) else { continue };
             self.physics.multibody_joints.insert(ph, ch, joint, true);
             let mjcf_joint = find_joint(&model, mbodies[child_body].mjcf_body_id, mj.name.as_deref());
