@@ -367,8 +367,9 @@ async fn an_mjcf_robot_survives_undo_fork_save_load_restart_and_replay() {
     assert_eq!(v["ok"], true, "{v}");
 }
 
-/// Two spheres hung side by side over a floor: `a` may touch the floor (contype 1), `b` may not
-/// (contype 2, conaffinity 2: no bit shared with the floor's 1, in either direction).
+/// Three spheres on vertical slides over a floor: `a` may touch the floor (contype 1), `b` may
+/// not (contype 2, conaffinity 2: no bit shared with the floor's 1, in either direction), `c`
+/// may by its bits but an `<exclude>` turns its contacts with the worldbody off.
 const CONTYPE_XML: &str = r#"<mujoco model="contype">
   <worldbody>
     <geom name="floor" type="plane" size="0 0 1" contype="1" conaffinity="1"/>
@@ -380,14 +381,21 @@ const CONTYPE_XML: &str = r#"<mujoco model="contype">
       <joint name="zb" type="slide" axis="0 0 1"/>
       <geom name="b" type="sphere" size="0.1" mass="1" contype="2" conaffinity="2"/>
     </body>
+    <body name="slider_c" pos="2 0 0.5">
+      <joint name="zc" type="slide" axis="0 0 1"/>
+      <geom name="c" type="sphere" size="0.1" mass="1"/>
+    </body>
   </worldbody>
+  <contact>
+    <exclude body1="world" body2="slider_c"/>
+  </contact>
   <keyframe>
-    <key name="low" qpos="-0.2 -0.1"/>
+    <key name="low" qpos="-0.2 -0.1 0"/>
   </keyframe>
 </mujoco>"#;
 
 #[tokio::test(flavor = "multi_thread")]
-async fn keyframes_set_qpos_and_contype_conaffinity_filter_contacts() {
+async fn keyframes_set_qpos_and_contype_conaffinity_and_exclude_filter_contacts() {
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start(dir.path(), &[]);
     std::fs::write(server.workspace.join("contype.xml"), CONTYPE_XML).unwrap();
@@ -410,4 +418,6 @@ async fn keyframes_set_qpos_and_contype_conaffinity_filter_contacts() {
     let b = z(c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 1})).await);
     assert!((a - 0.1).abs() < 0.02, "sphere a should rest on the floor (contype 1 meets its conaffinity 1): z {a}");
     assert!(b < -1.0, "sphere b should fall through the floor (no shared bit): z {b}");
+    let cz = z(c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 2})).await);
+    assert!(cz < -1.0, "sphere c should fall through the floor (<exclude body1=world body2=slider_c>): z {cz}");
 }

@@ -55,6 +55,51 @@ pub struct MjcfInfo {
     pub world_body: Option<RigidBodyHandle>,
     /// That body's colliders.
     pub world_colliders: Vec<ColliderHandle>,
+    /// Body pairs whose contacts `<contact><exclude>` turns off (merged bodies by their link).
+    pub excluded: Vec<(RigidBodyHandle, RigidBodyHandle)>,
+}
+
+/// Every MJCF object's `<exclude>` pairs, as the contact filter of a step (rapier consults it
+/// only for colliders flagged with `FILTER_CONTACT_PAIRS`, i.e. those of excluded bodies).
+pub struct ExcludedPairs(BTreeSet<(Raw, Raw)>);
+
+/// A body handle's raw parts (handles are not `Ord`).
+type Raw = (u32, u32);
+
+impl ExcludedPairs {
+    /// The pairs of every MJCF object in the world.
+    pub(super) fn of(w: &World) -> ExcludedPairs {
+        let mut set = BTreeSet::new();
+        for obj in w.tables.objects.values() {
+            if let ObjectKind::Mjcf { mjcf, .. } = &obj.kind {
+                for (a, b) in &mjcf.excluded {
+                    set.insert((a.into_raw_parts(), b.into_raw_parts()));
+                    set.insert((b.into_raw_parts(), a.into_raw_parts()));
+                }
+            }
+        }
+        ExcludedPairs(set)
+    }
+
+    /// No pair: the plain step applies.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+impl PhysicsHooks for ExcludedPairs {
+    fn filter_contact_pair(&self, c: &PairFilterContext) -> Option<SolverFlags> {
+        match (c.rigid_body1, c.rigid_body2) {
+            (Some(a), Some(b)) if self.0.contains(&(a.into_raw_parts(), b.into_raw_parts())) => None,
+            _ => Some(SolverFlags::default()),
+        }
+    }
+
+    fn filter_intersection_pair(&self, _: &PairFilterContext) -> bool {
+        true
+    }
+
+    fn modify_solver_contacts(&self, _: &mut ContactModificationContext) {}
 }
 
 /// A parsed and converted model, checked, ready to insert.
@@ -164,7 +209,6 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
         ("tendon", "<tendon>: fixed tendons are not simulated"),
         ("equality", "<equality>: equality constraints are not simulated"),
         ("sensor", "<sensor>: sensors are not simulated; read state with the sensing tools"),
-        ("exclude", "<contact><exclude>: contact exclusions are not applied"),
         ("pair", "<contact><pair>: explicit contact pairs are not applied"),
     ] {
         if found.contains(tag) {
@@ -248,6 +292,13 @@ pub fn prepare(xml: &str, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
                 if !ignored.contains(&s) {
                     ignored.push(s);
                 }
+            }
+        }
+    }
+    for e in &model.contact.excludes {
+        for name in [&e.body1, &e.body2] {
+            if name != "world" && model.body_id_by_name(name).is_none() {
+                return Err(format!("<exclude> names body {name}, which is not in the model"));
             }
         }
     }
@@ -449,6 +500,29 @@ impl World {
             }
             world_body = Some(h);
         }
+        // `<exclude>` pairs by the rapier bodies that carry them; their colliders ask the filter.
+        let body_of = |name: &str| -> Option<RigidBodyHandle> {
+            let mjcf_id = if name == "world" { 0 } else { model.body_id_by_name(name)? };
+            let idx = (0..n).find(|i| !mbodies[*i].is_intermediate && mbodies[*i].mjcf_body_id == mjcf_id)?;
+            let o = owner[idx];
+            handle_of.get(&o).copied().or(if o == 0 { world_body } else { None })
+        };
+        let mut excluded = Vec::new();
+        for e in &model.contact.excludes {
+            if let (Some(a), Some(b)) = (body_of(&e.body1), body_of(&e.body2)) {
+                if a != b {
+                    excluded.push((a, b));
+                }
+            }
+        }
+        for h in excluded.iter().flat_map(|(a, b)| [*a, *b]) {
+            let cs: Vec<ColliderHandle> = self.physics.bodies.get(h).map(|b| b.colliders().to_vec()).unwrap_or_default();
+            for ch in cs {
+                if let Some(c) = self.physics.colliders.get_mut(ch) {
+                    c.set_active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS);
+                }
+            }
+        }
         // Joints: the crate's frames, re-parented past merged bodies, `ref` folded in.
         let mut links: Vec<RobotLink> = Vec::new();
         let mut link_masses = Vec::new();
@@ -551,6 +625,7 @@ impl World {
             ignored: ignored.clone(),
             world_body,
             world_colliders,
+            excluded,
         };
         self.tables.objects.insert(
             id,

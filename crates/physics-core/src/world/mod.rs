@@ -532,9 +532,14 @@ impl World {
     fn step(&mut self, n: u64, control: StepControl, observe: StepObserver) -> u64 {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
+        let excluded = mjcf::ExcludedPairs::of(self);
         while taken < n {
             let watches = self.drive_motors();
-            self.physics.step();
+            if excluded.is_empty() {
+                self.physics.step();
+            } else {
+                self.physics.step_with_events(&excluded, &());
+            }
             if !watches.is_empty() {
                 self.record_motor_torques(watches);
             }
