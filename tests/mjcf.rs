@@ -420,4 +420,23 @@ async fn keyframes_set_qpos_and_contype_conaffinity_and_exclude_filter_contacts(
     assert!(b < -1.0, "sphere b should fall through the floor (no shared bit): z {b}");
     let cz = z(c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 2})).await);
     assert!(cz < -1.0, "sphere c should fall through the floor (<exclude body1=world body2=slider_c>): z {cz}");
+
+    // A free root: the keyframe's 7 free-joint values place the base (within the load frame),
+    // then the hinge.
+    let free = r#"<mujoco><worldbody><body name="root" pos="0 0 3"><freejoint/><geom size="0.1"/>
+        <body name="arm" pos="0.5 0 0"><joint name="h" axis="0 0 1"/><geom size="0.05"/></body></body></worldbody>
+        <keyframe><key name="k" qpos="1 2 0.5 0.70710678 0 0 0.70710678 0.25"/></keyframe></mujoco>"#;
+    std::fs::write(server.workspace.join("free.xml"), free).unwrap();
+    let sim2 = c.new_sim(json!({"gravity": [0, 0, 0]})).await;
+    let args = json!({"sim_id": sim2, "file_path": "free.xml", "keyframe": "k", "position": [10, 0, 0], "use_fixed_base": true});
+    let f = c.call("load_mjcf", args).await["object_id"].as_u64().unwrap();
+    let base = c.call("get_link_state", json!({"sim_id": sim2, "object_id": f, "link_index": -1})).await;
+    let p = floats(&base["link_world_position"]);
+    assert!(vec_diff(&p, &[11.0, 2.0, 0.5]) < 1e-5, "free root at {p:?}");
+    let o = floats(&base["link_world_orientation"]);
+    assert!(quat_diff(&o, &[0.0, 0.0, 0.70710678, 0.70710678]) < 1e-5, "free root turned {o:?}");
+    let h = c.call("get_joint_state", json!({"sim_id": sim2, "object_id": f, "joint_index": 0})).await;
+    assert!((h["joint_position"].as_f64().unwrap() - 0.25).abs() < 1e-6, "{h}");
+    let arm = floats(&c.call("get_link_state", json!({"sim_id": sim2, "object_id": f, "link_index": 0})).await["link_world_position"]);
+    assert!(vec_diff(&arm, &[11.0, 2.5, 0.5]) < 1e-5, "arm at {arm:?} (0.5 m along the turned x axis)");
 }

@@ -647,7 +647,7 @@ impl World {
             }
         }
         if let Some(qpos) = keyframe_qpos {
-            self.apply_mjcf_qpos(id, &model, &qpos_dofs, &qpos);
+            self.apply_mjcf_qpos(id, pose, &qpos_dofs, &qpos);
         }
         MjcfLoaded {
             object_id: id,
@@ -682,18 +682,31 @@ impl World {
         }
     }
 
-    /// Sets every hinge/slide joint from a keyframe's qpos (MuJoCo's layout: a free joint's 7
-    /// values, then one per hinge/slide).
-    fn apply_mjcf_qpos(&mut self, id: u32, _model: &Model, dofs: &[rapier3d_mjcf::MjcfQposDof], qpos: &[f64]) {
+    /// Sets the joints from a keyframe's qpos (MuJoCo's layout: a free joint's position and
+    /// [w, x, y, z] quaternion, then one value per hinge/slide). A free root goes to the
+    /// keyframe's pose within the load frame `pose`.
+    fn apply_mjcf_qpos(&mut self, id: u32, pose: Pose, dofs: &[rapier3d_mjcf::MjcfQposDof], qpos: &[f64]) {
         let mut at = 0usize;
         let mut joint = 0u32;
         for d in dofs {
             let w = d.kind.qpos_width();
-            if matches!(d.kind, rapier3d_mjcf::MjcfDofKind::Hinge | rapier3d_mjcf::MjcfDofKind::Slide) {
-                if let Some(q) = qpos.get(at) {
-                    self.reset_joint(id, joint, *q as f32, 0.0);
+            match d.kind {
+                rapier3d_mjcf::MjcfDofKind::Hinge | rapier3d_mjcf::MjcfDofKind::Slide => {
+                    if let Some(q) = qpos.get(at) {
+                        self.reset_joint(id, joint, *q as f32, 0.0);
+                    }
+                    joint += 1;
                 }
-                joint += 1;
+                rapier3d_mjcf::MjcfDofKind::Free => {
+                    if let (Some(q), Some(base)) = (qpos.get(at..at + 7), self.tables.objects.get(&id).map(|o| o.body)) {
+                        let rot = Rotation::from_xyzw(q[4] as f32, q[5] as f32, q[6] as f32, q[3] as f32);
+                        if rot.length() > 0.0 {
+                            let local = Pose::from_parts(Vector::new(q[0] as f32, q[1] as f32, q[2] as f32), rot.normalize());
+                            self.set_robot_pose(base, pose * local);
+                        }
+                    }
+                }
+                _ => {}
             }
             at += w;
         }
