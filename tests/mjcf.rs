@@ -440,3 +440,26 @@ async fn keyframes_set_qpos_and_contype_conaffinity_and_exclude_filter_contacts(
     let arm = floats(&c.call("get_link_state", json!({"sim_id": sim2, "object_id": f, "link_index": 0})).await["link_world_position"]);
     assert!(vec_diff(&arm, &[11.0, 2.5, 0.5]) < 1e-5, "arm at {arm:?} (0.5 m along the turned x axis)");
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_saved_file_without_history_reloads_its_mjcf_robot_from_the_workspace() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    server.copy_fixtures();
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.call("load_mjcf", json!({"sim_id": sim, "file_path": "mjcf/reacher.xml", "position": [1, 2, 0]})).await;
+    c.call("save_simulation", json!({"sim_id": sim, "file_path": "reacher.json"})).await;
+    let path = server.workspace.join("reacher.json");
+    let mut saved: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    saved.as_object_mut().unwrap().remove("history");
+    std::fs::write(&path, saved.to_string()).unwrap();
+    let copy = c.call("load_simulation", json!({"file_path": "reacher.json"})).await["simulation_id"].as_str().unwrap().to_string();
+    let info = c.call("get_simulation_info", json!({"sim_id": copy})).await;
+    let o = &info["objects"][0];
+    assert_eq!(o["type"], "mjcf", "{info}");
+    assert_eq!(o["shape"], "mjcf/reacher.xml", "{info}");
+    assert_eq!(floats(&o["position"]), vec![1.0, 2.0, 0.0], "{info}");
+    let n = c.call("get_num_joints", json!({"sim_id": copy, "object_id": 0})).await;
+    assert_eq!(n["num_joints"], 4, "{n}");
+}
