@@ -53,5 +53,6 @@ pub mod store;
 pub mod timeline;
 pub mod trajectory;
 pub mod urdf_files;
+pub mod mjcf_files;
 pub mod mcp;
 pub mod viewer;

@@ -154,6 +154,17 @@ pub fn readable(world: &World) -> Readable {
                         .filter_map(|i| world.joint_state(id, i).map(|j| j.joint_position))
                         .collect::<Vec<_>>(),
                 }),
+                ObjectKind::Mjcf { robot, mjcf } => json!({
+                    "object_id": id,
+                    "type": "mjcf",
+                    "mjcf_path": robot.file_path,
+                    "use_fixed_base": robot.fixed_base,
+                    "keyframe": mjcf.keyframe,
+                    "num_joints": robot.links.len(),
+                    "joint_positions": (0..robot.links.len())
+                        .filter_map(|i| world.joint_state(id, i).map(|j| j.joint_position))
+                        .collect::<Vec<_>>(),
+                }),
             };
             let fields = json!({
                 "mass": if is_static { 0.0 } else { r32(obj.mass) },
@@ -185,6 +196,9 @@ impl Readable {
     pub fn with_urdf_path_aliases(&self) -> Readable {
         let mut out = self.clone();
         for o in out.objects.iter_mut().filter_map(Value::as_object_mut) {
+            if o.get("type").and_then(Value::as_str) == Some("mjcf") {
+                continue;
+            }
             if let Some(path) = o.get("urdf_path").or_else(|| o.get("file_path")).cloned() {
                 for key in ["urdf_path", "file_path"] {
                     o.entry(key).or_insert_with(|| path.clone());
@@ -420,7 +434,8 @@ pub fn commands_from_readable(
                 emit(&tool, cmd)?
             }
             "urdf" => emit("load_urdf", urdf_from_readable(o, i, pose, sandbox)?)?,
-            other => return Err(bad(format!("{} is {other:?}, not primitive or urdf", name("type")))),
+            "mjcf" => emit("load_mjcf", mjcf_from_readable(o, i, pose, sandbox)?)?,
+            other => return Err(bad(format!("{} is {other:?}, not primitive, urdf or mjcf", name("type")))),
         }
         let lin = field("linear_velocity").map(|v| value::vec3(&name("linear_velocity"), v)).transpose().map_err(bad)?;
         let ang = field("angular_velocity").map(|v| value::vec3(&name("angular_velocity"), v)).transpose().map_err(bad)?;
@@ -501,6 +516,33 @@ fn urdf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, 
         ("use_fixed_base".to_string(), json!(fixed_base)),
     ]);
     decide_load_urdf(sandbox, &args).map_err(|why| format!("{} cannot be loaded: {why}", name(key)))
+}
+
+/// One readable MJCF object as the load_mjcf command that re-creates it (read from the
+/// workspace as load_mjcf reads it; joints at the file's keyframe, or qpos0).
+fn mjcf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, sandbox: &Sandbox) -> Result<Command, Refusal> {
+    let name = |k: &str| format!("objects[{i}].{k}");
+    let file = match value::arg(o, "mjcf_path") {
+        Some(Value::String(p)) => p.clone(),
+        Some(v) => return Err(bad(format!("{} must be a string; got {}", name("mjcf_path"), value::show(v)))),
+        None => return Err(bad(format!("{} is missing", name("mjcf_path")))),
+    };
+    let fixed_base = match value::arg(o, "use_fixed_base") {
+        None => false,
+        Some(Value::Bool(b)) => *b,
+        Some(v) => return Err(bad(format!("{} must be true or false; got {}", name("use_fixed_base"), value::show(v)))),
+    };
+    let mut args = value::Args::from_iter([
+        ("sim_id".to_string(), json!("")),
+        ("file_path".to_string(), json!(file)),
+        ("position".to_string(), json!(pose.position)),
+        ("orientation".to_string(), json!(pose.orientation)),
+        ("use_fixed_base".to_string(), json!(fixed_base)),
+    ]);
+    if let Some(Value::String(k)) = value::arg(o, "keyframe") {
+        args.insert("keyframe".to_string(), json!(k));
+    }
+    crate::mjcf_files::decide_load_mjcf(sandbox, &args).map_err(|why| format!("{} cannot be loaded: {why}", name("mjcf_path")))
 }
 
 /// One readable constraint as the command that re-creates it (object ids mapped to the

@@ -10,7 +10,7 @@ use rmcp::{tool, tool_router};
 use super::params::{self, LinkRef, ResetJoint};
 use super::PhysicsServer;
 use crate::command::Command;
-use crate::outputs::{LinkState, Message};
+use crate::outputs::{LinkState, Message, MjcfLoaded};
 use crate::reads;
 use crate::value::Refusal;
 
@@ -30,6 +30,16 @@ fn decide_reset(p: ResetJoint) -> Result<Command, Refusal> {
 
 #[tool_router(router = mjcf_router, vis = "pub(crate)")]
 impl PhysicsServer {
+    /// Load a MuJoCo MJCF file as one robot: link -1 is the worldbody (or a free root), one
+    /// joint per hinge/slide in file order, positions are qpos; `ignored` lists what is not
+    /// simulated.
+    #[tool(input_schema = schema_for_type::<params::LoadMjcf>())]
+    async fn load_mjcf(&self, args: JsonObject) -> Result<Json<MjcfLoaded>, String> {
+        let reg = self.reg.clone();
+        self.change("load_mjcf", args, move |p: params::LoadMjcf| crate::mjcf_files::load_mjcf_command(reg.sandbox(), &p))
+            .await
+    }
+
     /// A link's world frame, centre of mass and velocity.
     #[tool(input_schema = schema_for_type::<params::LinkRef>(), annotations(read_only_hint = true))]
     async fn get_link_state(&self, args: JsonObject) -> Result<Json<LinkState>, String> {

@@ -389,6 +389,24 @@ pub struct LoadUrdf {
     pub use_fixed_base: Option<Bool>,
 }
 
+/// load_mjcf parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct LoadMjcf {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// MuJoCo MJCF file relative to the workspace (its `<include>`s are read beside it).
+    pub file_path: Text,
+    /// World position [x, y, z] of the model's frame (default [0, 0, 0]).
+    pub position: Option<Vec3>,
+    /// Orientation [x, y, z, w] of the model's frame (default identity).
+    pub orientation: Option<Quat>,
+    /// Fix a free-joint root body to the world (default false).
+    pub use_fixed_base: Option<Bool>,
+    /// Name of a `<key>` whose qpos the joints start at (default: qpos0).
+    pub keyframe: Option<Text>,
+}
+
 /// Parameters naming a joint of an object.
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]

@@ -416,6 +416,23 @@ pub enum Command {
         /// The point looked at.
         target: [f32; 3],
     },
+    /// Load a MuJoCo MJCF model: its text, `<include>`s already spliced in by the adapter,
+    /// travels with the event as a blob (replay reads no files).
+    LoadMjcf {
+        /// The path as the client gave it (reported, saved).
+        file_path: String,
+        /// The MJCF text with every `<include>` spliced in.
+        mjcf: Blob,
+        /// World position of the model's frame (the worldbody's, or the free root's offset).
+        position: [f32; 3],
+        /// Orientation of the model's frame (normalised).
+        orientation: [f32; 4],
+        /// Fix a free-joint root to the world.
+        fixed_base: bool,
+        /// The `<key name>` whose qpos the joints start at (None: qpos0).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        keyframe: Option<String>,
+    },
 }
 
 /// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
@@ -598,7 +615,9 @@ impl Command {
                     _ => Ok(()),
                 }
             }
-            Command::SetObjectPose { position, orientation, .. } | Command::LoadUrdf { position, orientation, .. } => {
+            Command::SetObjectPose { position, orientation, .. }
+            | Command::LoadUrdf { position, orientation, .. }
+            | Command::LoadMjcf { position, orientation, .. } => {
                 finite("position", position)?;
                 unit_quaternion("orientation", orientation)
             }
@@ -655,14 +674,20 @@ impl Command {
             Command::LoadUrdf { urdf, meshes, .. } => {
                 std::iter::once(urdf).chain(meshes.values()).collect()
             }
+            Command::LoadMjcf { mjcf, .. } => vec![mjcf],
             _ => Vec::new(),
         }
     }
 
     /// Fills in the bytes of every blob from `src`, checking each against its hash.
     pub fn hydrate(&mut self, src: &dyn BlobSource) -> Result<(), String> {
-        if let Command::LoadUrdf { urdf, meshes, .. } = self {
-            for b in std::iter::once(urdf).chain(meshes.values_mut()) {
+        let blobs: Vec<&mut Blob> = match self {
+            Command::LoadUrdf { urdf, meshes, .. } => std::iter::once(urdf).chain(meshes.values_mut()).collect(),
+            Command::LoadMjcf { mjcf, .. } => vec![mjcf],
+            _ => Vec::new(),
+        };
+        if !blobs.is_empty() {
+            for b in blobs {
                 if b.is_loaded() {
                     continue;
                 }
@@ -716,6 +741,10 @@ impl Command {
                     revolute_prismatic: *revolute_prismatic_limits_from_file,
                 };
                 crate::world::urdf_model(urdf, meshes, rules).map(|_| ())
+            }
+            Command::LoadMjcf { mjcf, keyframe, .. } => {
+                room_for_object(world, limits)?;
+                crate::world::mjcf::prepare_blob(mjcf, keyframe.as_deref()).map(|_| ())
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 exists(*object_id)?;

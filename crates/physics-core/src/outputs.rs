@@ -430,6 +430,33 @@ pub struct UrdfLoaded {
     pub num_joints: usize,
 }
 
+/// One MJCF body and the link that carries its frame (load_mjcf's `bodies`).
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct MjcfBodyLink {
+    /// The `<body name>` (MuJoCo's empty name for an unnamed body).
+    pub name: String,
+    /// The link of its last joint; a jointless (welded) body shares its parent's link; −1 is
+    /// the base (the worldbody, or the free-joint root).
+    pub link_index: i32,
+}
+
+/// Result of load_mjcf.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct MjcfLoaded {
+    /// The robot's object id.
+    pub object_id: u32,
+    /// The path as given.
+    pub file_path: String,
+    /// Base position [x, y, z].
+    pub position: [f64; 3],
+    /// Number of joints: one per hinge or slide joint.
+    pub num_joints: usize,
+    /// Every `<body>` in file order with the link that carries its frame.
+    pub bodies: Vec<MjcfBodyLink>,
+    /// What of the file is not simulated, one sentence each.
+    pub ignored: Vec<String>,
+}
+
 /// Result of get_num_joints.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct NumJoints {
@@ -656,6 +683,8 @@ pub enum Outcome {
     UrdfLoaded(UrdfLoaded),
     /// create_constraint.
     ConstraintCreated(ConstraintCreated),
+    /// load_mjcf.
+    MjcfLoaded(MjcfLoaded),
     /// Every command whose result is a confirmation sentence.
     Message(Message),
 }
@@ -695,4 +724,4 @@ macro_rules! outcome_variants {
         }
     )*};
 }
-outcome_variants!(Created, Stepped, TimestepSet, ObjectAdded, DynamicsChanged, UrdfLoaded, ConstraintCreated, Message);
+outcome_variants!(Created, Stepped, TimestepSet, ObjectAdded, DynamicsChanged, UrdfLoaded, ConstraintCreated, MjcfLoaded, Message);

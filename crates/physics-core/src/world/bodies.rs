@@ -125,6 +125,12 @@ impl World {
                 if let Some(obj) = self.tables.objects.remove(object_id) {
                     match &obj.kind {
                         ObjectKind::Robot { robot } => self.remove_robot_bodies(obj.body, robot),
+                        ObjectKind::Mjcf { robot, mjcf } => {
+                            self.remove_robot_bodies(obj.body, robot);
+                            if let Some(h) = mjcf.world_body {
+                                self.physics.remove_body(h);
+                            }
+                        }
                         ObjectKind::Primitive { .. } => {
                             self.physics.remove_body(obj.body);
                         }
@@ -140,6 +146,7 @@ impl World {
             | Command::StepSimulation { .. }
             | Command::SetTimestep { .. }
             | Command::LoadUrdf { .. }
+            | Command::LoadMjcf { .. }
             | Command::SetJointMotor { .. }
             | Command::ResetJointState { .. }
             | Command::CreateConstraint { .. }
@@ -205,8 +212,8 @@ impl World {
             return;
         };
         let is_link = link_index >= 0;
-        let e = match (&mut obj.kind, is_link) {
-            (ObjectKind::Robot { robot }, true) => match robot.links.get_mut(link_index as usize) {
+        let e = match (obj.kind.robot_mut(), is_link) {
+            (Some(robot), true) => match robot.links.get_mut(link_index as usize) {
                 Some(l) => &mut l.extras,
                 None => return,
             },
@@ -221,7 +228,7 @@ impl World {
         set(&mut e.spinning_friction, c.spinning_friction);
         set(&mut e.contact_stiffness, c.contact_stiffness);
         set(&mut e.contact_damping, c.contact_damping);
-        let robot = matches!(obj.kind, ObjectKind::Robot { .. });
+        let robot = obj.kind.robot().is_some();
         match (c.mass, is_link) {
             (Some(m), false) => obj.mass = m,
             (Some(m), true) => {
@@ -293,22 +300,19 @@ impl World {
 
     /// Number of links (beyond the base) an object has: 0 for primitives.
     pub fn link_count(&self, id: u32) -> usize {
-        match self.tables.objects.get(&id).map(|o| &o.kind) {
-            Some(ObjectKind::Robot { robot }) => robot.links.len(),
-            Some(ObjectKind::Primitive { .. }) | None => 0,
-        }
+        self.tables.objects.get(&id).and_then(|o| o.kind.robot()).map_or(0, |r| r.links.len())
     }
 
     /// The body and colliders of an object's base (−1) or of one of its links.
     fn part(&self, id: u32, link_index: i32) -> Option<(RigidBodyHandle, Vec<ColliderHandle>)> {
         let obj = self.tables.objects.get(&id)?;
-        match (&obj.kind, link_index) {
-            (ObjectKind::Robot { robot }, i) if i >= 0 => {
+        match (obj.kind.robot(), link_index) {
+            (Some(robot), i) if i >= 0 => {
                 let l = robot.links.get(i as usize)?;
                 Some((l.body, l.colliders.clone()))
             }
-            (ObjectKind::Robot { robot }, _) => Some((obj.body, robot.base_colliders.clone())),
-            (ObjectKind::Primitive { .. }, _) => Some((obj.body, vec![obj.collider])),
+            (Some(robot), _) => Some((obj.body, robot.base_colliders.clone())),
+            (None, _) => Some((obj.body, vec![obj.collider])),
         }
     }
 
@@ -373,8 +377,8 @@ impl World {
     pub fn dynamics_info(&self, id: u32, link_index: i32) -> Option<DynamicsInfo> {
         let obj = self.tables.objects.get(&id)?;
         let (bh, colliders) = self.part(id, link_index)?;
-        let extras = match (&obj.kind, link_index) {
-            (ObjectKind::Robot { robot }, i) if i >= 0 => &robot.links.get(i as usize)?.extras,
+        let extras = match (obj.kind.robot(), link_index) {
+            (Some(robot), i) if i >= 0 => &robot.links.get(i as usize)?.extras,
             _ => &obj.extras,
         };
         let b = self.physics.bodies.get(bh)?;
@@ -391,8 +395,8 @@ impl World {
         };
         let (diagonal, inertia_orn) = reported_inertia(mp);
         // The mass as set (add_*, the URDF, change_dynamics), not rapier's 1/(1/m).
-        let mass_set = match (&obj.kind, link_index) {
-            (ObjectKind::Robot { .. }, i) if i >= 0 => self.tables.as_given.link_masses.get(&(id, i as u32)).copied(),
+        let mass_set = match (obj.kind.robot(), link_index) {
+            (Some(_), i) if i >= 0 => self.tables.as_given.link_masses.get(&(id, i as u32)).copied(),
             _ => Some(obj.mass),
         };
         Some(DynamicsInfo {
@@ -432,6 +436,7 @@ impl World {
                         shape.dimensions().into_iter().map(r32).collect(),
                     ),
                     ObjectKind::Robot { robot } => ("urdf", robot.file_path.clone(), Vec::new()),
+                    ObjectKind::Mjcf { robot, .. } => ("mjcf", robot.file_path.clone(), Vec::new()),
                 };
                 let is_static = self
                     .physics

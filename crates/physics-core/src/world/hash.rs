@@ -130,11 +130,28 @@ pub(super) fn state_hash(w: &World) -> String {
         .iter()
         .filter_map(|(id, obj)| match &obj.kind {
             ObjectKind::Robot { robot } => Some(robot_view(w, *id, obj, robot)),
-            ObjectKind::Primitive { .. } => None,
+            ObjectKind::Primitive { .. } | ObjectKind::Mjcf { .. } => None,
         })
         .collect();
     if !robots.is_empty() {
         bytes.extend(encode(&robots));
+    }
+    // MJCF robots likewise, behind their own tag (an encoding of their own: no older state
+    // has them, so nothing recorded before changes).
+    let mjcf: Vec<(RobotView, &super::mjcf::MjcfInfo, Option<PartView>)> = w
+        .tables
+        .objects
+        .iter()
+        .filter_map(|(id, obj)| match &obj.kind {
+            ObjectKind::Mjcf { robot, mjcf } => {
+                let world = mjcf.world_body.and_then(|h| part_view(w, h, &mjcf.world_colliders, [0.0; 2]));
+                Some((robot_view(w, *id, obj, robot), &**mjcf, world))
+            }
+            _ => None,
+        })
+        .collect();
+    if !mjcf.is_empty() {
+        bytes.extend(encode(&("mjcf", mjcf)));
     }
     // Constraints likewise, behind a tag so they can never read as robots.
     if !w.tables.constraints.is_empty() {

@@ -10,6 +10,7 @@ mod bodies;
 pub mod constraints;
 mod hash;
 pub mod ik;
+pub mod mjcf;
 mod robot;
 pub mod scene;
 pub mod urdf;
@@ -64,6 +65,31 @@ pub enum ObjectKind {
         /// Its links, joints and motors.
         robot: Box<Robot>,
     },
+    /// A robot loaded from a MuJoCo MJCF model (last, so older encodings are unchanged).
+    Mjcf {
+        /// Its links, joints and motors (`urdf_hash` is the MJCF text's blob).
+        robot: Box<Robot>,
+        /// Its bodies, what is ignored, and the worldbody's static body under a free base.
+        mjcf: Box<mjcf::MjcfInfo>,
+    },
+}
+
+impl ObjectKind {
+    /// The robot, for URDF and MJCF objects alike.
+    pub fn robot(&self) -> Option<&Robot> {
+        match self {
+            ObjectKind::Robot { robot } | ObjectKind::Mjcf { robot, .. } => Some(robot),
+            ObjectKind::Primitive { .. } => None,
+        }
+    }
+
+    /// The robot, mutably.
+    pub fn robot_mut(&mut self) -> Option<&mut Robot> {
+        match self {
+            ObjectKind::Robot { robot } | ObjectKind::Mjcf { robot, .. } => Some(robot),
+            ObjectKind::Primitive { .. } => None,
+        }
+    }
 }
 
 /// Dynamics properties rapier has no per-body equivalent for: stored, reported and saved.
@@ -458,6 +484,18 @@ impl World {
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
             }
+            Command::LoadMjcf { file_path, mjcf, position, orientation, fixed_base, keyframe } => {
+                match mjcf::prepare_blob(mjcf, keyframe.as_deref()) {
+                    Ok(prepared) => {
+                        let pose = Pose::from_parts(
+                            Vector::from_array(*position),
+                            Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
+                        );
+                        self.insert_mjcf(prepared, file_path, mjcf, pose, *fixed_base, keyframe.as_deref()).into()
+                    }
+                    Err(why) => Outcome::Message(Message::new(why)),
+                }
+            }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 Outcome::Message(Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
@@ -494,9 +532,14 @@ impl World {
     fn step(&mut self, n: u64, control: StepControl, observe: StepObserver) -> u64 {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
+        let excluded = mjcf::ExcludedPairs::of(self);
         while taken < n {
             let watches = self.drive_motors();
-            self.physics.step();
+            if excluded.is_empty() {
+                self.physics.step();
+            } else {
+                self.physics.step_with_events(&excluded, &());
+            }
             if !watches.is_empty() {
                 self.record_motor_torques(watches);
             }

@@ -272,17 +272,11 @@ impl World {
 
     /// The robot an object is, if it is one.
     pub fn robot(&self, id: u32) -> Option<&Robot> {
-        match &self.tables.objects.get(&id)?.kind {
-            ObjectKind::Robot { robot } => Some(robot),
-            ObjectKind::Primitive { .. } => None,
-        }
+        self.tables.objects.get(&id)?.kind.robot()
     }
 
     fn robot_mut(&mut self, id: u32) -> Option<&mut Robot> {
-        match &mut self.tables.objects.get_mut(&id)?.kind {
-            ObjectKind::Robot { robot } => Some(robot),
-            ObjectKind::Primitive { .. } => None,
-        }
+        self.tables.objects.get_mut(&id)?.kind.robot_mut()
     }
 
     /// The standard out-of-range sentence unless `joint_index` names a joint of `id`.
@@ -430,7 +424,7 @@ impl World {
             .tables
             .objects
             .iter()
-            .filter(|(_, o)| matches!(&o.kind, ObjectKind::Robot { robot } if robot.links.iter().any(|l| l.motor.is_some())))
+            .filter(|(_, o)| o.kind.robot().is_some_and(|robot| robot.links.iter().any(|l| l.motor.is_some())))
             .map(|(id, o)| (*id, o.body))
             .collect();
         for (id, base) in robots {

@@ -78,6 +78,13 @@ fn parts(w: &World) -> Vec<Part> {
                     push(i as i64, &l.colliders, l.color.or(obj.color));
                 }
             }
+            ObjectKind::Mjcf { robot, mjcf } => {
+                push(-1, &robot.base_colliders, obj.color);
+                push(-1, &mjcf.world_colliders, obj.color);
+                for (i, l) in robot.links.iter().enumerate() {
+                    push(i as i64, &l.colliders, l.color.or(obj.color));
+                }
+            }
         }
     }
     out

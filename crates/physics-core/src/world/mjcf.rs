@@ -1,0 +1,722 @@
+//! MuJoCo MJCF models: the event's MJCF text → a robot in the world, through `rapier3d-mjcf`
+//! (its `mjcf-rs` parser and its conversion to rapier bodies, colliders and joint frames),
+//! adapted to our object/link/joint model so every robot tool works on it as on a URDF robot.
+//!
+//! Pure like the URDF path: the adapter splices `<include>`s into the text before the event is
+//! made, `Command::validate` prepares the model to refuse bad input, and `World::apply`
+//! prepares it again (the same text gives the same robot) to insert it.
+//!
+//! The mapping (SPEC "MJCF models"):
+//! - Link −1 is the base: the static worldbody (with its geoms, floor planes included), or the
+//!   single top-level body when it has a free joint (the worldbody's geoms then sit on a static
+//!   body of their own). Every hinge or slide joint is one link, numbered in file order (depth
+//!   first, as MuJoCo numbers joints); a body with several joints is a chain of links at the
+//!   body's frame (the crate's massless spacers carry the earlier joints); a jointless body is
+//!   merged into its parent's link (colliders and mass).
+//! - A link's rapier body frame is the MuJoCo body frame, so get_link_state reports `xpos`.
+//!   The joint's `ref` is folded into the parent-side joint frame, so a rapier coordinate is
+//!   MuJoCo's qpos and limits are `range` as written.
+//! - The crate's joint motors are not used (our motors drive the joints); `damping` is the
+//!   multibody's per-DoF damping and `armature` is added to the joint-space mass diagonal (the
+//!   crate's routing, reproduced here on our insertion).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+use rapier3d::prelude::*;
+use rapier3d_mjcf::mjcf_rs::body::{GeomType, JointType};
+use rapier3d_mjcf::mjcf_rs::Model;
+use rapier3d_mjcf::{ContactFilterMode, MjcfLoaderOptions, MjcfRobot};
+use serde::{Deserialize, Serialize};
+
+use super::robot::{Robot, RobotLink};
+use super::urdf::{JointKind, JointSpec};
+use super::{DynamicsExtras, Object, ObjectKind, World};
+use crate::command::Blob;
+use crate::outputs::{MjcfBodyLink, MjcfLoaded};
+use crate::value::{r32s, Refusal};
+
+/// Half-thickness of the box that stands in for an MJCF plane (a rapier half-space has an
+/// infinite bounding box, which the renderer and the viewer cannot frame).
+const PLANE_HALF_THICKNESS: f32 = 0.5;
+/// Half-extent of a plane whose MJCF size is 0 ("infinite" in MuJoCo).
+const PLANE_INFINITE_HALF_EXTENT: f32 = 100.0;
+
+/// What an MJCF object keeps beside its `Robot` (saved files, results, removal).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct MjcfInfo {
+    /// The keyframe the joints started at, if one was named.
+    pub keyframe: Option<String>,
+    /// Every body in file order with the link carrying its frame.
+    pub bodies: Vec<MjcfBodyLink>,
+    /// What of the file is not simulated.
+    pub ignored: Vec<String>,
+    /// With a free-joint root: the static body holding the worldbody's geoms (a floor), if any.
+    pub world_body: Option<RigidBodyHandle>,
+    /// That body's colliders.
+    pub world_colliders: Vec<ColliderHandle>,
+    /// Body pairs whose contacts `<contact><exclude>` turns off (merged bodies by their link).
+    pub excluded: Vec<(RigidBodyHandle, RigidBodyHandle)>,
+}
+
+/// Every MJCF object's `<exclude>` pairs, as the contact filter of a step (rapier consults it
+/// only for colliders flagged with `FILTER_CONTACT_PAIRS`, i.e. those of excluded bodies).
+pub struct ExcludedPairs(BTreeSet<(Raw, Raw)>);
+
+/// A body handle's raw parts (handles are not `Ord`).
+type Raw = (u32, u32);
+
+impl ExcludedPairs {
+    /// The pairs of every MJCF object in the world.
+    pub(super) fn of(w: &World) -> ExcludedPairs {
+        let mut set = BTreeSet::new();
+        for obj in w.tables.objects.values() {
+            if let ObjectKind::Mjcf { mjcf, .. } = &obj.kind {
+                for (a, b) in &mjcf.excluded {
+                    set.insert((a.into_raw_parts(), b.into_raw_parts()));
+                    set.insert((b.into_raw_parts(), a.into_raw_parts()));
+                }
+            }
+        }
+        ExcludedPairs(set)
+    }
+
+    /// No pair: the plain step applies.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+impl PhysicsHooks for ExcludedPairs {
+    fn filter_contact_pair(&self, c: &PairFilterContext) -> Option<SolverFlags> {
+        match (c.rigid_body1, c.rigid_body2) {
+            (Some(a), Some(b)) if self.0.contains(&(a.into_raw_parts(), b.into_raw_parts())) => None,
+            _ => Some(SolverFlags::default()),
+        }
+    }
+
+    fn filter_intersection_pair(&self, _: &PairFilterContext) -> bool {
+        true
+    }
+
+    fn modify_solver_contacts(&self, _: &mut ContactModificationContext) {}
+}
+
+/// A parsed and converted model, checked, ready to insert.
+pub struct Prepared {
+    model: Model,
+    robot: MjcfRobot,
+    ignored: Vec<String>,
+    keyframe_qpos: Option<Vec<f64>>,
+}
+
+/// Elements the engine cannot simulate and SPEC refuses (never dropped silently).
+const REFUSED_ELEMENTS: [(&str, &str); 6] = [
+    ("spatial", "spatial tendons are not supported"),
+    ("flex", "flex (deformable) objects are not supported"),
+    ("flexcomp", "flex (deformable) objects are not supported"),
+    ("composite", "composite objects are not supported"),
+    ("plugin", "engine plugins are not supported"),
+    ("include", "<include> must be resolved by the server before loading"),
+];
+
+/// Whether an attribute's number(s) say anything but zero (an unreadable value counts as set).
+fn nonzero(v: &str) -> bool {
+    v.split_whitespace().any(|x| x.parse::<f64>() != Ok(0.0))
+}
+
+/// Scans the text: the root must be `<mujoco>`, no refused element, and notes what is ignored.
+fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
+    use xml::reader::{EventReader, XmlEvent};
+    let mut first = true;
+    let mut found: BTreeSet<String> = BTreeSet::new();
+    let mut notes: Vec<String> = Vec::new();
+    let mut note = |s: String| {
+        if !notes.contains(&s) {
+            notes.push(s);
+        }
+    };
+    let mut stack: Vec<String> = Vec::new();
+    for event in EventReader::new(xml.as_bytes()) {
+        match event {
+            Ok(XmlEvent::StartElement { name, attributes, .. }) => {
+                let tag = name.local_name.clone();
+                if first {
+                    first = false;
+                    if tag != "mujoco" {
+                        return Err(format!("file_path is not an MJCF model: its root element is <{tag}>, not <mujoco>"));
+                    }
+                }
+                if let Some((_, why)) = REFUSED_ELEMENTS.iter().find(|(t, _)| *t == tag) {
+                    return Err(format!("file_path uses <{tag}>: {why}"));
+                }
+                let parent = stack.last().map(String::as_str).unwrap_or("");
+                let attr = |n: &str| attributes.iter().find(|a| a.name.local_name == n).map(|a| a.value.clone());
+                if tag == "option" {
+                    for a in ["viscosity", "density"] {
+                        if attr(a).is_some_and(|v| nonzero(&v)) {
+                            note(format!("<option {a}>: fluid forces are not simulated"));
+                        }
+                    }
+                    for a in ["integrator", "cone", "impratio", "noslip_iterations", "o_solref", "o_solimp"] {
+                        if attr(a).is_some() {
+                            note(format!("<option {a}>: the engine's own solver settings apply"));
+                        }
+                    }
+                }
+                if tag == "flag" && parent == "option" {
+                    note("<option><flag>: the engine's own settings apply".into());
+                }
+                for a in ["solref", "solimp", "solreflimit", "solimplimit", "solmix", "solreffriction", "solimpfriction"] {
+                    if attr(a).is_some() {
+                        note(format!("{a} (on <{tag}>): rapier's contact and limit softness apply"));
+                    }
+                }
+                for a in ["margin", "gap"] {
+                    if (tag == "geom" || tag == "joint") && attr(a).is_some_and(|v| nonzero(&v)) {
+                        note(format!("{a} (on <{tag}>): contacts start at touch"));
+                    }
+                }
+                if tag == "joint" {
+                    for (a, why) in [
+                        ("stiffness", "joint springs are not simulated"),
+                        ("frictionloss", "joint dry friction is not simulated"),
+                        ("springdamper", "joint springs are not simulated"),
+                    ] {
+                        if attr(a).is_some_and(|v| nonzero(&v)) {
+                            note(format!("joint {a}: {why}"));
+                        }
+                    }
+                }
+                if tag == "body" && attr("gravcomp").is_some() {
+                    note("body gravcomp: gravity compensation is not simulated".into());
+                }
+                found.insert(tag.clone());
+                stack.push(tag);
+            }
+            Ok(XmlEvent::EndElement { .. }) => {
+                stack.pop();
+            }
+            Ok(_) => {}
+            Err(e) => return Err(format!("file_path is not well-formed XML: {e}")),
+        }
+    }
+    if first {
+        return Err("file_path is not an MJCF model: it has no root element".into());
+    }
+    for (tag, why) in [
+        ("actuator", "<actuator>: actuators are not simulated; drive joints with set_joint_motor_control"),
+        ("tendon", "<tendon>: fixed tendons are not simulated"),
+        ("equality", "<equality>: equality constraints are not simulated"),
+        ("sensor", "<sensor>: sensors are not simulated; read state with the sensing tools"),
+        ("pair", "<contact><pair>: explicit contact pairs are not applied"),
+    ] {
+        if found.contains(tag) {
+            note(why.into());
+        }
+    }
+    Ok(notes)
+}
+
+/// Prepares the model the event's blob holds (the check and the fold share it).
+pub fn prepare_blob(mjcf: &Blob, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
+    if !mjcf.is_loaded() {
+        return Err("the MJCF text is missing from the event".into());
+    }
+    let text = std::str::from_utf8(&mjcf.bytes).map_err(|_| "file_path is not an MJCF model: it is not UTF-8 text".to_string())?;
+    prepare(text, keyframe)
+}
+
+/// Parses, checks and converts MJCF text (includes already spliced).
+pub fn prepare(xml: &str, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
+    let mut ignored = scan(xml)?;
+    // The base directory is never read: includes are spliced and meshes are refused.
+    let base = Path::new("/nonexistent-physics-mcp-mjcf-base");
+    let model = Model::from_str(xml, base).map_err(|e| {
+        let msg = e.to_string();
+        let first = msg.lines().next().unwrap_or("").trim().to_string();
+        format!("file_path is not a valid MJCF model: {first}")
+    })?;
+    ignored.insert(
+        0,
+        format!(
+            "<option timestep=\"{}\" gravity=\"{} {} {}\">: the simulation's own timestep and gravity apply",
+            model.option.timestep, model.option.gravity[0], model.option.gravity[1], model.option.gravity[2]
+        ),
+    );
+    let body_name = |id: usize| model.bodies[id].body.name.clone().unwrap_or_else(|| format!("#{id}"));
+    let mut top_level = 0usize;
+    let mut free_root = false;
+    for (id, entry) in model.bodies_iter() {
+        if entry.parent == Some(0) {
+            top_level += 1;
+        }
+        for j in &entry.body.joints {
+            let jname = j.name.clone().unwrap_or_else(|| format!("of body {}", body_name(id)));
+            match j.type_ {
+                JointType::Ball => return Err(format!("joint {jname} is a ball joint, which is not supported (hinge and slide joints are)")),
+                JointType::Free => {
+                    if entry.parent != Some(0) || entry.body.joints.len() != 1 {
+                        return Err(format!(
+                            "joint {jname} is a free joint below the top level or beside other joints; only a top-level body's sole joint may be free"
+                        ));
+                    }
+                    free_root = true;
+                }
+                JointType::Hinge | JointType::Slide => {
+                    let a = j.axis;
+                    if !(a.iter().all(|x| x.is_finite()) && a.iter().map(|x| x * x).sum::<f64>() > 1e-18) {
+                        return Err(format!("joint {jname} has a zero or invalid axis"));
+                    }
+                }
+            }
+        }
+        if entry.body.mocap {
+            return Err(format!("body {} is a mocap body, which is not supported", body_name(id)));
+        }
+    }
+    if free_root && top_level != 1 {
+        return Err("a free joint is supported only on the single top-level body (the model's free base)".into());
+    }
+    for (id, entry) in model.bodies.iter().enumerate() {
+        for (gi, g) in entry.body.geoms.iter().enumerate() {
+            let gname = g.name.clone().unwrap_or_else(|| format!("#{gi} of body {}", if id == 0 { "world".into() } else { body_name(id) }));
+            match g.type_ {
+                GeomType::Mesh => return Err(format!("geom {gname} is a mesh geom: meshes are not supported by load_mjcf yet")),
+                GeomType::Hfield => return Err(format!("geom {gname} is a height field, which is not supported")),
+                GeomType::Sdf => return Err(format!("geom {gname} is an SDF geom, which is not supported")),
+                _ => {}
+            }
+            if g.condim != 3 {
+                let s = format!("condim=\"{}\": contacts use rapier's friction cone (condim 3)", g.condim);
+                if !ignored.contains(&s) {
+                    ignored.push(s);
+                }
+            }
+        }
+    }
+    for e in &model.contact.excludes {
+        for name in [&e.body1, &e.body2] {
+            if name != "world" && model.body_id_by_name(name).is_none() {
+                return Err(format!("<exclude> names body {name}, which is not in the model"));
+            }
+        }
+    }
+    let options = MjcfLoaderOptions {
+        disable_joint_motors: true,
+        contact_filter_mode: ContactFilterMode::Asymmetric,
+        ..MjcfLoaderOptions::default()
+    };
+    let robot = MjcfRobot::from_model(&model, options, base);
+    // A geom the crate could not build would be a silently missing collider: refuse instead.
+    for b in robot.bodies.iter().filter(|b| !b.is_intermediate) {
+        let entry = &model.bodies[b.mjcf_body_id];
+        let wanted = entry
+            .body
+            .geoms
+            .iter()
+            .filter(|g| g.type_ != GeomType::Plane && !(g.contype == 0 && g.conaffinity == 0))
+            .count();
+        if b.colliders.len() != wanted {
+            let who = if b.mjcf_body_id == 0 { "the worldbody".to_string() } else { format!("body {}", body_name(b.mjcf_body_id)) };
+            return Err(format!("a geom of {who} could not be built (check its type and size)"));
+        }
+    }
+    let keyframe_qpos = match keyframe {
+        None => None,
+        Some(name) => {
+            let key = model
+                .keyframes
+                .iter()
+                .find(|k| k.name.as_deref() == Some(name))
+                .ok_or_else(|| format!("keyframe {name} is not a <key> of this model"))?;
+            Some(key.qpos.clone())
+        }
+    };
+    Ok(Prepared { model, robot, ignored, keyframe_qpos })
+}
+
+fn rel(from: &Pose, to: &Pose) -> Pose {
+    from.inverse() * *to
+}
+
+/// Our collider settings on a crate collider: MuJoCo's contype/conaffinity rule (either
+/// direction), no crate hooks, MuJoCo's max friction combination.
+fn adapt_collider(c: &mut Collider) {
+    let mut g = c.collision_groups();
+    g.test_mode = InteractionTestMode::Or;
+    c.set_collision_groups(g);
+    c.set_active_hooks(ActiveHooks::empty());
+    c.set_friction_combine_rule(CoefficientCombineRule::Max);
+    c.set_restitution(0.0);
+}
+
+/// Stand-ins for MJCF planes (the crate skips them): a thin box whose top face is the plane.
+fn plane_colliders(model: &Model, mjcf_body: usize) -> Vec<Collider> {
+    model.bodies[mjcf_body]
+        .body
+        .geoms
+        .iter()
+        .filter(|g| g.type_ == GeomType::Plane && !(g.contype == 0 && g.conaffinity == 0))
+        .map(|g| {
+            let half = |s: f64| if s > 0.0 { s as f32 } else { PLANE_INFINITE_HALF_EXTENT };
+            let pose: Pose = g.pose.into();
+            let down = Pose::from_translation(Vector::new(0.0, 0.0, -PLANE_HALF_THICKNESS));
+            let groups = InteractionGroups::new(
+                Group::from_bits_retain(g.contype),
+                Group::from_bits_retain(g.conaffinity),
+                InteractionTestMode::Or,
+            );
+            ColliderBuilder::cuboid(half(g.size[0]), half(g.size[1]), PLANE_HALF_THICKNESS)
+                .position(pose * down)
+                .density(0.0)
+                .friction(g.friction[0] as f32)
+                .friction_combine_rule(CoefficientCombineRule::Max)
+                .restitution(0.0)
+                .collision_groups(groups)
+                .build()
+        })
+        .collect()
+}
+
+/// A body's "additional" mass properties as the crate set them (zero for spacers).
+fn body_mprops(b: &RigidBody) -> MassProperties {
+    match b.mass_properties().additional_local_mprops.as_deref() {
+        Some(RigidBodyAdditionalMassProps::MassProps(mp)) => *mp,
+        _ => MassProperties::default(),
+    }
+}
+
+impl World {
+    /// Inserts a prepared MJCF model with its frame at `pose`; returns load_mjcf's result.
+    pub(super) fn insert_mjcf(
+        &mut self,
+        prepared: Prepared,
+        file_path: &str,
+        blob: &Blob,
+        pose: Pose,
+        fixed_base: bool,
+        keyframe: Option<&str>,
+    ) -> MjcfLoaded {
+        let Prepared { model, robot, ignored, keyframe_qpos } = prepared;
+        let MjcfRobot { bodies: mut mbodies, joints: mjoints, qpos_dofs, .. } = robot;
+        let n = mbodies.len();
+        let world_pose: Vec<Pose> = mbodies.iter().map(|b| *b.body.position()).collect();
+        // The free root, if the model's single top-level body has a free joint.
+        let free_root = (1..n).find(|i| {
+            let e = &model.bodies[mbodies[*i].mjcf_body_id];
+            !mbodies[*i].is_intermediate && e.body.joints.iter().any(|j| j.type_ == JointType::Free)
+        });
+        let base = free_root.unwrap_or(0);
+        // Which crate body each one is merged into (itself when it is kept).
+        let mut owner: Vec<usize> = (0..n).collect();
+        let fixed_joint = |j: &rapier3d_mjcf::MjcfJoint| j.name.is_none() && j.joint.locked_axes == JointAxesMask::LOCKED_FIXED_AXES;
+        for j in mjoints.iter().filter(|j| fixed_joint(j)) {
+            owner[j.link2] = owner[j.link1];
+        }
+        for i in 1..n {
+            let e = &model.bodies[mbodies[i].mjcf_body_id];
+            if !mbodies[i].is_intermediate && e.parent == Some(0) && e.body.joints.is_empty() {
+                owner[i] = 0;
+            }
+        }
+        // Planes (the crate skips them) join their body's colliders.
+        for b in mbodies.iter_mut() {
+            if !b.is_intermediate {
+                b.colliders.extend(plane_colliders(&model, b.mjcf_body_id));
+            }
+        }
+        // Merge colliders and mass into owners.
+        let mut mass: Vec<MassProperties> = mbodies.iter().map(|b| body_mprops(&b.body)).collect();
+        let mut colliders: Vec<Vec<Collider>> = mbodies.iter_mut().map(|b| std::mem::take(&mut b.colliders)).collect();
+        for i in 1..n {
+            let o = owner[i];
+            if o == i {
+                continue;
+            }
+            let r = rel(&world_pose[o], &world_pose[i]);
+            let moved: Vec<Collider> = std::mem::take(&mut colliders[i])
+                .into_iter()
+                .map(|mut c| {
+                    let p = r * *c.position();
+                    c.set_position(p);
+                    c
+                })
+                .collect();
+            colliders[o].extend(moved);
+            let m = mass[i].transform_by(&r);
+            mass[o] += m;
+            mass[i] = MassProperties::default();
+        }
+        // The hinge/slide joints in file order: our links.
+        let mut ref_of: BTreeMap<usize, f32> = BTreeMap::new();
+        for d in &qpos_dofs {
+            if let Some(j) = d.joint {
+                ref_of.insert(j, d.reference);
+            }
+        }
+        let dof_joints: Vec<usize> = (0..mjoints.len()).filter(|j| !fixed_joint(&mjoints[*j])).collect();
+        let mut link_of_body: BTreeMap<usize, i32> = BTreeMap::new();
+        link_of_body.insert(base, -1);
+        if base != 0 {
+            // With a free base the worldbody is not part of the robot's chain.
+        } else {
+            link_of_body.insert(0, -1);
+        }
+        for (li, j) in dof_joints.iter().enumerate() {
+            link_of_body.insert(mjoints[*j].link2, li as i32);
+        }
+        // Insert the bodies: base, then (free base only) the worldbody's geoms, then links.
+        let place = |p: &Pose| pose * *p;
+        let mut handle_of: BTreeMap<usize, RigidBodyHandle> = BTreeMap::new();
+        let mut colliders_of: BTreeMap<usize, Vec<ColliderHandle>> = BTreeMap::new();
+        let order: Vec<usize> = std::iter::once(base).chain(dof_joints.iter().map(|j| mjoints[*j].link2)).collect();
+        for &i in &order {
+            let ty = if i == 0 || (i == base && fixed_base) { RigidBodyType::Fixed } else { RigidBodyType::Dynamic };
+            let mut rb = RigidBodyBuilder::new(ty).can_sleep(false).pose(place(&world_pose[i])).linear_damping(0.0).angular_damping(0.0);
+            if mass[i].mass() > 0.0 {
+                rb = rb.additional_mass_properties(mass[i]);
+            }
+            let h = self.physics.insert_body(rb);
+            let mut cs = Vec::new();
+            for mut c in std::mem::take(&mut colliders[i]) {
+                adapt_collider(&mut c);
+                cs.push(self.physics.insert_collider(c, Some(h)));
+            }
+            let set = &self.physics.colliders;
+            if let Some(b) = self.physics.bodies.get_mut(h) {
+                b.recompute_mass_properties_from_colliders(set);
+            }
+            handle_of.insert(i, h);
+            colliders_of.insert(i, cs);
+        }
+        let mut world_body = None;
+        let mut world_colliders = Vec::new();
+        if base != 0 && !colliders[0].is_empty() {
+            let h = self.physics.insert_body(RigidBodyBuilder::fixed().pose(place(&world_pose[0])));
+            for mut c in std::mem::take(&mut colliders[0]) {
+                adapt_collider(&mut c);
+                world_colliders.push(self.physics.insert_collider(c, Some(h)));
+            }
+            world_body = Some(h);
+        }
+        // `<exclude>` pairs by the rapier bodies that carry them; their colliders ask the filter.
+        let body_of = |name: &str| -> Option<RigidBodyHandle> {
+            let mjcf_id = if name == "world" { 0 } else { model.body_id_by_name(name)? };
+            let idx = (0..n).find(|i| !mbodies[*i].is_intermediate && mbodies[*i].mjcf_body_id == mjcf_id)?;
+            let o = owner[idx];
+            handle_of.get(&o).copied().or(if o == 0 { world_body } else { None })
+        };
+        let mut excluded = Vec::new();
+        for e in &model.contact.excludes {
+            if let (Some(a), Some(b)) = (body_of(&e.body1), body_of(&e.body2)) {
+                if a != b {
+                    excluded.push((a, b));
+                }
+            }
+        }
+        for h in excluded.iter().flat_map(|(a, b)| [*a, *b]) {
+            let cs: Vec<ColliderHandle> = self.physics.bodies.get(h).map(|b| b.colliders().to_vec()).unwrap_or_default();
+            for ch in cs {
+                if let Some(c) = self.physics.colliders.get_mut(ch) {
+                    c.set_active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS);
+                }
+            }
+        }
+        // Joints: the crate's frames, re-parented past merged bodies, `ref` folded in.
+        let mut links: Vec<RobotLink> = Vec::new();
+        let mut link_masses = Vec::new();
+        let mut armatures = Vec::new();
+        for (li, &ji) in dof_joints.iter().enumerate() {
+            let mj = &mjoints[ji];
+            let parent_body = owner[mj.link1];
+            let child_body = mj.link2;
+            let mut joint = mj.joint;
+            let r = rel(&world_pose[parent_body], &world_pose[mj.link1]);
+            let reference = ref_of.get(&ji).copied().unwrap_or(0.0);
+            let is_slide = joint.locked_axes == JointAxesMask::LOCKED_PRISMATIC_AXES;
+            let axis = if is_slide { JointAxis::LinX } else { JointAxis::AngX };
+            let shift = if is_slide {
+                Pose::from_translation(Vector::new(-reference, 0.0, 0.0))
+            } else {
+                Pose::from_rotation(Rotation::from_rotation_x(-reference))
+            };
+            joint.set_local_frame1(r * joint.local_frame1 * shift);
+            let limits = joint.limits(axis).map(|l| [l.min + reference, l.max + reference]);
+            if let Some(l) = limits {
+                joint.set_limits(axis, l);
+            }
+            joint.motor_axes = JointAxesMask::empty();
+            // MuJoCo excludes contacts between a body and its parent, except the worldbody.
+            joint.contacts_enabled = parent_body == 0;
+            let (Some(&ph), Some(&ch)) = (handle_of.get(&parent_body), handle_of.get(&child_body)) else { continue };
+            self.physics.multibody_joints.insert(ph, ch, joint, true);
+            let mjcf_joint = find_joint(&model, mbodies[child_body].mjcf_body_id, mj.name.as_deref());
+            let axis_body = mjcf_joint.map_or([1.0, 0.0, 0.0], |j| {
+                let a = rapier3d::glamx::DVec3::from_array(j.axis).normalize();
+                a.to_array()
+            });
+            let kind = match (is_slide, limits.is_some()) {
+                (true, _) => JointKind::Prismatic,
+                (false, true) => JointKind::Revolute,
+                (false, false) => JointKind::Continuous,
+            };
+            let origin = rel(&world_pose[parent_body], &world_pose[child_body]);
+            let (lower, upper) = limits.map_or((0.0, -1.0), |l| (l[0] as f64, l[1] as f64));
+            let parent = link_of_body.get(&parent_body).copied().unwrap_or(-1);
+            let name = mj.name.clone().unwrap_or_default();
+            let entry = &model.bodies[mbodies[child_body].mjcf_body_id];
+            links.push(RobotLink {
+                name: entry.body.name.clone().unwrap_or_default(),
+                body: ch,
+                colliders: colliders_of.get(&child_body).cloned().unwrap_or_default(),
+                joint: JointSpec {
+                    name,
+                    kind,
+                    parent,
+                    origin_pos: origin.translation.to_array().map(|x| x as f64),
+                    origin_rot: origin.rotation.to_array().map(|x| x as f64),
+                    axis: axis_body,
+                    lower,
+                    upper,
+                    effort: 0.0,
+                    velocity: 0.0,
+                    damping: mj.damping_per_dof as f64,
+                },
+                motor: None,
+                motor_torque: 0.0,
+                color: None,
+                extras: DynamicsExtras::default(),
+            });
+            link_masses.push((li as u32, mass[child_body].mass()));
+            armatures.push(mj.armature_per_dof);
+        }
+        self.configure_mjcf_multibody(&links, &armatures);
+        // Bodies → links (a merged body shares its owner's link).
+        let mut body_links = Vec::new();
+        for (i, b) in mbodies.iter().enumerate().skip(1) {
+            if b.is_intermediate {
+                continue;
+            }
+            let link = link_of_body.get(&owner[i]).copied().unwrap_or(-1);
+            body_links.push(MjcfBodyLink { name: model.bodies[b.mjcf_body_id].body.name.clone().unwrap_or_default(), link_index: link });
+        }
+        let base_body = handle_of[&base];
+        let base_entry = &model.bodies[mbodies[base].mjcf_body_id];
+        let robot = Robot {
+            file_path: file_path.to_string(),
+            urdf_hash: blob.hash.clone(),
+            mesh_hashes: BTreeMap::new(),
+            name: model.name.clone().unwrap_or_default(),
+            fixed_base,
+            base_name: if base == 0 { "world".into() } else { base_entry.body.name.clone().unwrap_or_default() },
+            base_colliders: colliders_of.get(&base).cloned().unwrap_or_default(),
+            links,
+        };
+        let num_joints = robot.links.len();
+        let id = self.tables.next_object_id;
+        self.tables.next_object_id += 1;
+        for (link, m) in link_masses.into_iter().filter(|(_, m)| *m > 0.0) {
+            self.tables.as_given.link_masses.insert((id, link), m);
+        }
+        let info = MjcfInfo {
+            keyframe: keyframe.map(str::to_string),
+            bodies: body_links.clone(),
+            ignored: ignored.clone(),
+            world_body,
+            world_colliders,
+            excluded,
+        };
+        self.tables.objects.insert(
+            id,
+            Object {
+                body: base_body,
+                collider: colliders_of.get(&base).and_then(|c| c.first().copied()).unwrap_or_else(ColliderHandle::invalid),
+                kind: ObjectKind::Mjcf { robot: Box::new(robot), mjcf: Box::new(info) },
+                color: None,
+                mass: if base == 0 { 0.0 } else { mass[base].mass() },
+                extras: DynamicsExtras::default(),
+            },
+        );
+        // qpos0: each joint at its `ref` (the bodies were placed at the file's pose, which is
+        // coordinate `ref` now that `ref` is folded into the joint frames).
+        for (li, &ji) in dof_joints.iter().enumerate() {
+            let reference = ref_of.get(&ji).copied().unwrap_or(0.0);
+            if reference != 0.0 {
+                self.reset_joint(id, li as u32, reference, 0.0);
+            }
+        }
+        if let Some(qpos) = keyframe_qpos {
+            self.apply_mjcf_qpos(id, pose, &qpos_dofs, &qpos);
+        }
+        MjcfLoaded {
+            object_id: id,
+            file_path: file_path.to_string(),
+            position: r32s(pose.translation.to_array()),
+            num_joints,
+            bodies: body_links,
+            ignored,
+        }
+    }
+
+    /// Damping per DoF from the joints, armature on the mass diagonal, self-contacts on (MuJoCo
+    /// collides a model's non-adjacent bodies; contype/conaffinity filter them).
+    fn configure_mjcf_multibody(&mut self, links: &[RobotLink], armatures: &[f32]) {
+        let mbs = &mut self.physics.multibody_joints;
+        let mut seen = BTreeSet::new();
+        for (l, armature) in links.iter().zip(armatures) {
+            let Some(id) = mbs.rigid_body_link(l.body).copied() else { continue };
+            let Some(mb) = mbs.get_multibody_mut(id.multibody) else { continue };
+            if seen.insert(format!("{:?}", id.multibody)) {
+                mb.damping_mut().fill(0.0);
+                mb.set_self_contacts_enabled(true);
+            }
+            let Some(link) = mb.link(id.id) else { continue };
+            let (start, n) = (link.assembly_id(), link.joint().ndofs());
+            if n > 0 {
+                mb.damping_mut().rows_mut(start, n).fill(l.joint.damping as f32);
+                if *armature > 0.0 {
+                    mb.armature_mut().rows_mut(start, n).fill(*armature);
+                }
+            }
+        }
+    }
+
+    /// Sets the joints from a keyframe's qpos (MuJoCo's layout: a free joint's position and
+    /// [w, x, y, z] quaternion, then one value per hinge/slide). A free root goes to the
+    /// keyframe's pose within the load frame `pose`.
+    fn apply_mjcf_qpos(&mut self, id: u32, pose: Pose, dofs: &[rapier3d_mjcf::MjcfQposDof], qpos: &[f64]) {
+        let mut at = 0usize;
+        let mut joint = 0u32;
+        for d in dofs {
+            let w = d.kind.qpos_width();
+            match d.kind {
+                rapier3d_mjcf::MjcfDofKind::Hinge | rapier3d_mjcf::MjcfDofKind::Slide => {
+                    if let Some(q) = qpos.get(at) {
+                        self.reset_joint(id, joint, *q as f32, 0.0);
+                    }
+                    joint += 1;
+                }
+                rapier3d_mjcf::MjcfDofKind::Free => {
+                    if let (Some(q), Some(base)) = (qpos.get(at..at + 7), self.tables.objects.get(&id).map(|o| o.body)) {
+                        let rot = Rotation::from_xyzw(q[4] as f32, q[5] as f32, q[6] as f32, q[3] as f32);
+                        if rot.length() > 0.0 {
+                            let local = Pose::from_parts(Vector::new(q[0] as f32, q[1] as f32, q[2] as f32), rot.normalize());
+                            self.set_robot_pose(base, pose * local);
+                        }
+                    }
+                }
+                _ => {}
+            }
+            at += w;
+        }
+    }
+}
+
+fn find_joint<'a>(model: &'a Model, body: usize, name: Option<&str>) -> Option<&'a rapier3d_mjcf::mjcf_rs::body::Joint> {
+    let joints = &model.bodies.get(body)?.body.joints;
+    match name {
+        Some(n) => joints.iter().find(|j| j.name.as_deref() == Some(n)),
+        None => joints.iter().find(|j| j.name.is_none()),
+    }
+}

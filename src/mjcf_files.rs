@@ -1,0 +1,103 @@
+//! The adapter side of MJCF models: reading the main file and its `<include>`s from the
+//! workspace (the world never reads files). Includes are spliced at XML level — each
+//! `<include file=…/>` element is replaced by the children of the included file's `<mujoco>`
+//! root, as MuJoCo does — so the event carries one self-contained MJCF text. Include paths
+//! resolve relative to the main file's folder (MuJoCo's rule) and go through the sandbox.
+
+use std::path::{Path, PathBuf};
+
+use crate::command::{Blob, Command};
+use crate::mcp::params;
+use crate::urdf_files::MAX_URDF_BYTES;
+use crate::value::{self, Refusal};
+use crate::workspace::Sandbox;
+
+/// Most nested include levels followed (a cycle is refused before this).
+const MAX_INCLUDE_DEPTH: usize = 16;
+
+fn read_text(path: &Path, shown: &str, budget: &mut u64) -> Result<String, Refusal> {
+    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(u64::MAX);
+    if size > *budget {
+        return Err(format!("{shown} is {size} bytes; the MJCF limit is {MAX_URDF_BYTES} bytes with its includes"));
+    }
+    let bytes = std::fs::read(path).map_err(|e| format!("could not read {shown}: {e}"))?;
+    *budget -= bytes.len() as u64;
+    String::from_utf8(bytes).map_err(|_| format!("{shown} is not an MJCF model: it is not UTF-8 text"))
+}
+
+/// The text with every `<include>` replaced by the included file's content, recursively.
+fn splice(sandbox: &Sandbox, text: &str, shown: &str, dir: &Path, chain: &mut Vec<PathBuf>, budget: &mut u64) -> Result<String, Refusal> {
+    let doc = roxmltree::Document::parse(text).map_err(|e| format!("{shown} is not well-formed XML: {e}"))?;
+    let includes: Vec<(std::ops::Range<usize>, String)> = doc
+        .descendants()
+        .filter(|n| n.is_element() && n.tag_name().name() == "include")
+        .map(|n| (n.range(), n.attribute("file").unwrap_or("").to_string()))
+        .collect();
+    if includes.is_empty() {
+        return Ok(text.to_string());
+    }
+    if chain.len() > MAX_INCLUDE_DEPTH {
+        return Err(format!("{shown}: includes nest deeper than {MAX_INCLUDE_DEPTH} levels"));
+    }
+    let mut out = String::with_capacity(text.len());
+    let mut at = 0;
+    for (range, file) in includes {
+        if file.is_empty() {
+            return Err(format!("{shown} has an <include> without a file attribute"));
+        }
+        let candidate = dir.join(&file);
+        let path = sandbox
+            .existing(&candidate.display().to_string())
+            .map_err(|why| format!("include {file} of {shown} cannot be read: {why}"))?;
+        if chain.contains(&path) {
+            return Err(format!("include {file} of {shown} includes itself (a cycle)"));
+        }
+        let inner_text = read_text(&path, &format!("include {file}"), budget)?;
+        chain.push(path.clone());
+        let inner = splice(sandbox, &inner_text, &format!("include {file}"), dir, chain, budget)?;
+        chain.pop();
+        let inner_doc = roxmltree::Document::parse(&inner).map_err(|e| format!("include {file} is not well-formed XML: {e}"))?;
+        let root = inner_doc.root_element();
+        if root.tag_name().name() != "mujoco" {
+            return Err(format!("include {file} is not an MJCF file: its root element is <{}>, not <mujoco>", root.tag_name().name()));
+        }
+        let children: Vec<roxmltree::Node> = root.children().collect();
+        let body = match (children.first(), children.last()) {
+            (Some(a), Some(b)) => &inner[a.range().start..b.range().end],
+            _ => "",
+        };
+        out.push_str(&text[at..range.start]);
+        out.push_str(body);
+        at = range.end;
+    }
+    out.push_str(&text[at..]);
+    Ok(out)
+}
+
+/// Builds load_mjcf's command from its arguments (as a loaded file's object entry gives them).
+pub fn decide_load_mjcf(sandbox: &Sandbox, a: &value::Args) -> Result<Command, Refusal> {
+    load_mjcf_command(sandbox, &params::parse("load_mjcf", a)?)
+}
+
+/// Builds load_mjcf's command: the MJCF text, its includes spliced in, travels in it.
+pub fn load_mjcf_command(sandbox: &Sandbox, p: &params::LoadMjcf) -> Result<Command, Refusal> {
+    let user = p.file_path.0.clone();
+    let position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
+    let orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
+    let fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
+    let keyframe = p.keyframe.as_ref().map(|k| k.0.clone());
+    let path = sandbox.existing(&user)?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| sandbox.workspace.clone());
+    let mut budget = MAX_URDF_BYTES;
+    let text = read_text(&path, &format!("file_path {user}"), &mut budget)?;
+    let mut chain = vec![path];
+    let spliced = splice(sandbox, &text, &format!("file_path {user}"), &dir, &mut chain, &mut budget)?;
+    Ok(Command::LoadMjcf {
+        file_path: user,
+        mjcf: Blob::new(spliced.into_bytes()),
+        position,
+        orientation,
+        fixed_base,
+        keyframe,
+    })
+}
