@@ -32,15 +32,8 @@ STATELESS_SCENARIOS=(
 
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/physics-mcp-conformance.XXXXXX")
 prefix="${CONFORMANCE_DIR:-$scratch/npm}"
-server_pid=""
-cleanup() {
-  if [[ -n "$server_pid" ]]; then
-    kill "$server_pid" 2>/dev/null || true
-    wait "$server_pid" 2>/dev/null || true
-  fi
-  rm -rf "$scratch"
-}
-trap cleanup EXIT
+who=conformance
+source scripts/lib/server.sh
 
 mkdir -p "$prefix"
 if [[ ! -x "$prefix/node_modules/.bin/conformance" ]] \
@@ -53,24 +46,7 @@ fi
 export PATH="$prefix/node_modules/.bin:$PATH"
 echo "conformance: node $(node --version), suite $(conformance --version)" >&2
 
-bin="${PHYSICS_MCP_BIN:-}"
-if [[ -z "$bin" ]]; then
-  cargo build --release --locked --bin physics-mcp >&2
-  bin="${CARGO_TARGET_DIR:-target}/release/physics-mcp"
-fi
-
-# Port 0: the server picks a free port and prints it (the log exists before it starts).
-: >"$scratch/server.log"
-"$bin" serve --bind 127.0.0.1:0 --data "$scratch/data" --workspace "$scratch/workspace" 2>"$scratch/server.log" &
-server_pid=$!
-url=""
-for _ in $(seq 1 600); do
-  url=$(sed -n 's/^physics-mcp listening on \(http[^ ]*\).*/\1/p' "$scratch/server.log" | head -n1)
-  [[ -n "$url" ]] && break
-  kill -0 "$server_pid" 2>/dev/null || { cat "$scratch/server.log" >&2; echo "conformance: the server did not start" >&2; exit 1; }
-  sleep 0.1
-done
-[[ -n "$url" ]] || { echo "conformance: the server did not print its address" >&2; exit 1; }
+start_server
 echo "conformance: server at $url" >&2
 
 failed=()

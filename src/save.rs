@@ -150,9 +150,7 @@ pub fn readable(world: &World) -> Readable {
                     "file_path": robot.file_path,
                     "use_fixed_base": robot.fixed_base,
                     "num_joints": robot.links.len(),
-                    "joint_positions": (0..robot.links.len())
-                        .filter_map(|i| world.joint_state(id, i).map(|j| j.joint_position))
-                        .collect::<Vec<_>>(),
+                    "joint_positions": joint_positions(world, id, robot.links.len()),
                 }),
                 ObjectKind::Mjcf { robot, mjcf } => json!({
                     "object_id": id,
@@ -161,9 +159,7 @@ pub fn readable(world: &World) -> Readable {
                     "use_fixed_base": robot.fixed_base,
                     "keyframe": mjcf.keyframe,
                     "num_joints": robot.links.len(),
-                    "joint_positions": (0..robot.links.len())
-                        .filter_map(|i| world.joint_state(id, i).map(|j| j.joint_position))
-                        .collect::<Vec<_>>(),
+                    "joint_positions": joint_positions(world, id, robot.links.len()),
                 }),
             };
             let fields = json!({
@@ -582,4 +578,9 @@ fn constraint_from_readable(
             child_frame_orientation: q("child_frame_orientation")?,
         },
     })
+}
+
+/// A robot's joint positions as saved (URDF and MJCF alike): what a reader re-sets them to.
+fn joint_positions(world: &World, id: u32, joints: usize) -> Vec<f64> {
+    (0..joints).filter_map(|i| world.joint_state(id, i).map(|j| j.joint_position)).collect()
 }
