@@ -390,12 +390,35 @@ impl Sim {
         args: &Args,
         f: impl FnOnce(&Sim) -> Result<T, Refusal>,
     ) -> Result<T, Refusal> {
+        self.read_within(tool, args, usize::MAX, f)
+    }
+
+    /// `read`, refusing an answer whose reply could not fit `budget` bytes
+    /// (`--max-reply-bytes`): the refusal is logged as refused, as any other, rather than
+    /// the read being logged as answered and the reply dropped later.
+    pub fn read_within<T: Serialize>(
+        &mut self,
+        tool: &str,
+        args: &Args,
+        budget: usize,
+        f: impl FnOnce(&Sim) -> Result<T, Refusal>,
+    ) -> Result<T, Refusal> {
         self.ensure_live()?;
         match f(self) {
             Ok(out) => {
                 // Hashed as a JSON value (sorted keys), like every recorded result, so replay
                 // can recompute it from `reads.rs`.
-                let json = serde_json::to_value(&out).map(|v| v.to_string()).unwrap_or_default();
+                let value = serde_json::to_value(&out).unwrap_or_default();
+                let json = value.to_string();
+                // The exact reply size (text copy or its summary included) only when the
+                // answer is anywhere near the budget: most reads are a few hundred bytes.
+                if json.len().saturating_mul(3).saturating_add(8192) > budget {
+                    let bytes = crate::mcp::reply::reply_bytes(tool, value);
+                    if bytes > budget {
+                        let why = crate::mcp::reply::over_budget(tool, bytes as u64, budget);
+                        return Err(self.refuse(tool, args, why));
+                    }
+                }
                 let mut e = self.event(Kind::Read, tool, args);
                 e.result_hash = Some(crate::digest::result_hash(&json));
                 e.state_hash = self.state_hash.clone();

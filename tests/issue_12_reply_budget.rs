@@ -338,6 +338,12 @@ async fn a_small_budget_refuses_after_the_work_and_truncates_history() {
     fits_or_says("get_all_collisions", &r, budget, &["get_collisions_for_pair"]);
     let why = r.outcome().expect_err("hundreds of contacts cannot fit 20,000 bytes");
     assert!(why.contains("over the reply budget of 20000 bytes"), "{why}");
+    // Logged as refused (not as answered with a reply that never went out).
+    let tail = c.call("get_history", json!({"sim_id": s, "limit": 1})).await;
+    let last = tail.outcome().unwrap()["last_seq"].as_u64().unwrap();
+    let page = c.call("get_history", json!({"sim_id": s, "since_seq": last - 1, "limit": 1})).await;
+    let event = page.outcome().unwrap()["events"][0].clone();
+    assert_eq!((event["tool"].as_str(), event["kind"].as_str()), (Some("get_all_collisions"), Some("refused")), "{event}");
     // A ray batch whose bound is over budget is refused before casting.
     let (from, to) = rays(100);
     let r = c.call("ray_test_batch", json!({"sim_id": s, "rays_from": from, "rays_to": to})).await;

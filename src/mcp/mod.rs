@@ -23,7 +23,7 @@ mod objects;
 pub mod params;
 mod persistence;
 mod prompts;
-mod reply;
+pub(crate) mod reply;
 mod resources;
 mod robots;
 mod schema;
@@ -224,6 +224,17 @@ impl PhysicsServer {
         self.change_with(tool, args, decide, |_| true).await
     }
 
+    /// The reply budget a read's answer is held to where it is computed (so a refusal is
+    /// logged as one): `--max-reply-bytes`, or none when the answer goes to `output_path`
+    /// and the reply is only its summary.
+    fn read_budget(&self, args: &Args) -> usize {
+        if args.get("output_path").is_some_and(|p| !p.is_null()) {
+            usize::MAX
+        } else {
+            self.reg.limits().max_reply_bytes
+        }
+    }
+
     /// A read-only call that may take long (history pages, verification): always on the
     /// blocking pool. The arguments are parsed as `P`; a refusal is recorded.
     async fn read_blocking<P: Params, T: Serialize + Send + 'static>(
@@ -232,7 +243,8 @@ impl PhysicsServer {
         args: Args,
         f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
-        self.with_sim(args, move |sim, a, _| sim.read(tool, a, |s| f(s, params::parse::<P>(tool, a)?)))
+        let budget = self.read_budget(&args);
+        self.with_sim(args, move |sim, a, _| sim.read_within(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?)))
             .await
             .map(Json)
     }
@@ -249,7 +261,8 @@ impl PhysicsServer {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
         if let Ok(mut guard) = sim.try_lock() {
-            return guard.read(tool, &args, |s| f(s, params::parse::<P>(tool, &args)?)).map(Json);
+            let budget = self.read_budget(&args);
+            return guard.read_within(tool, &args, budget, |s| f(s, params::parse::<P>(tool, &args)?)).map(Json);
         }
         self.read_blocking(tool, args, f).await
     }
