@@ -166,3 +166,26 @@ async fn prompts_are_listed_and_the_drop_test_numbers_hold() {
         assert!((z - want).abs() < 0.01, "object {id} rests at {z}, the prompt says {want}");
     }
 }
+
+/// sim://{id}/history is held to the reply budget like a tool reply: under a small
+/// --max-reply-bytes it carries the newest events that fit, the last one included.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_history_resource_keeps_the_newest_events_that_fit_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &["--max-reply-bytes", "20000"]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    for k in 0..200 {
+        c.call("add_sphere", json!({"sim_id": sim, "radius": 0.05, "position": [k as f64 * 0.1, 0, 1]})).await;
+    }
+    // (get_simulation_info of 200 objects is itself over this budget.)
+    let last = c.call("get_history", json!({"sim_id": sim, "limit": 1})).await["last_seq"].as_u64().unwrap() + 1;
+    let contents = read(&c, &format!("sim://{sim}/history")).await.expect("readable");
+    let (body, _) = text(&contents);
+    let reply = serde_json::to_string(body).unwrap();
+    assert!(reply.len() <= 20_000, "the text as carried is {} bytes", reply.len());
+    let seqs: Vec<u64> = body.lines().map(|l| serde_json::from_str::<Value>(l).unwrap()["seq"].as_u64().unwrap()).collect();
+    assert!(seqs.len() > 10 && seqs.len() < 200, "{} events kept", seqs.len());
+    assert_eq!(seqs.last().copied(), Some(last), "the newest event (that get_history read) is kept");
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "a contiguous tail");
+}

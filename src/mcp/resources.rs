@@ -59,7 +59,7 @@ impl Part {
     fn description(self) -> &'static str {
         match self {
             Part::Info => "The simulation's gravity, timestep, time, objects, constraints and state hash (as get_simulation_info).",
-            Part::History => "The simulation's event log, one JSON event per line (as get_history's events; the newest 10,000).",
+            Part::History => "The simulation's event log, one JSON event per line (as get_history's events; the newest 10,000 that fit the reply budget).",
             Part::Image => "A 320x240 PNG of the simulation from its viewer camera (set_camera).",
         }
     }
@@ -81,7 +81,30 @@ fn parse(uri: &str) -> Result<(&str, Part), String> {
 }
 
 /// The contents of one part of one simulation.
-fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize) -> Result<ResourceContents, Refusal> {
+/// The newest of `lines` (oldest first) whose text, as the reply carries it (a JSON string,
+/// escaped), fits `budget` bytes with room for the envelope: a resource read is held to the
+/// reply budget like a tool call, dropping the oldest events (get_history pages further back).
+fn newest_that_fit(lines: &[String], budget: usize) -> String {
+    let room = budget.saturating_sub(1024);
+    let (mut used, mut first) = (0usize, lines.len());
+    for (i, line) in lines.iter().enumerate().rev() {
+        // Escaped inside the reply's JSON string, plus the escaped newline.
+        let cost = serde_json::to_string(line).map_or(usize::MAX, |q| q.len()).saturating_sub(2).saturating_add(2);
+        if used.saturating_add(cost) > room {
+            break;
+        }
+        used += cost;
+        first = i;
+    }
+    let mut text = String::with_capacity(used);
+    for line in &lines[first..] {
+        text.push_str(line);
+        text.push('\n');
+    }
+    text
+}
+
+fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize, budget: usize) -> Result<ResourceContents, Refusal> {
     sim.ensure_live()?;
     let cx = sim.read_context();
     let text = |v: Value| ResourceContents::text(v.to_string(), uri).with_mime_type(part.mime());
@@ -92,18 +115,16 @@ fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize) -> Result<ResourceC
         }
         Part::History => {
             let mut since = sim.log().last_seq().saturating_sub(HISTORY_RESOURCE_EVENTS);
-            let mut lines = String::new();
+            let mut lines: Vec<String> = Vec::new();
             loop {
                 let page = sim.history(since, HISTORY_MAX_LIMIT)?;
                 let Some(last) = page.events.last().map(|e| e.seq) else { break };
                 for e in &page.events {
-                    let line = serde_json::to_string(e).map_err(|e| format!("Internal error: {e}"))?;
-                    lines.push_str(&line);
-                    lines.push('\n');
+                    lines.push(serde_json::to_string(e).map_err(|e| format!("Internal error: {e}"))?);
                 }
                 since = last;
             }
-            Ok(ResourceContents::text(lines, uri).with_mime_type(part.mime()))
+            Ok(ResourceContents::text(newest_that_fit(&lines, budget), uri).with_mime_type(part.mime()))
         }
         Part::Image => {
             let (w, h) = IMAGE_SIZE;
@@ -154,9 +175,9 @@ impl PhysicsServer {
         let not_found = |why: String| ErrorData::resource_not_found(why, Some(json!({"uri": uri})));
         let (id, part) = parse(&uri).map_err(not_found)?;
         let sim = self.reg.get(id).map_err(not_found)?;
-        let max_px = self.reg.limits().max_image_px;
+        let (max_px, budget) = (self.reg.limits().max_image_px, self.reg.limits().max_reply_bytes);
         let at = uri.clone();
-        let read = tokio::task::spawn_blocking(move || contents(&lock_sim(&sim), part, &at, max_px))
+        let read = tokio::task::spawn_blocking(move || contents(&lock_sim(&sim), part, &at, max_px, budget))
             .await
             .map_err(|_| ErrorData::internal_error("Internal error: the resource could not be read", None))?;
         // Live state: never fresh for longer than this reply.
