@@ -98,6 +98,19 @@ pub struct Sim {
     /// Why the world can no longer be trusted (its log failed to fold again after a failed
     /// commit): every call is then refused with `Simulation {id} is damaged: {reason}`.
     damaged: Option<String>,
+    /// Snapshot writes slower than [`stall_ms`] since the MCP layer last took them, as
+    /// sentences for logging sessions (an operator wants to know the disk is slow).
+    stalls: Vec<String>,
+}
+
+/// A snapshot (serialise, hash, commit) slower than this many milliseconds is a stall worth a
+/// `warning` to logging sessions.
+pub const STALL_MS: u64 = 1000;
+
+/// The stall threshold: [`STALL_MS`], or `PHYSICS_MCP_STALL_MS` (tests set 0 to see one).
+pub fn stall_ms() -> u64 {
+    static MS: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *MS.get_or_init(|| std::env::var("PHYSICS_MCP_STALL_MS").ok().and_then(|v| v.parse().ok()).unwrap_or(STALL_MS))
 }
 
 /// The standard "simulation damaged" sentence: its log could not be folded back, so nothing
@@ -139,6 +152,7 @@ impl Sim {
                 changes_since_snapshot,
                 destroyed: false,
                 damaged: None,
+                stalls: Vec::new(),
             }),
             Err(e) => {
                 remove_log_files(&partial);
@@ -194,6 +208,7 @@ impl Sim {
                 changes_since_snapshot: 0,
                 destroyed: false,
                 damaged: None,
+                stalls: Vec::new(),
             },
             result,
         ))
@@ -225,6 +240,7 @@ impl Sim {
             changes_since_snapshot: rebuilt.changes_since_snapshot,
             destroyed: false,
             damaged: None,
+            stalls: Vec::new(),
         })
     }
 
@@ -358,6 +374,7 @@ impl Sim {
         e.state_hash = self.state_hash.clone();
         let due = self.work_since_snapshot >= SNAPSHOT_EVERY_BODY_STEPS
             || self.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES;
+        let started = std::time::Instant::now();
         let snapshot = due.then(|| {
             let bytes = self.world.snapshot();
             let hash = crate::digest::content_hash(&bytes);
@@ -369,6 +386,12 @@ impl Sim {
             head,
             snapshot.as_ref().map(|(b, h)| (b.as_slice(), h.as_str())),
         );
+        if let Some((bytes, _)) = &snapshot {
+            let ms = started.elapsed().as_millis() as u64;
+            if ms >= stall_ms() {
+                self.stalls.push(format!("the snapshot at seq {head} ({} bytes) took {ms} ms to write", bytes.len()));
+            }
+        }
         if let Err(err) = committed {
             // The world moved but the log did not: fold the log again so they agree.
             self.reload();
@@ -381,6 +404,11 @@ impl Sim {
         }
         self.redo.clear();
         Ok(result)
+    }
+
+    /// The snapshot stalls since the last call, oldest first (taken: each is told once).
+    pub fn take_stalls(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.stalls)
     }
 
     /// A read-only call: computes the answer from the world and records the event.

@@ -173,3 +173,29 @@ async fn a_simulation_skipped_as_damaged_at_start_is_a_warning_after_set_level()
     assert_eq!(logs[0].level, LoggingLevel::Warning);
     assert_eq!(logs[0].data["simulation_id"], "broken", "{:?}", logs[0].data);
 }
+
+/// A snapshot write slower than the stall threshold is a `warning` to the calling session
+/// (the threshold is 0 here, so every snapshot is one; by default it is 1 s), told once.
+#[tokio::test]
+async fn a_snapshot_stall_is_a_warning_after_set_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start_with_env(dir.path(), &[], &[("PHYSICS_MCP_STALL_MS", "0")]);
+    let (heard, session) = listener(&server).await;
+    session.set_level(SetLevelRequestParams::new(LoggingLevel::Warning)).await.expect("logging/setLevel");
+    let call = |tool: &str, args: serde_json::Value| {
+        session.call_tool(rmcp::model::CallToolRequestParams::new(tool.to_string()).with_arguments(args.as_object().unwrap().clone()))
+    };
+    let created = call("create_simulation", json!({})).await.unwrap();
+    let sim = created.structured_content.unwrap()["simulation_id"].as_str().unwrap().to_string();
+    // 64 changes since the last snapshot make the next commit carry one.
+    for k in 0..70 {
+        let r = call("add_sphere", json!({"sim_id": sim, "radius": 0.05, "position": [k as f64 * 0.2, 0, 1]})).await.unwrap();
+        assert_ne!(r.is_error, Some(true));
+    }
+    until("the stall warning", || !heard.logs.lock().unwrap().is_empty()).await;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let logs = heard.logs.lock().unwrap().clone();
+    assert_eq!(logs.len(), 1, "one snapshot, one warning: {logs:?}");
+    assert_eq!(logs[0].level, LoggingLevel::Warning);
+    assert!(logs[0].data["stall"].as_str().unwrap().starts_with("the snapshot at seq "), "{:?}", logs[0].data);
+}

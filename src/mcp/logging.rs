@@ -4,8 +4,9 @@
 //! A session hears nothing until it sets a level (the protocol lets the server choose; an
 //! agent that never asked should not spend context on log lines). Then it hears, at or above
 //! its level: every simulation skipped as damaged when the server started (`warning`, sent
-//! once right after `setLevel`, since no session exists at start) and the reason of every
-//! refused tool call (`info`).
+//! once right after `setLevel`, since no session exists at start), the reason of every
+//! refused tool call (`info`), and a slow snapshot write of the simulation it called
+//! (`warning`, `Sim::take_stalls`).
 #![allow(deprecated)] // rmcp marks MCP logging deprecated (SEP-2577); 2025-11-25 clients use it.
 
 use std::sync::{Arc, Mutex};

@@ -292,7 +292,8 @@ impl ServerHandler for PhysicsServer {
     }
 
     /// Every tool call, through the router, then the reply budget (`reply::fit`); a refused
-    /// call's sentence (the budget's own included) also goes to the session's log at `info`.
+    /// call's sentence (the budget's own included) also goes to the session's log at `info`,
+    /// and a snapshot stall of the simulation called at `warning`.
     /// One place sees every result as it goes out, so no tool can send a reply a client would
     /// drop or forget to log a refusal.
     async fn call_tool(
@@ -302,6 +303,7 @@ impl ServerHandler for PhysicsServer {
     ) -> Result<CallToolResponse, ErrorData> {
         let peer = cx.peer.clone();
         let tool = request.name.clone();
+        let sim_id = request.arguments.as_ref().and_then(|a| a.get("sim_id")).and_then(|v| v.as_str()).map(str::to_owned);
         let response = match self.tool_router.call(ToolCallContext::new(self, request, cx)).await? {
             CallToolResponse::Complete(r) => CallToolResponse::Complete(reply::fit(&tool, r, self.reg.limits().max_reply_bytes)),
             other => other,
@@ -310,6 +312,13 @@ impl ServerHandler for PhysicsServer {
             if result.is_error == Some(true) {
                 let why: Vec<&str> = result.content.iter().filter_map(|c| c.as_text().map(|t| t.text.as_str())).collect();
                 self.log.send(&peer, LoggingLevel::Info, json!({"tool": tool, "refused": why.join(" ")}));
+            }
+        }
+        if let Some(sim) = sim_id.as_deref().and_then(|id| self.reg.get(id).ok()) {
+            // A busy simulation keeps its stalls for a later call.
+            let stalls = sim.try_lock().map(|mut s| s.take_stalls()).unwrap_or_default();
+            for stall in stalls {
+                self.log.send(&peer, LoggingLevel::Warning, json!({"tool": tool, "stall": stall}));
             }
         }
         Ok(response)
