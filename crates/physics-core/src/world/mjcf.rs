@@ -591,7 +591,9 @@ impl World {
             link_masses.push((li as u32, mass[child_body].mass()));
             armatures.push(mj.armature_per_dof);
         }
-        self.configure_mjcf_multibody(&links, &armatures);
+        // Self-contacts on: MuJoCo collides a model's non-adjacent bodies (contype/conaffinity
+        // filter them).
+        self.configure_multibody_joints(&links, &armatures, true);
         // Bodies → links (a merged body shares its owner's link).
         let mut body_links = Vec::new();
         for (i, b) in mbodies.iter().enumerate().skip(1) {
@@ -656,29 +658,6 @@ impl World {
             num_joints,
             bodies: body_links,
             ignored,
-        }
-    }
-
-    /// Damping per DoF from the joints, armature on the mass diagonal, self-contacts on (MuJoCo
-    /// collides a model's non-adjacent bodies; contype/conaffinity filter them).
-    fn configure_mjcf_multibody(&mut self, links: &[RobotLink], armatures: &[f32]) {
-        let mbs = &mut self.physics.multibody_joints;
-        let mut seen = BTreeSet::new();
-        for (l, armature) in links.iter().zip(armatures) {
-            let Some(id) = mbs.rigid_body_link(l.body).copied() else { continue };
-            let Some(mb) = mbs.get_multibody_mut(id.multibody) else { continue };
-            if seen.insert(format!("{:?}", id.multibody)) {
-                mb.damping_mut().fill(0.0);
-                mb.set_self_contacts_enabled(true);
-            }
-            let Some(link) = mb.link(id.id) else { continue };
-            let (start, n) = (link.assembly_id(), link.joint().ndofs());
-            if n > 0 {
-                mb.damping_mut().rows_mut(start, n).fill(l.joint.damping as f32);
-                if *armature > 0.0 {
-                    mb.armature_mut().rows_mut(start, n).fill(*armature);
-                }
-            }
         }
     }
 

@@ -253,19 +253,30 @@ impl World {
     /// too (its bodies keep PyBullet's 0.04 as reported values). A robot's links do not
     /// collide with each other (PyBullet's default without URDF_USE_SELF_COLLISION).
     fn configure_multibody(&mut self, links: &[RobotLink]) {
+        self.configure_multibody_joints(links, &[], false);
+    }
+
+    /// One multibody setup for URDF and MJCF robots: rapier's default damping cleared, each
+    /// link's joint damping per DoF, `armatures[k]` (when given and > 0) on link k's mass
+    /// diagonal, and self-contacts as the model format wants them.
+    pub(crate) fn configure_multibody_joints(&mut self, links: &[RobotLink], armatures: &[f32], self_contacts: bool) {
         let mbs = &mut self.physics.multibody_joints;
         let mut seen = std::collections::BTreeSet::new();
-        for l in links {
+        for (k, l) in links.iter().enumerate() {
             let Some(id) = mbs.rigid_body_link(l.body).copied() else { continue };
             let Some(mb) = mbs.get_multibody_mut(id.multibody) else { continue };
             if seen.insert(format!("{:?}", id.multibody)) {
                 mb.damping_mut().fill(0.0);
-                mb.set_self_contacts_enabled(false);
+                mb.set_self_contacts_enabled(self_contacts);
             }
             let Some(link) = mb.link(id.id) else { continue };
             let (start, n) = (link.assembly_id(), link.joint().ndofs());
             if n > 0 {
                 mb.damping_mut().rows_mut(start, n).fill(l.joint.damping as f32);
+                let armature = armatures.get(k).copied().unwrap_or(0.0);
+                if armature > 0.0 {
+                    mb.armature_mut().rows_mut(start, n).fill(armature);
+                }
             }
         }
     }
