@@ -36,6 +36,7 @@
 pub use physics_core::{command, digest, limits, outputs, value, world};
 
 pub mod animation;
+pub mod batch;
 pub mod cli;
 pub mod client;
 pub mod failpoints;
@@ -50,6 +51,7 @@ pub mod sensing;
 pub mod workspace;
 pub mod sim;
 pub mod store;
+pub mod sweep;
 pub mod timeline;
 pub mod trajectory;
 pub mod urdf_files;

@@ -473,7 +473,7 @@ impl Sim {
     /// `SNAPSHOTS_KEPT_RECENT`, then at most one per doubling of age, and always the oldest
     /// (the root's), so any recent point costs at most one snapshot interval to rebuild and
     /// the count grows only logarithmically with history.
-    fn thin_snapshots(&mut self) {
+    pub(crate) fn thin_snapshots(&mut self) {
         let head = self.log.head_seq();
         let seqs = match self.log.chain_snapshot_seqs(head) {
             Ok(s) => s,

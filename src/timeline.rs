@@ -275,6 +275,21 @@ impl Registry {
         args: &Args,
     ) -> Result<(Forked, Sim), Refusal> {
         self.check_room()?;
+        let (forked, sim) = self.fork_unpublished(p, at_seq, new_id, args)?;
+        let path = self.path_for(sim.id());
+        Ok((forked, sim.publish(&path)?))
+    }
+
+    /// A fork of `p` at `at_seq` (default: its head) under its partial name: a real,
+    /// replayable simulation that no one else sees (not listed, not counted) until it is
+    /// published, and that a restart removes if it never is (run_sweep's variants).
+    pub(crate) fn fork_unpublished(
+        &self,
+        p: &Sim,
+        at_seq: Option<u64>,
+        new_id: String,
+        args: &Args,
+    ) -> Result<(Forked, Sim), Refusal> {
         let at = at_seq.unwrap_or(p.log().head_seq());
         let at_event = p.log().event(at).map_err(store_err)?;
         if !at_event.as_ref().is_some_and(|e| e.kind.is_state_changing()) {
@@ -300,7 +315,7 @@ impl Registry {
             viewer_url: None,
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-        let sim = self.adopt((&chain, p.log(), Some(p.log())), &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
+        let sim = self.adopt_unpublished((&chain, p.log(), Some(p.log())), &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
         Ok((out, sim))
     }
 
@@ -308,6 +323,21 @@ impl Registry {
     /// own root, at the next seq, is `root_cmd` with `world` as its state and snapshot; a
     /// fork also copies the parent's snapshots on the chain. A failure leaves no file behind.
     pub(crate) fn adopt(
+        &self,
+        ancestry: (&[Event], &dyn BlobSource, Option<&Log>),
+        world: &World,
+        root_cmd: Command,
+        tool: &str,
+        args: &Args,
+        result: &Value,
+    ) -> Result<Sim, Refusal> {
+        let sim = self.adopt_unpublished(ancestry, world, root_cmd, tool, args, result)?;
+        let path = self.path_for(sim.id());
+        sim.publish(&path)
+    }
+
+    /// `adopt` under the partial name (`Sim::publish` gives it its final one).
+    pub(crate) fn adopt_unpublished(
         &self,
         (chain, blobs, parent): (&[Event], &dyn BlobSource, Option<&Log>),
         world: &World,
@@ -353,13 +383,12 @@ impl Registry {
             log.append_root_with_ancestry(chain, parent, root, (&snapshot, &snap_hash))
                 .map_err(store_err)?;
             crate::crash_point!("adopt_before_publish");
-            // Renamed to its final name only now that the root has committed.
-            log.publish(&path, self.config().sync).map_err(store_err)?;
-            Sim::recover(&path, self.config().sync).map_err(store_err)
+            drop(log);
+            // Published (renamed to its final name) by the caller, once it is wanted.
+            Sim::recover(&partial, self.config().sync).map_err(store_err)
         })();
         if built.is_err() {
             crate::sim::remove_log_files(&partial);
-            crate::sim::remove_log_files(&path);
         }
         built
     }

@@ -156,6 +156,12 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("list_simulations", json!({})).await;
     c.call("destroy_simulation", json!({"sim_id": fork})).await;
 
+    // Scale: a batch holding a change and a read, a sweep with a trajectory.
+    c.call("batch", json!({"sim_id": sim, "calls": [{"tool": "step_simulation", "arguments": {"steps": 2}},
+        {"tool": "get_object_state", "arguments": {"object_id": cube}}]})).await;
+    c.call("run_sweep", json!({"sim_id": sim, "variants": [[], [{"tool": "apply_force", "arguments": {"object_id": cube, "force": [1, 0, 0]}}]],
+        "steps": 4, "observe": {"object_ids": [cube], "every": 2, "include_velocities": true}})).await;
+
     let names: BTreeSet<String> = tools.iter().map(|t| t.name.to_string()).collect();
     let unchecked: Vec<&String> = names.difference(&c.checked).collect();
     assert!(unchecked.is_empty(), "tools not called by the scenario: {unchecked:?}");

@@ -13,7 +13,7 @@ use crate::command::{Command, ConstraintSpec, ConstraintType};
 use crate::outputs::{ConstraintCreated, Message};
 use crate::value::Refusal;
 
-fn decide_create(p: CreateConstraint) -> Result<Command, Refusal> {
+pub(super) fn decide_create(p: CreateConstraint) -> Result<Command, Refusal> {
     let child_id = match p.child_id.get() {
         -1 => None,
         c => Some(u32::try_from(c).map_err(|_| format!("child_id must be an object id or -1 (the world); got {c}"))?),
@@ -41,7 +41,7 @@ fn decide_create(p: CreateConstraint) -> Result<Command, Refusal> {
     })
 }
 
-fn decide_remove(p: ConstraintRef) -> Result<Command, Refusal> {
+pub(super) fn decide_remove(p: ConstraintRef) -> Result<Command, Refusal> {
     let i = p.constraint_id.get();
     let constraint_id = u32::try_from(i)
         .map_err(|_| format!("constraint_id must be a constraint id (integer >= 0); got {i}"))?;

@@ -15,7 +15,7 @@ use crate::reads;
 use crate::value::Refusal;
 
 /// reset_joint_state's arguments → the command (the joint is checked against the world later).
-fn decide_reset(p: ResetJoint) -> Result<Command, Refusal> {
+pub(super) fn decide_reset(p: ResetJoint) -> Result<Command, Refusal> {
     let object_id = p.object_id.0;
     let joint_index = p.joint_index.get();
     let joint_index = u32::try_from(joint_index)

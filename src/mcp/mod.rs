@@ -14,6 +14,7 @@
 //! `tools`). Every reply passes the reply budget (`reply::fit`, in `call_tool`).
 
 mod animation;
+mod batch;
 mod constraints;
 mod instructions;
 pub mod lenient;
@@ -22,6 +23,7 @@ mod mjcf;
 mod objects;
 pub mod params;
 mod persistence;
+mod progress;
 mod prompts;
 pub(crate) mod reply;
 mod resources;
@@ -31,6 +33,7 @@ pub mod session_limit;
 mod sensing;
 mod simulations;
 mod subscriptions;
+mod sweep;
 mod time;
 mod timeline;
 mod viewer;
@@ -68,6 +71,7 @@ pub(crate) trait Params: DeserializeOwned + JsonSchema + Send + 'static {}
 impl<P: DeserializeOwned + JsonSchema + Send + 'static> Params for P {}
 
 pub use resources::Sessions;
+pub(crate) use time::sampled_step_with;
 
 /// The MCP server: one instance per session, all sharing the registry.
 #[derive(Clone)]
@@ -114,7 +118,9 @@ impl PhysicsServer {
                 + PhysicsServer::viewer_router()
                 + PhysicsServer::animation_router()
                 + PhysicsServer::time_router()
-                + PhysicsServer::mjcf_router();
+                + PhysicsServer::mjcf_router()
+                + PhysicsServer::batch_router()
+                + PhysicsServer::sweep_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::input(&tool.input_schema));
@@ -123,6 +129,11 @@ impl PhysicsServer {
             router
         });
         TOOLS.clone()
+    }
+
+    /// Every tool's name (a batch tells an unknown tool from one it cannot hold).
+    pub(crate) fn tool_names() -> impl Iterator<Item = String> {
+        Self::tools().map.keys().map(|k| k.to_string()).collect::<Vec<_>>().into_iter()
     }
 
     /// The same server with the web viewer at `base` (`viewer_url` in results when gui is on).

@@ -29,7 +29,7 @@ fn decide_add(shape: Shape, position: Vec3, orientation: Option<Quat>, mass: Opt
     }
 }
 
-fn decide_box(p: AddBox) -> Result<Command, Refusal> {
+pub(super) fn decide_box(p: AddBox) -> Result<Command, Refusal> {
     let d = p.dimensions.0;
     if d.iter().any(|x| *x <= 0.0) {
         return Err(format!(
@@ -40,21 +40,21 @@ fn decide_box(p: AddBox) -> Result<Command, Refusal> {
     Ok(decide_add(Shape::Box { half_extents: d }, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_sphere(p: AddSphere) -> Result<Command, Refusal> {
+pub(super) fn decide_sphere(p: AddSphere) -> Result<Command, Refusal> {
     Ok(decide_add(Shape::Sphere { radius: p.radius.0 }, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_cylinder(p: AddRound) -> Result<Command, Refusal> {
+pub(super) fn decide_cylinder(p: AddRound) -> Result<Command, Refusal> {
     let shape = Shape::Cylinder { radius: p.radius.0, height: p.height.0 };
     Ok(decide_add(shape, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_capsule(p: AddRound) -> Result<Command, Refusal> {
+pub(super) fn decide_capsule(p: AddRound) -> Result<Command, Refusal> {
     let shape = Shape::Capsule { radius: p.radius.0, height: p.height.0 };
     Ok(decide_add(shape, p.position, p.orientation, p.mass, p.color))
 }
 
-fn decide_pose(p: SetPose) -> Result<Command, Refusal> {
+pub(super) fn decide_pose(p: SetPose) -> Result<Command, Refusal> {
     Ok(Command::SetObjectPose {
         object_id: p.object_id.0,
         position: p.position.0,
@@ -62,7 +62,7 @@ fn decide_pose(p: SetPose) -> Result<Command, Refusal> {
     })
 }
 
-fn decide_force(p: ApplyForce) -> Result<Command, Refusal> {
+pub(super) fn decide_force(p: ApplyForce) -> Result<Command, Refusal> {
     Ok(Command::ApplyForce {
         object_id: p.object_id.0,
         force: p.force.0,
@@ -71,7 +71,7 @@ fn decide_force(p: ApplyForce) -> Result<Command, Refusal> {
     })
 }
 
-fn decide_torque(p: ApplyTorque) -> Result<Command, Refusal> {
+pub(super) fn decide_torque(p: ApplyTorque) -> Result<Command, Refusal> {
     Ok(Command::ApplyTorque {
         object_id: p.object_id.0,
         torque: p.torque.0,
@@ -79,7 +79,7 @@ fn decide_torque(p: ApplyTorque) -> Result<Command, Refusal> {
     })
 }
 
-fn decide_velocity(p: SetVelocity) -> Result<Command, Refusal> {
+pub(super) fn decide_velocity(p: SetVelocity) -> Result<Command, Refusal> {
     if p.linear_velocity.is_none() && p.angular_velocity.is_none() {
         return Err("linear_velocity or angular_velocity is required: give at least one [x, y, z]".into());
     }
@@ -90,7 +90,7 @@ fn decide_velocity(p: SetVelocity) -> Result<Command, Refusal> {
     })
 }
 
-fn decide_dynamics(p: ChangeDynamics) -> Result<Command, Refusal> {
+pub(super) fn decide_dynamics(p: ChangeDynamics) -> Result<Command, Refusal> {
     let link_index = link_index(p.link_index)?;
     let get = |v: Option<NonNegative>| v.map(|x| x.0);
     let change = DynamicsChange {
@@ -117,7 +117,7 @@ fn decide_dynamics(p: ChangeDynamics) -> Result<Command, Refusal> {
     })
 }
 
-fn decide_remove(p: ObjectRef) -> Result<Command, Refusal> {
+pub(super) fn decide_remove(p: ObjectRef) -> Result<Command, Refusal> {
     Ok(Command::RemoveObject { object_id: p.object_id.0 })
 }
 

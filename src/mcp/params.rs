@@ -740,3 +740,51 @@ pub struct ResetJoint {
     /// Default 0.
     pub target_velocity: Option<Num>,
 }
+
+/// One call of a batch or of a sweep's variant.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct CallSpec {
+    /// Tool name.
+    pub tool: String,
+    /// Its arguments; sim_id may be omitted.
+    pub arguments: Option<serde_json::Map<String, Value>>,
+}
+
+/// batch parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct Batch {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// 1-10,000 calls, in order.
+    pub calls: Vec<CallSpec>,
+}
+
+/// What run_sweep reports of each variant.
+#[derive(Deserialize, JsonSchema, Debug, Clone, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Observe {
+    /// Default all.
+    pub object_ids: Option<Vec<ObjectId>>,
+    /// Default false.
+    pub include_velocities: Option<Bool>,
+    /// Also sample poses every N steps.
+    pub every: Option<Int<u64>>,
+}
+
+/// run_sweep parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct Sweep {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// 1-256 lists of calls, one fork each.
+    pub variants: Vec<Vec<CallSpec>>,
+    /// Steps after the calls.
+    pub steps: Int<u64>,
+    /// Default: final states of all objects.
+    pub observe: Option<Observe>,
+    /// Keep the forks (default false).
+    pub keep: Option<Bool>,
+}

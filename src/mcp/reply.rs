@@ -44,6 +44,8 @@ fn what_to_change(tool: &str) -> &'static str {
         "step_simulation" => "a larger sample_every or fewer sample_objects",
         "get_history" => "a smaller limit",
         "get_all_collisions" => "get_collisions_for_pair for the pairs you need",
+        "batch" => "fewer calls per batch (or fewer reads in it)",
+        "run_sweep" => "fewer object_ids, a larger every, or fewer variants per sweep",
         _ => "a smaller request",
     }
 }

@@ -13,7 +13,7 @@ use crate::outputs::{GeneratedUrdf, IkSolution, JointInfo, JointState, Message, 
 use crate::reads;
 use crate::value::Refusal;
 
-fn decide_motor(p: MotorControl) -> Result<Command, Refusal> {
+pub(super) fn decide_motor(p: MotorControl) -> Result<Command, Refusal> {
     let object_id = p.object_id.0;
     let joint_index = p.joint_index.get();
     let joint_index = u32::try_from(joint_index)

@@ -2,7 +2,7 @@
 
 use rmcp::handler::server::common::schema_for_type;
 use rmcp::handler::server::wrapper::Json;
-use rmcp::model::{JsonObject, ProgressNotificationParam, RequestMetaObject};
+use rmcp::model::{JsonObject, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 use tokio_util::sync::CancellationToken;
 
@@ -23,7 +23,7 @@ pub(super) fn decide_step(p: &Step) -> Result<Command, Refusal> {
     Ok(Command::StepSimulation { steps })
 }
 
-fn decide_timestep(p: SetTimestep) -> Result<Command, Refusal> {
+pub(super) fn decide_timestep(p: SetTimestep) -> Result<Command, Refusal> {
     let (timestep, given) = p.timestep.0;
     Ok(Command::SetTimestep { timestep, timestep_given: Some(given) })
 }
@@ -92,33 +92,14 @@ impl PhysicsServer {
     ) -> Result<Json<Stepped>, String> {
         // For progress only: a refusal of the arguments is the step's own (below).
         let total = params::parse::<Step>("step_simulation", &args).map_or(1, |p| int_or(p.steps, 1).max(1) as u64);
-        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<u64>();
-        let forward = meta.get_progress_token().map(|token| {
-            tokio::spawn(async move {
-                while let Some(done) = rx.recv().await {
-                    let note = ProgressNotificationParam::new(token.clone(), done as f64)
-                        .with_total(total as f64);
-                    let _ = peer.notify_progress(note).await;
-                }
-            })
-        });
-        let every = (total / 100).max(1);
-        let mut last_sent = 0;
-        let control = move |done| {
-            if done - last_sent >= every {
-                last_sent = done;
-                let _ = tx.send(done);
-            }
-            !ct.is_cancelled()
-        };
+        let watch = super::progress::Watch::new(&meta, peer, ct, total);
+        let control = watch.control();
         let sampling = params::parse::<Step>("step_simulation", &args).map(|p| super::time::step_sampling(&p));
         let out = match sampling {
             Ok(Ok(None)) => self.change_with("step_simulation", args, |p: Step| decide_step(&p), control).await,
             _ => self.sampled_step(args, control).await,
         };
-        if let Some(f) = forward {
-            let _ = f.await;
-        }
+        watch.finish().await;
         out
     }
 

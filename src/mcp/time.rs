@@ -175,6 +175,18 @@ pub(crate) fn sampled_step(
     limits: &crate::limits::Limits,
     control: crate::world::StepControl,
 ) -> Result<crate::outputs::Stepped, Refusal> {
+    sampled_step_with(sim, a, limits, control, false)
+}
+
+/// `sampled_step`, with velocities in the samples when `include_velocities` (run_sweep's
+/// observe).
+pub(crate) fn sampled_step_with(
+    sim: &mut crate::sim::Sim,
+    a: &Args,
+    limits: &crate::limits::Limits,
+    control: crate::world::StepControl,
+    include_velocities: bool,
+) -> Result<crate::outputs::Stepped, Refusal> {
     let checked = (|| {
         let p: Step = params::parse("step_simulation", a)?;
         let (every, ids) = step_sampling(&p)?.unwrap_or_default();
@@ -191,7 +203,7 @@ pub(crate) fn sampled_step(
         let every = every.unwrap_or_else(|| trajectory::default_every(steps));
         let samples = trajectory::max_samples(steps, every);
         trajectory::check_cells(samples, listed.len() as u64, "sample_every")?;
-        let numbers = listed.iter().map(|id| trajectory::numbers_per_object(w, *id, false)).sum();
+        let numbers = listed.iter().map(|id| trajectory::numbers_per_object(w, *id, include_velocities)).sum();
         trajectory::check_reply_bound(samples, numbers, "sample_every")?;
         // And against --max-reply-bytes, which may be lower than the default: the central
         // reply check could only refuse after the steps were taken.
@@ -203,7 +215,7 @@ pub(crate) fn sampled_step(
         Err(why) => return Err(sim.refuse("step_simulation", a, why)),
     };
     let (from, seq) = (sim.log().head_seq(), sim.log().next_seq());
-    let req = Request { every: Some(every), object_ids: ids, include_velocities: false };
+    let req = Request { every: Some(every), object_ids: ids, include_velocities };
     let mut sampler = trajectory::Sampler::new(fold::Interval { from_seq: from, to_seq: seq }, every, &req);
     sampler.sample(sim.world(), from);
     let mut cadence = fold::Cadence::new(every);

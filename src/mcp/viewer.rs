@@ -13,14 +13,14 @@ use crate::command::Command;
 use crate::outputs::Message;
 use crate::value::Refusal;
 
-fn decide_debug(p: DebugVisualization) -> Result<Command, Refusal> {
+pub(super) fn decide_debug(p: DebugVisualization) -> Result<Command, Refusal> {
     Ok(Command::SetDebugVisualization {
         show_contacts: p.show_contacts.is_none_or(|b| b.0),
         show_frames: p.show_frames.is_some_and(|b| b.0),
     })
 }
 
-fn decide_camera(p: SetCamera) -> Result<Command, Refusal> {
+pub(super) fn decide_camera(p: SetCamera) -> Result<Command, Refusal> {
     Ok(Command::SetCamera {
         distance: p.distance.0,
         yaw: p.yaw.0,

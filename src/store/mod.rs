@@ -287,6 +287,9 @@ fn insert_event(tx: &rusqlite::Transaction, e: &Event) -> Result<(), StoreError>
     Ok(())
 }
 
+/// A snapshot to commit: (the seq of the event it is taken at, its bytes, its content hash).
+pub type Snap<'a> = (u64, &'a [u8], &'a str);
+
 impl Log {
     /// Creates a new log file (refusing to overwrite one) for simulation `sim_id`.
     pub fn create(path: &Path, sim_id: &str, sync: SyncMode) -> Result<Log, StoreError> {
@@ -380,6 +383,11 @@ impl Log {
         }
         crate::crash_point!("publish_before_rename");
         std::fs::rename(&self.path, final_path)?;
+        // A partial log that was reopened (a sweep's variant) has an acknowledgement file of
+        // its own; the published log starts its own, so the old one goes.
+        if self.acknowledged.take().is_some() {
+            let _ = std::fs::remove_file(companion(&self.path, SEQ_SUFFIX));
+        }
         if sync == SyncMode::Full {
             if let Some(dir) = final_path.parent() {
                 std::fs::File::open(dir).and_then(|d| d.sync_all())?;
@@ -499,7 +507,16 @@ impl Log {
         head: u64,
         snapshot: Option<(&[u8], &str)>,
     ) -> Result<(), StoreError> {
-        self.commit((&[], None), event, head, snapshot)
+        let seq = event.seq;
+        let snapshots: Vec<Snap> = snapshot.into_iter().map(|(b, h)| (seq, b, h)).collect();
+        self.commit((&[], None), std::slice::from_ref(&event), head, &snapshots)
+    }
+
+    /// Commits a batch's events (its changes and reads, in seq order) with the buffered
+    /// events, `head` as the new head and the snapshots taken along the way, all in one
+    /// transaction: either every call of the batch is recorded or none is.
+    pub fn append_batch(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError> {
+        self.commit((&[], None), events, head, snapshots)
     }
 
     /// Starts a forked log: the inherited chain (flagged `inherited`, original seqs), every
@@ -514,16 +531,17 @@ impl Log {
         snapshot: (&[u8], &str),
     ) -> Result<(), StoreError> {
         let seq = root.seq;
-        self.commit((inherited, parent), root, seq, Some(snapshot))
+        self.commit((inherited, parent), std::slice::from_ref(&root), seq, &[(seq, snapshot.0, snapshot.1)])
     }
 
     fn commit(
         &mut self,
         (inherited, parent): (&[Event], Option<&Log>),
-        event: Event,
+        events: &[Event],
         head: u64,
-        snapshot: Option<(&[u8], &str)>,
+        snapshots: &[Snap],
     ) -> Result<(), StoreError> {
+        let Some(last) = events.last() else { return Ok(()) };
         let tx = self.conn.transaction()?;
         for e in inherited {
             let mut e = e.clone();
@@ -543,27 +561,31 @@ impl Log {
         for e in &self.pending {
             insert_event(&tx, e)?;
         }
-        insert_event(&tx, &event)?;
+        for event in events {
+            insert_event(&tx, event)?;
+        }
         tx.execute("UPDATE head SET head_seq = ?1 WHERE id = 1", params![head as i64])?;
-        if let Some((bytes, hash)) = snapshot {
+        for (seq, bytes, hash) in snapshots {
             tx.execute(
                 "INSERT OR REPLACE INTO snapshots (seq, hash, bytes) VALUES (?1, ?2, ?3)",
-                params![event.seq as i64, hash, bytes],
+                params![*seq as i64, hash, bytes],
             )?;
             crate::crash_point!("snapshot_write");
         }
         tx.commit()?;
         crate::crash_point!("after_commit");
-        if let Some(file) = &self.acknowledged {
-            if let Err(e) = record_acknowledged(file, event.seq) {
+        // The last root, change or move committed (a batch may hold reads, or only reads).
+        let acked = events.iter().rev().find(|e| matches!(e.kind, Kind::Root | Kind::Change | Kind::Move));
+        if let (Some(file), Some(acked)) = (&self.acknowledged, acked) {
+            if let Err(e) = record_acknowledged(file, acked.seq) {
                 tracing::warn!("could not record the acknowledged seq of {}: {e}", self.path.display());
             }
         }
         self.pending.clear();
-        self.last_seq = event.seq;
+        self.last_seq = last.seq;
         self.head_seq = head;
         self.commits_since_checkpoint += 1;
-        if snapshot.is_some() || self.commits_since_checkpoint >= CHECKPOINT_EVERY_COMMITS {
+        if !snapshots.is_empty() || self.commits_since_checkpoint >= CHECKPOINT_EVERY_COMMITS {
             self.commits_since_checkpoint = 0;
             checkpoint_in_background(self.path.clone(), self.checkpointing.clone());
         }

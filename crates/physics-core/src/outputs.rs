@@ -248,6 +248,59 @@ pub struct ObjectSummary {
     pub position: [f64; 3],
 }
 
+/// Result of batch: each call's result as that tool returns it, in order, and where the
+/// log stands after the last call.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Batched {
+    /// One result per call.
+    pub results: Vec<serde_json::Value>,
+    /// The head after the batch.
+    pub head_seq: u64,
+    /// The state hash after the batch.
+    pub state_hash: String,
+}
+
+/// Result of run_sweep: one entry per variant, in the order given.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Swept {
+    /// The variants' outcomes.
+    pub variants: Vec<SweptVariant>,
+}
+
+/// One variant of a sweep after its calls and steps.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct SweptVariant {
+    /// Its index in `variants`.
+    pub index: usize,
+    /// The fork's id, when kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulation_id: Option<String>,
+    /// Its state hash at the end (equal to doing the same by hand).
+    pub state_hash: String,
+    /// The observed objects' final states.
+    pub objects: Vec<SweptObject>,
+    /// Poses sampled while stepping (when observe.every is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<Trajectory>,
+}
+
+/// An object's final state in a sweep's variant.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct SweptObject {
+    /// Object id.
+    pub object_id: u32,
+    /// World position of the body origin (m).
+    pub position: [f64; 3],
+    /// Orientation quaternion [x, y, z, w].
+    pub orientation: [f64; 4],
+    /// Linear velocity (m/s), with observe.include_velocities.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_velocity: Option<[f64; 3]>,
+    /// Angular velocity (rad/s), with observe.include_velocities.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular_velocity: Option<[f64; 3]>,
+}
+
 /// Result of get_simulation_info.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct SimulationInfo {

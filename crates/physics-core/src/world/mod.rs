@@ -566,6 +566,33 @@ impl World {
             .unwrap_or_default()
     }
 
+    /// A working copy of this world that continues exactly as this one would (what
+    /// `restore(snapshot())` gives, without the encoding): a batch applies its calls to a
+    /// copy and keeps it only if every call is accepted. The pipelines and the CCD solver are
+    /// per-step workspaces, left out exactly as a snapshot leaves them out.
+    pub fn duplicate(&self) -> World {
+        let p = &self.physics;
+        World {
+            simulation_id: self.simulation_id.clone(),
+            gui: self.gui,
+            physics: PhysicsWorld {
+                gravity: p.gravity,
+                integration_parameters: p.integration_parameters,
+                islands: p.islands.clone(),
+                broad_phase: p.broad_phase.clone(),
+                narrow_phase: p.narrow_phase.clone(),
+                bodies: p.bodies.clone(),
+                colliders: p.colliders.clone(),
+                impulse_joints: p.impulse_joints.clone(),
+                multibody_joints: p.multibody_joints.clone(),
+                soft_bodies: p.soft_bodies.clone(),
+                ..Default::default()
+            },
+            tables: self.tables.clone(),
+            scene: OnceLock::new(),
+        }
+    }
+
     /// Rebuilds a world from `snapshot` bytes. Identity comes from the caller (a fork or load
     /// restores another simulation's snapshot under a new id).
     pub fn restore(simulation_id: &str, gui: bool, bytes: &[u8]) -> Result<World, String> {

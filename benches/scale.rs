@@ -1,0 +1,176 @@
+//! Issue 13 benchmarks (`cargo bench --bench scale`), each pair measured side by side in one
+//! run and reported as a ratio:
+//! - the 1000-box pile built through MCP over HTTP (the real release binary, one rmcp client):
+//!   1,001 add_box calls one by one vs the same calls in one `batch`;
+//! - run_sweep of 16 variants × 1,000 steps of a 100-box scene, in-process through
+//!   `Registry::sweep`: one worker vs one worker per core.
+
+// A benchmark reads the clock and its files; the bans in clippy.toml are for the world.
+#![allow(clippy::disallowed_methods)]
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+#[path = "pile.rs"]
+mod pile;
+
+use std::time::Instant;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use physics_mcp::batch::{Call, Planned};
+use physics_mcp::command::{Command, DynamicsChange, Shape};
+use physics_mcp::limits::Limits;
+use physics_mcp::sim::{lock_sim, Config, Registry};
+use physics_mcp::store::SyncMode;
+use physics_mcp::sweep::{Control, Observe, Request};
+use physics_mcp::value::Args;
+use pile::raw_pile;
+use serde_json::{json, Value};
+
+/// Paired rounds per comparison (the REPORT lines give medians and the median ratio).
+const ROUNDS: usize = 5;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The pile as `{tool, arguments}` calls, as a client sends them.
+fn pile_calls() -> Vec<Value> {
+    raw_pile()
+        .into_iter()
+        .map(|cmd| {
+            let Command::AddBody { shape: Shape::Box { half_extents }, position, orientation, mass, .. } = cmd else { unreachable!() };
+            json!({"tool": "add_box", "arguments": {"dimensions": half_extents, "position": position, "orientation": orientation, "mass": mass}})
+        })
+        .collect()
+}
+
+fn bench_pile_build_over_http(c: &mut Criterion) {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let server = common::Server::start(dir.path(), &[]);
+    let client = rt.block_on(server.client());
+    let calls = pile_calls();
+    let (mut one_by_one, mut batched, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..ROUNDS {
+        let a = rt.block_on(client.new_sim(json!({})));
+        let t = Instant::now();
+        rt.block_on(async {
+            for call in &calls {
+                let mut args = call["arguments"].clone();
+                args["sim_id"] = json!(a);
+                client.call("add_box", args).await;
+            }
+        });
+        let single = t.elapsed().as_secs_f64() * 1e3;
+        let b = rt.block_on(client.new_sim(json!({})));
+        let t = Instant::now();
+        let out = rt.block_on(client.call("batch", json!({"sim_id": b, "calls": calls})));
+        let batch = t.elapsed().as_secs_f64() * 1e3;
+        assert_eq!(out["state_hash"].as_str().unwrap(), rt.block_on(client.hash(&a)), "batch and one-by-one differ");
+        for s in [a, b] {
+            rt.block_on(client.call("destroy_simulation", json!({"sim_id": s})));
+        }
+        one_by_one.push(single);
+        batched.push(batch);
+        ratios.push(single / batch);
+    }
+    println!(
+        "REPORT pile build over MCP/HTTP (1,001 add_box, one rmcp client, release server): one call per box {:.1} ms, one batch {:.1} ms, speed-up {:.2}x (medians of {ROUNDS} paired rounds; min speed-up {:.2}x)",
+        median(one_by_one),
+        median(batched),
+        median(ratios.clone()),
+        ratios.iter().cloned().fold(f64::MAX, f64::min)
+    );
+    c.bench_function("batch_pile_build_http", |bench| {
+        bench.iter(|| {
+            let b = rt.block_on(client.new_sim(json!({})));
+            rt.block_on(client.call("batch", json!({"sim_id": b, "calls": calls})));
+            rt.block_on(client.call("destroy_simulation", json!({"sim_id": b})));
+        })
+    });
+}
+
+/// A registry in `dir` holding a 100-box scene (a 5×5×4 stack on a ground), its id.
+fn sweep_scene(dir: &std::path::Path) -> (Registry, String) {
+    let config = Config {
+        data_dir: dir.join("data"),
+        workspace: dir.join("workspace"),
+        limits: Limits::default(),
+        sync: SyncMode::Normal,
+    };
+    let reg = Registry::open(config).unwrap();
+    let id = "sweep-scene".to_string();
+    reg.create(Command::CreateSimulation { simulation_id: id.clone(), gravity: [0.0, 0.0, -9.81], gui: false }, &Args::new()).unwrap();
+    let sim = reg.get(&id).unwrap();
+    let mut s = lock_sim(&sim);
+    let add = |s: &mut physics_mcp::sim::Sim, half: [f32; 3], position: [f32; 3], mass: f32| {
+        let cmd = Command::AddBody { shape: Shape::Box { half_extents: half }, position, orientation: [0.0, 0.0, 0.0, 1.0], mass, color: None };
+        s.change("add_box", &Args::new(), Ok(cmd), &Limits::default(), &mut |_| true).unwrap();
+    };
+    add(&mut s, [10.0, 10.0, 0.5], [0.0, 0.0, -0.5], 0.0);
+    for i in 0..5 {
+        for j in 0..5 {
+            for k in 0..4 {
+                add(&mut s, [0.1, 0.1, 0.1], [i as f32 * 0.3, j as f32 * 0.3, 0.1 + k as f32 * 0.21], 1.0);
+            }
+        }
+    }
+    drop(s);
+    (reg, id)
+}
+
+/// 16 variants: the ground's friction, one value per variant.
+fn sweep_request(id: &str) -> Request {
+    let variants = (0..16)
+        .map(|v| {
+            let change = DynamicsChange { lateral_friction: Some(0.1 + 0.1 * v as f32), ..Default::default() };
+            let mut args = Args::new();
+            args.insert("sim_id".into(), json!(id));
+            vec![Call {
+                tool: "change_dynamics".into(),
+                args,
+                planned: Planned::Change(Ok(Command::ChangeDynamics { object_id: 0, link_index: -1, change })),
+            }]
+        })
+        .collect();
+    Request { variants, steps: 1000, observe: Observe::default(), keep: false }
+}
+
+fn run_sweep(reg: &Registry, id: &str, workers: usize) -> f64 {
+    let t = Instant::now();
+    let out = reg
+        .sweep(id, &Args::new(), sweep_request(id), || Box::new(|_| true) as Control, (workers, usize::MAX))
+        .unwrap();
+    assert_eq!(out.variants.len(), 16);
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+fn bench_sweep_workers(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let (reg, id) = sweep_scene(dir.path());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let (mut one, mut many, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..ROUNDS {
+        let a = run_sweep(&reg, &id, 1);
+        let b = run_sweep(&reg, &id, cores);
+        one.push(a);
+        many.push(b);
+        ratios.push(a / b);
+    }
+    println!(
+        "REPORT run_sweep 16 variants x 1,000 steps of a 100-box scene (in-process): 1 worker {:.0} ms, {cores} workers {:.0} ms, speed-up {:.2}x (medians of {ROUNDS} paired rounds; min {:.2}x)",
+        median(one),
+        median(many),
+        median(ratios.clone()),
+        ratios.iter().cloned().fold(f64::MAX, f64::min)
+    );
+    let mut g = c.benchmark_group("run_sweep_16x1000_100_boxes");
+    g.sample_size(10);
+    g.bench_function("workers_1", |b| b.iter(|| run_sweep(&reg, &id, 1)));
+    g.bench_function(format!("workers_{cores}"), |b| b.iter(|| run_sweep(&reg, &id, cores)));
+    g.finish();
+}
+
+criterion_group!(benches, bench_pile_build_over_http, bench_sweep_workers);
+criterion_main!(benches);

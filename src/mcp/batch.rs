@@ -1,0 +1,146 @@
+//! The batch tool, and the one place that turns a `{tool, arguments}` call into what a batch
+//! or a sweep's variant applies (`plan`): each tool's own parameter type and `decide`
+//! function, so a call in a batch is checked exactly as the same call made alone.
+
+use rmcp::handler::server::common::schema_for_type;
+use rmcp::handler::server::wrapper::Json;
+use rmcp::model::{JsonObject, RequestMetaObject};
+use rmcp::{tool, tool_router, Peer, RoleServer};
+use serde_json::Value;
+use tokio_util::sync::CancellationToken;
+
+use super::params::{self, CallSpec};
+use super::{constraints, mjcf, objects, robots, simulations, viewer, Params, PhysicsServer};
+use crate::batch::{call_refused, Call, Planned, MAX_CALLS, READS};
+use crate::command::Command;
+use crate::outputs::Batched;
+use crate::reads::Read;
+use crate::sim::Registry;
+use crate::value::{Args, Refusal};
+
+/// A change tool's decision: its arguments parsed as `P`, then its `decide`.
+fn change<P: Params>(tool: &str, a: &Args, decide: impl FnOnce(P) -> Result<Command, Refusal>) -> Planned {
+    Planned::Change(params::parse::<P>(tool, a).and_then(decide))
+}
+
+/// A read's decision: its arguments parsed as `P` (strictly, as the tool alone would).
+fn read<P: Params>(tool: &str, a: &Args, wrap: fn(P) -> Read) -> Planned {
+    Planned::Read(params::parse::<P>(tool, a).map(wrap))
+}
+
+/// What `tool` with arguments `a` is inside a batch; None for a tool a batch cannot hold.
+fn decide(reg: &Registry, tool: &str, a: &Args) -> Option<Planned> {
+    Some(match tool {
+        "add_box" => change(tool, a, objects::decide_box),
+        "add_sphere" => change(tool, a, objects::decide_sphere),
+        "add_cylinder" => change(tool, a, objects::decide_cylinder),
+        "add_capsule" => change(tool, a, objects::decide_capsule),
+        "set_object_pose" => change(tool, a, objects::decide_pose),
+        "apply_force" => change(tool, a, objects::decide_force),
+        "apply_torque" => change(tool, a, objects::decide_torque),
+        "set_object_velocity" => change(tool, a, objects::decide_velocity),
+        "change_dynamics" => change(tool, a, objects::decide_dynamics),
+        "remove_object" => change(tool, a, objects::decide_remove),
+        "step_simulation" => change(tool, a, |p: params::Step| {
+            if super::time::step_sampling(&p)?.is_some() {
+                return Err("sample_every and sample_objects are not available inside a batch or sweep".into());
+            }
+            simulations::decide_step(&p)
+        }),
+        "set_timestep" => change(tool, a, simulations::decide_timestep),
+        "set_joint_motor_control" => change(tool, a, robots::decide_motor),
+        "reset_joint_state" => change(tool, a, mjcf::decide_reset),
+        "create_constraint" => change(tool, a, constraints::decide_create),
+        "remove_constraint" => change(tool, a, constraints::decide_remove),
+        "enable_debug_visualization" => change(tool, a, viewer::decide_debug),
+        "set_camera" => change(tool, a, viewer::decide_camera),
+        "load_urdf" => change(tool, a, |p: params::LoadUrdf| crate::urdf_files::load_urdf_command(reg.sandbox(), &p)),
+        "load_mjcf" => change(tool, a, |p: params::LoadMjcf| crate::mjcf_files::load_mjcf_command(reg.sandbox(), &p)),
+        "get_object_state" => read(tool, a, Read::ObjectState),
+        "get_joint_state" => read(tool, a, Read::JointState),
+        "get_link_state" => read(tool, a, Read::LinkState),
+        "get_simulation_info" => read(tool, a, Read::SimulationInfo),
+        _ => return None,
+    })
+}
+
+/// The calls of a batch or variant on simulation `sim_id`, decided in order; a call naming an
+/// unknown tool, a tool a batch cannot hold or another simulation refuses them all (`where_`
+/// names the list in the sentence: "calls" or "variants[i].calls").
+pub(crate) fn plan(reg: &Registry, sim_id: &str, specs: Vec<CallSpec>) -> Result<Vec<Call>, (usize, String, Refusal)> {
+    let mut calls = Vec::with_capacity(specs.len());
+    for (i, spec) in specs.into_iter().enumerate() {
+        let mut args = spec.arguments.unwrap_or_default();
+        match args.get("sim_id") {
+            None | Some(Value::Null) => {
+                args.insert("sim_id".into(), Value::String(sim_id.to_string()));
+            }
+            Some(Value::String(s)) if s == sim_id => {}
+            Some(other) => {
+                let why = format!("arguments.sim_id is {other}, another simulation; a batch works on {sim_id} only");
+                return Err((i, spec.tool, why));
+            }
+        }
+        let Some(planned) = decide(reg, &spec.tool, &args) else {
+            let why = if PhysicsServer::tool_names().any(|t| t == spec.tool) {
+                format!(
+                    "{} cannot be inside a batch or sweep; they take the state-changing tools and {}",
+                    spec.tool,
+                    READS.join(", ")
+                )
+            } else {
+                format!("{} is not a tool of this server", spec.tool)
+            };
+            return Err((i, spec.tool, why));
+        };
+        calls.push(Call { tool: spec.tool, args, planned });
+    }
+    Ok(calls)
+}
+
+/// The steps a batch's step calls ask for together (for progress only; refusals come later).
+fn steps_asked(a: &Args) -> u64 {
+    let calls = a.get("calls").and_then(Value::as_array).map(Vec::as_slice).unwrap_or_default();
+    let steps = calls.iter().filter(|c| c.get("tool").and_then(Value::as_str) == Some("step_simulation"));
+    steps
+        .map(|c| c.pointer("/arguments/steps").and_then(Value::as_u64).unwrap_or(1))
+        .fold(0u64, u64::saturating_add)
+        .max(1)
+}
+
+/// The batch's calls, refused as a whole when there are none or too many.
+fn batch_calls(reg: &Registry, a: &Args) -> Result<Vec<Call>, Refusal> {
+    let p: params::Batch = params::parse("batch", a)?;
+    let n = p.calls.len();
+    if n == 0 || n > MAX_CALLS {
+        return Err(format!("calls must hold 1 to {MAX_CALLS} calls; got {n}"));
+    }
+    plan(reg, &p.sim_id.0, p.calls).map_err(|(i, tool, why)| call_refused(i, &tool, &why))
+}
+
+#[tool_router(router = batch_router, vis = "pub(crate)")]
+impl PhysicsServer {
+    /// Many calls in one request, all or nothing; each is its own event (undo takes back one).
+    /// Holds state-changing tools and get_object_state/joint_state/link_state/simulation_info.
+    #[tool(input_schema = schema_for_type::<params::Batch>())]
+    async fn batch(
+        &self,
+        args: JsonObject,
+        meta: RequestMetaObject,
+        peer: Peer<RoleServer>,
+        ct: CancellationToken,
+    ) -> Result<Json<Batched>, String> {
+        let watch = super::progress::Watch::new(&meta, peer, ct, steps_asked(&args));
+        let mut control = watch.control();
+        let reg = self.reg.clone();
+        let budget = self.reg.limits().max_reply_bytes;
+        let out = self
+            .with_sim(args, move |sim, a, limits| match batch_calls(&reg, a) {
+                Ok(calls) => sim.batch(a, calls, limits, budget, &mut control),
+                Err(why) => Err(sim.refuse("batch", a, why)),
+            })
+            .await;
+        watch.finish().await;
+        out.map(Json)
+    }
+}

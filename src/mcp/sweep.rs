@@ -1,0 +1,88 @@
+//! The run_sweep tool: parses the sweep, gives each variant a step control (progress across
+//! all variants, cancellation) and runs `Registry::sweep` on the blocking pool.
+
+use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
+
+use rmcp::handler::server::common::schema_for_type;
+use rmcp::handler::server::wrapper::Json;
+use rmcp::model::{JsonObject, RequestMetaObject};
+use rmcp::{tool, tool_router, Peer, RoleServer};
+use tokio_util::sync::CancellationToken;
+
+use super::params::{self, Sweep};
+use super::PhysicsServer;
+use crate::batch::call_refused;
+use crate::outputs::Swept;
+use crate::sim::{lock_sim, Registry};
+use crate::sweep::{Control, Observe, Request, MAX_VARIANTS};
+use crate::value::{self, Args, Refusal};
+
+/// The sweep a call asks for, every variant's calls decided (a refusal names the variant
+/// and the call).
+fn sweep_request(reg: &Registry, a: &Args) -> Result<Request, Refusal> {
+    let p: Sweep = params::parse("run_sweep", a)?;
+    let n = p.variants.len();
+    if n == 0 || n > MAX_VARIANTS {
+        return Err(format!("variants must hold 1 to {MAX_VARIANTS} variants; got {n}"));
+    }
+    let steps = u64::try_from(p.steps.get()).map_err(|_| format!("steps must be an integer >= 0; got {}", p.steps.get()))?;
+    let o = p.observe.unwrap_or_default();
+    let observe = Observe {
+        object_ids: o.object_ids.map(|ids| ids.into_iter().map(|i| i.0).collect()),
+        include_velocities: o.include_velocities.is_some_and(|b| b.0),
+        every: super::time::opt_every(o.every, "observe.every")?,
+    };
+    let mut variants = Vec::with_capacity(n);
+    for (v, calls) in p.variants.into_iter().enumerate() {
+        let planned = super::batch::plan(reg, &p.sim_id.0, calls)
+            .map_err(|(i, tool, why)| format!("variants[{v}]: {}", call_refused(i, &tool, &why)))?;
+        variants.push(planned);
+    }
+    Ok(Request { variants, steps, observe, keep: p.keep.is_some_and(|b| b.0) })
+}
+
+#[tool_router(router = sweep_router, vis = "pub(crate)")]
+impl PhysicsServer {
+    /// Fork per variant at the head, apply its calls, step, report; variants run in parallel
+    /// and are deleted unless keep. The swept simulation is not changed.
+    #[tool(input_schema = schema_for_type::<params::Sweep>())]
+    async fn run_sweep(
+        &self,
+        args: JsonObject,
+        meta: RequestMetaObject,
+        peer: Peer<RoleServer>,
+        ct: CancellationToken,
+    ) -> Result<Json<Swept>, String> {
+        let id = value::string(&args, "sim_id")?;
+        let sim = self.reg.get(&id)?;
+        let request = sweep_request(&self.reg, &args);
+        let (n, steps, keep) = request.as_ref().map_or((1, 1, false), |r| (r.variants.len(), r.steps, r.keep));
+        let watch = super::progress::Watch::new(&meta, peer, ct, (n as u64).saturating_mul(steps).max(1));
+        let done = Arc::new(AtomicU64::new(0));
+        let mut controls: Vec<Control> = (0..n).map(|_| Box::new(watch.shared_control(done.clone())) as Control).collect();
+        let reg = self.reg.clone();
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let budget = self.reg.limits().max_reply_bytes;
+        let out = tokio::task::spawn_blocking(move || match request {
+            Ok(req) => {
+                let next = move || controls.pop().unwrap_or_else(|| Box::new(|_| true));
+                reg.sweep(&id, &args, req, next, (workers, budget))
+            }
+            Err(why) => {
+                let mut s = lock_sim(&sim);
+                s.ensure_live()?;
+                Err(s.refuse("run_sweep", &args, why))
+            }
+        })
+        .await
+        .map_err(|_| "Internal error: the sweep failed and changed nothing".to_string());
+        watch.finish().await;
+        let out = out?.map(Json);
+        if keep {
+            self.simulations_changed(out)
+        } else {
+            out
+        }
+    }
+}

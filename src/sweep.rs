@@ -1,0 +1,302 @@
+//! run_sweep (SPEC "Scale"): one fork per variant, its calls applied as a batch, then its
+//! steps, the variants side by side on worker threads — nothing here but the existing fork,
+//! batch and step paths, so each variant's result equals doing the same by hand.
+//!
+//! Variants are forks under their partial names while they run: real, logged simulations
+//! that are not listed, not counted against --max-sims and removed at start after a crash.
+//! When every variant is done they are deleted, or with `keep` published like any fork. Any
+//! variant's refusal, or a cancellation, deletes them all and refuses the sweep. The swept
+//! simulation only records the sweep as one read (or refused) event.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use serde_json::json;
+
+use crate::batch::Call;
+use crate::command::Command;
+use crate::outputs::{Swept, SweptObject, SweptVariant};
+use crate::sim::{lock_sim, remove_log_files, Registry, Sim};
+use crate::value::{Args, Refusal};
+use crate::world::StepControl;
+
+/// The most variants one sweep may hold (SPEC).
+pub const MAX_VARIANTS: usize = 256;
+
+/// What a sweep reports of each variant.
+#[derive(Clone, Debug, Default)]
+pub struct Observe {
+    /// The objects whose final states (and samples) are reported; None: all.
+    pub object_ids: Option<Vec<u32>>,
+    /// Velocities too.
+    pub include_velocities: bool,
+    /// Sample poses every this many steps while stepping.
+    pub every: Option<u64>,
+}
+
+/// A sweep asked for: its variants' calls (decided), the steps, what to observe, whether to
+/// keep the forks.
+pub struct Request {
+    /// One list of calls per variant.
+    pub variants: Vec<Vec<Call>>,
+    /// Steps each variant takes after its calls.
+    pub steps: u64,
+    /// What to report.
+    pub observe: Observe,
+    /// Keep the forks as ordinary simulations.
+    pub keep: bool,
+}
+
+/// A step control per variant (progress and cancellation), made by the caller.
+pub type Control = Box<dyn FnMut(u64) -> bool + Send>;
+
+/// One variant while it runs: its fork and what it is to do.
+struct Running {
+    index: usize,
+    sim: Sim,
+    calls: Vec<Call>,
+    control: Control,
+}
+
+impl Registry {
+    /// Runs a sweep of simulation `id` on `workers` threads (module doc). `controls` gives
+    /// each variant its step control; `budget` is the reply budget the answer must fit.
+    pub fn sweep(
+        &self,
+        id: &str,
+        args: &Args,
+        req: Request,
+        mut controls: impl FnMut() -> Control,
+        (workers, budget): (usize, usize),
+    ) -> Result<Swept, Refusal> {
+        let parent = self.get(id)?;
+        let Request { variants, steps, observe, keep } = req;
+        // Forked one after another under the parent's lock, all at its head.
+        let running = {
+            let mut p = lock_sim(&parent);
+            p.ensure_live()?;
+            let checked = self.check_sweep(variants.len(), steps, keep);
+            let forked = checked.and_then(|()| {
+                let mut running = Vec::with_capacity(variants.len());
+                for (index, calls) in variants.into_iter().enumerate() {
+                    let fork_args = fork_arguments(id, p.log().head_seq());
+                    match self.fork_unpublished(&p, None, uuid::Uuid::new_v4().to_string(), &fork_args) {
+                        Ok((_, sim)) => running.push(Running { index, sim, calls, control: controls() }),
+                        Err(why) => {
+                            discard(running.into_iter().map(|r| r.sim));
+                            return Err(format!("variants[{index}] could not be forked: {why}"));
+                        }
+                    }
+                }
+                Ok(running)
+            });
+            match forked {
+                Ok(r) => r,
+                Err(why) => return Err(p.refuse("run_sweep", args, why)),
+            }
+        };
+        let done = run_all(running, workers, |r| run_variant(r, steps, &observe, self.limits()));
+        let outcome = finish(done, budget);
+        let mut p = lock_sim(&parent);
+        let (swept, sims) = match outcome {
+            Ok(ok) => ok,
+            Err((why, sims)) => {
+                discard(sims);
+                return Err(p.refuse("run_sweep", args, why));
+            }
+        };
+        let swept = if keep {
+            self.keep_all(swept, sims)
+        } else {
+            discard(sims);
+            Ok(swept)
+        };
+        match swept {
+            Ok(s) => p.read("run_sweep", args, |_| Ok(s)),
+            Err(why) => Err(p.refuse("run_sweep", args, why)),
+        }
+    }
+
+    /// The sweep's own bounds: 1–256 variants, steps within --max-steps, and room for the
+    /// forks it is to keep.
+    fn check_sweep(&self, variants: usize, steps: u64, keep: bool) -> Result<(), Refusal> {
+        if variants == 0 || variants > MAX_VARIANTS {
+            return Err(format!("variants must hold 1 to {MAX_VARIANTS} variants; got {variants}"));
+        }
+        let max = self.limits().max_steps;
+        if steps > max {
+            return Err(format!("steps must be at most {max} (--max-steps); got {steps}"));
+        }
+        if keep {
+            let live = self.table().len();
+            let max_sims = self.limits().max_sims;
+            if live + variants > max_sims {
+                return Err(format!(
+                    "keep=true would make {variants} simulations beside the {live} there are, over --max-sims ({max_sims}); keep fewer variants or set keep=false"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Publishes every variant's fork and lists it, naming it in the result. Should one fail
+    /// (a full disk), the rest are deleted and the sweep says which were kept.
+    fn keep_all(&self, mut swept: Swept, sims: Vec<Sim>) -> Result<Swept, Refusal> {
+        let mut sims = sims.into_iter();
+        let mut kept = Vec::new();
+        for (v, sim) in swept.variants.iter_mut().zip(sims.by_ref()) {
+            let id = sim.id().to_string();
+            let path = self.path_for(&id);
+            if let Err(why) = sim.publish(&path).and_then(|s| self.insert(s)) {
+                discard(sims);
+                return Err(format!("variants[{}] could not be kept ({why}); kept before it: {kept:?}", v.index));
+            }
+            kept.push(id.clone());
+            v.simulation_id = Some(id);
+        }
+        Ok(swept)
+    }
+}
+
+/// The arguments a variant's root records: those of the fork it is.
+fn fork_arguments(parent: &str, at_seq: u64) -> Args {
+    let mut a = sim_arguments(parent);
+    a.insert("at_seq".into(), json!(at_seq));
+    a
+}
+
+/// Runs `f` on every item with `workers` threads taking the next item as they finish;
+/// results come back in the items' order.
+fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    let n = items.len();
+    let queue: Vec<Mutex<Option<T>>> = items.into_iter().map(|t| Mutex::new(Some(t))).collect();
+    let out: Vec<Mutex<Option<R>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    let next = AtomicUsize::new(0);
+    std::thread::scope(|s| {
+        for _ in 0..workers.clamp(1, n.max(1)) {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(slot) = queue.get(i) else { break };
+                let item = slot.lock().unwrap_or_else(|p| p.into_inner()).take();
+                if let Some(item) = item {
+                    let r = f(item);
+                    *out[i].lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
+                }
+            });
+        }
+    });
+    out.into_iter().filter_map(|m| m.into_inner().unwrap_or_else(|p| p.into_inner())).collect()
+}
+
+/// One variant's calls (as a batch) and steps, then what `observe` asks of it.
+fn run_variant(r: Running, steps: u64, observe: &Observe, limits: &crate::limits::Limits) -> (Sim, Result<SweptVariant, Refusal>) {
+    let Running { index, mut sim, calls, mut control } = r;
+    // A panic in the engine fails this variant (its fork is deleted with the others), not
+    // the worker thread and with it the whole server request.
+    let worked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        variant_work(&mut sim, calls, steps, observe, limits, &mut control)
+    }))
+    .unwrap_or_else(|_| Err("the engine failed while simulating it (an internal error); nothing was kept".into()));
+    let out = worked
+        .map_err(|why| format!("variants[{index}]: {why}"))
+        .map(|(state_hash, objects, trajectory)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory });
+    (sim, out)
+}
+
+/// What a variant reports: (state hash, objects, trajectory).
+type Report = (String, Vec<SweptObject>, Option<crate::outputs::Trajectory>);
+
+fn variant_work(
+    sim: &mut Sim,
+    calls: Vec<Call>,
+    steps: u64,
+    observe: &Observe,
+    limits: &crate::limits::Limits,
+    control: StepControl,
+) -> Result<Report, Refusal> {
+    let id = sim.id().to_string();
+    if !calls.is_empty() {
+        sim.batch(&sim_arguments(&id), calls, limits, usize::MAX, &mut *control)?;
+    }
+    let mut trajectory = None;
+    if steps > 0 {
+        let mut a = sim_arguments(&id);
+        a.insert("steps".into(), json!(steps));
+        let stepped = match observe.every {
+            Some(every) => {
+                a.insert("sample_every".into(), json!(every));
+                if let Some(ids) = &observe.object_ids {
+                    a.insert("sample_objects".into(), json!(ids));
+                }
+                let s = crate::mcp::sampled_step_with(sim, &a, limits, &mut *control, observe.include_velocities)?;
+                trajectory = s.trajectory.clone();
+                s.steps_taken
+            }
+            None => {
+                let out = sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps }), limits, &mut *control)?;
+                out.steps_taken().unwrap_or(steps)
+            }
+        };
+        if stepped < steps {
+            return Err("the sweep was cancelled".into());
+        }
+    }
+    let w = sim.world();
+    let ids: Vec<u32> = observe.object_ids.clone().unwrap_or_else(|| w.objects().map(|(id, _)| id).collect());
+    let mut objects = Vec::with_capacity(ids.len());
+    for object_id in ids {
+        let s = w.object_state(object_id).ok_or_else(|| format!("observe.object_ids: object {object_id} does not exist"))?;
+        let v = observe.include_velocities;
+        objects.push(SweptObject {
+            object_id,
+            position: s.position,
+            orientation: s.orientation,
+            linear_velocity: v.then_some(s.linear_velocity),
+            angular_velocity: v.then_some(s.angular_velocity),
+        });
+    }
+    Ok((sim.state_hash().to_string(), objects, trajectory))
+}
+
+/// The variants' results in order with their forks, or the first refusal (by variant index)
+/// with every fork to delete; an answer over the reply budget is refused too.
+#[allow(clippy::type_complexity)]
+fn finish(done: Vec<(Sim, Result<SweptVariant, Refusal>)>, budget: usize) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
+    let mut sims = Vec::with_capacity(done.len());
+    let mut variants = Vec::with_capacity(done.len());
+    let mut first_refusal = None;
+    for (sim, r) in done {
+        sims.push(sim);
+        match r {
+            Ok(v) => variants.push(v),
+            Err(why) => {
+                first_refusal.get_or_insert(why);
+            }
+        }
+    }
+    if let Some(why) = first_refusal {
+        return Err((why, sims));
+    }
+    let swept = Swept { variants };
+    let bytes = crate::mcp::reply::reply_bytes("run_sweep", serde_json::to_value(&swept).unwrap_or_default());
+    if bytes > budget {
+        return Err((crate::mcp::reply::over_budget("run_sweep", bytes as u64, budget), sims));
+    }
+    Ok((swept, sims))
+}
+
+/// Deletes variants' forks (never published: their partial files).
+fn discard(sims: impl IntoIterator<Item = Sim>) {
+    for sim in sims {
+        let path = sim.log().path().to_path_buf();
+        drop(sim);
+        remove_log_files(&path);
+    }
+}
+
+/// `{"sim_id": id}`: the arguments of a variant's batch, as its log records them.
+fn sim_arguments(id: &str) -> Args {
+    let mut a = Args::new();
+    a.insert("sim_id".into(), json!(id));
+    a
+}
