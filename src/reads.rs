@@ -187,6 +187,8 @@ pub enum Read {
     Animation(RenderAnimation),
     /// get_link_state.
     LinkState(LinkRef),
+    /// run_sweep (the swept simulation's event): its result comes from forks, not this world.
+    Sweep(Box<params::Sweep>),
 }
 
 impl Read {
@@ -216,6 +218,7 @@ impl Read {
             "get_trajectory" => Read::Trajectory(p(tool, a)?),
             "render_animation" => Read::Animation(p(tool, a)?),
             "get_link_state" => Read::LinkState(p(tool, a)?),
+            "run_sweep" => Read::Sweep(Box::new(p(tool, a)?)),
             other => return Err(format!("{other} is not a read this server knows")),
         })
     }
@@ -241,7 +244,7 @@ impl Read {
             Read::CollisionsForPair(p) => json(collisions_for_pair(cx, p)),
             Read::CameraImage(p) => json(camera_image(cx, p, usize::MAX)),
             Read::LinkState(p) => json(link_state(cx, p)),
-            Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) | Read::Animation(_) => return None,
+            Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) | Read::Animation(_) | Read::Sweep(_) => return None,
         })
     }
 }

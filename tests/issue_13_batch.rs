@@ -152,6 +152,9 @@ async fn reads_inside_a_batch_see_the_earlier_calls_and_a_robot_batch_survives_k
     let verified = c.call("verify_simulation", json!({"sim_id": s})).await;
     assert_eq!(verified["ok"], json!(true), "{verified}");
     c.step(s, 10).await;
+    // The replay CLI re-runs the batch's events, results of its reads included.
+    server.terminate();
+    common::assert_replays(&dir.path().join("data"), s);
 }
 
 #[tokio::test(flavor = "multi_thread")]

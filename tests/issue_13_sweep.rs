@@ -100,6 +100,9 @@ async fn every_variant_equals_the_same_done_by_hand_and_the_swept_simulation_is_
         c.call("destroy_simulation", json!({"sim_id": fork})).await;
     }
     assert_eq!(hashes.len(), 8, "each variant changed something");
+    // The swept simulation's log, with the sweep as a read event in it, replays.
+    server.terminate();
+    common::assert_replays(&dir.path().join("data"), s);
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -120,8 +120,8 @@ fn batch_calls(reg: &Registry, a: &Args) -> Result<Vec<Call>, Refusal> {
 
 #[tool_router(router = batch_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Many calls in one request, all or nothing; each is its own event (undo takes back one).
-    /// Holds state-changing tools and get_object_state/joint_state/link_state/simulation_info.
+    /// Up to 10,000 calls in one request, all or nothing; each is its own event. Takes the
+    /// state-changing tools and get_object_state/joint_state/link_state/simulation_info.
     #[tool(input_schema = schema_for_type::<params::Batch>())]
     async fn batch(
         &self,

@@ -44,8 +44,8 @@ fn sweep_request(reg: &Registry, a: &Args) -> Result<Request, Refusal> {
 
 #[tool_router(router = sweep_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Fork per variant at the head, apply its calls, step, report; variants run in parallel
-    /// and are deleted unless keep. The swept simulation is not changed.
+    /// Per variant: fork at the head, apply its calls, step, report. Runs in parallel; forks
+    /// are deleted unless keep.
     #[tool(input_schema = schema_for_type::<params::Sweep>())]
     async fn run_sweep(
         &self,

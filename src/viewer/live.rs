@@ -6,6 +6,10 @@
 //!
 //! Slots live in a process-wide table by simulation id (ids are UUIDs, unique across
 //! registries), so the viewer reaches them without the simulation's lock.
+//!
+//! Capturing costs (the scene and its contacts), so a step publishes only while a viewer has
+//! asked for the simulation within the last [`WATCHED_FOR`]: the first request of a watcher
+//! finds nothing yet, and the frames follow from the next publication on.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, LazyLock, Mutex};
@@ -36,9 +40,21 @@ pub struct Progress {
     pub overlays: Overlays,
 }
 
+/// How long a viewer's request keeps a running step publishing.
+pub const WATCHED_FOR: Duration = Duration::from_secs(3);
+
 type Slot = Arc<Mutex<Option<Arc<Progress>>>>;
 
 static SLOTS: LazyLock<Mutex<BTreeMap<String, Slot>>> = LazyLock::new(Default::default);
+
+/// When a viewer last asked for each simulation's live progress.
+static WATCHED: LazyLock<Mutex<BTreeMap<String, Instant>>> = LazyLock::new(Default::default);
+
+/// Whether a viewer asked for simulation `id` within [`WATCHED_FOR`].
+fn watched(id: &str) -> bool {
+    let table = WATCHED.lock().unwrap_or_else(|p| p.into_inner());
+    table.get(id).is_some_and(|t| t.elapsed() < WATCHED_FOR)
+}
 
 fn slot(id: &str) -> Slot {
     let mut table = SLOTS.lock().unwrap_or_else(|p| p.into_inner());
@@ -47,6 +63,11 @@ fn slot(id: &str) -> Slot {
 
 /// The latest moment a running step of simulation `id` published; None when no step runs.
 pub fn latest(id: &str) -> Option<Arc<Progress>> {
+    {
+        let mut watched = WATCHED.lock().unwrap_or_else(|p| p.into_inner());
+        watched.retain(|_, t| t.elapsed() < WATCHED_FOR);
+        watched.insert(id.to_string(), Instant::now());
+    }
     let table = SLOTS.lock().unwrap_or_else(|p| p.into_inner());
     let slot = table.get(id)?.clone();
     drop(table);
@@ -76,6 +97,9 @@ impl Publisher {
             return;
         }
         self.last = Instant::now();
+        if !watched(&self.id) {
+            return;
+        }
         let progress = Progress {
             scene: Scene::capture(w),
             steps: w.steps(),

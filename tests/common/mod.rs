@@ -274,3 +274,16 @@ pub fn empty_world(id: &str) -> physics_mcp::world::World {
 }
 /// Hardening helpers (issue #15): seeds, fingerprints, list_simulations parts.
 pub mod hard;
+
+/// `physics-mcp replay` of simulation `id`'s log in `data`, every recorded hash checked:
+/// panics with its output unless it replays.
+pub fn assert_replays(data: &Path, id: &str) {
+    let path = data.join(format!("{id}.sqlite"));
+    let out = Command::new(env!("CARGO_BIN_EXE_physics-mcp")).arg("replay").arg(&path).output().unwrap();
+    assert!(
+        out.status.success(),
+        "replay of {id} failed: {}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
