@@ -10,69 +10,14 @@ measured is the server and its framing, not a client library. README "Connecting
 quotes the result.
 """
 
-import http.client
-import json
-import os
-import re
+import pathlib
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 
-
-def start(binary, env_extra, tmp):
-    env = dict(os.environ, **env_extra)
-    proc = subprocess.Popen(
-        [binary, "serve", "--bind", "127.0.0.1:0", "--data", f"{tmp}/data", "--workspace", f"{tmp}/ws"],
-        stderr=subprocess.PIPE,
-        stdout=subprocess.DEVNULL,
-        env=env,
-        text=True,
-    )
-    for line in proc.stderr:
-        m = re.match(r"physics-mcp listening on http://([^/]+)(/mcp)", line)
-        if m:
-            return proc, m.group(1)
-    raise SystemExit("the server did not start")
-
-
-class Session:
-    def __init__(self, hostport):
-        self.conn = http.client.HTTPConnection(hostport)
-        self.session = None
-        self.next_id = 0
-
-    def post(self, method, params, notify=False):
-        body = {"jsonrpc": "2.0", "method": method, "params": params}
-        if not notify:
-            self.next_id += 1
-            body["id"] = self.next_id
-        headers = {"Content-Type": "application/json", "Accept": "application/json, text/event-stream"}
-        if self.session:
-            headers["Mcp-Session-Id"] = self.session
-            headers["MCP-Protocol-Version"] = "2025-11-25"
-        self.conn.request("POST", "/mcp", json.dumps(body), headers)
-        r = self.conn.getresponse()
-        self.session = r.getheader("Mcp-Session-Id") or self.session
-        text = r.read().decode()
-        if notify:
-            return None
-        for line in text.splitlines():
-            if line.startswith("data:") and line[5:].strip():
-                msg = json.loads(line[5:])
-                if msg.get("id") == body["id"]:
-                    return msg
-        if text.lstrip().startswith("{"):
-            return json.loads(text)
-        raise SystemExit(f"{method}: no response in {text!r}")
-
-    def call(self, tool, args):
-        msg = self.post("tools/call", {"name": tool, "arguments": args})
-        result = msg["result"]
-        if result.get("isError"):
-            raise SystemExit(f"{tool} refused: {result}")
-        return result.get("structuredContent")
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent / "lib"))
+from mcp_http import Session, start  # noqa: E402
 
 
 def measure(binary, env_extra, calls):
@@ -80,8 +25,7 @@ def measure(binary, env_extra, calls):
         proc, hostport = start(binary, env_extra, tmp)
         try:
             s = Session(hostport)
-            s.post("initialize", {"protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "bench", "version": "0"}})
-            s.post("notifications/initialized", {}, notify=True)
+            s.open("bench")
             sim = s.call("create_simulation", {})["simulation_id"]
             obj = s.call("add_box", {"sim_id": sim, "dimensions": [1, 1, 1], "mass": 1, "position": [0, 0, 1]})["object_id"]
             for _ in range(50):  # warm up
