@@ -544,3 +544,55 @@ async fn a_mesh_geom_collides_as_its_convex_hull() {
         }
     }
 }
+
+/// IK on an MJCF arm whose joints pivot away from their bodies' origins (`pos`) and carry a
+/// `ref`, with two joints in one body: the answer, set by reset_joint_state, puts the
+/// end-effector's frame on the target a reached configuration gave.
+#[tokio::test(flavor = "multi_thread")]
+async fn ik_on_an_mjcf_arm_with_joint_pivots_and_refs_reaches_the_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let arm = r#"<mujoco model="offset_arm"><compiler angle="radian"/><worldbody>
+      <body name="upper" pos="0 0 1">
+        <joint name="shoulder" type="hinge" axis="0 1 0" pos="0 0 0.1" ref="0.2" range="-2 2"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+        <body name="fore" pos="0.4 0 0">
+          <joint name="elbow" type="hinge" axis="0 1 0" pos="-0.05 0 0.02" range="-2 2"/>
+          <joint name="twist" type="hinge" axis="1 0 0" pos="0.1 0 0" ref="-0.3" range="-2 2"/>
+          <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+          <body name="hand" pos="0.3 0 0">
+            <joint name="wrist" type="hinge" axis="0 0 1" pos="0.02 0.01 0" range="-2 2"/>
+            <geom type="box" size="0.05 0.02 0.02" pos="0.05 0 0"/>
+          </body>
+        </body>
+      </body></worldbody></mujoco>"#;
+    std::fs::write(server.workspace.join("offset_arm.xml"), arm).unwrap();
+    let c = server.client().await;
+    let sim = c.new_sim(json!({"gravity": [0, 0, 0]})).await;
+    let id = c.call("load_mjcf", json!({"sim_id": sim, "file_path": "offset_arm.xml", "position": [0.3, -0.2, 0]})).await["object_id"].as_u64().unwrap();
+    let reached = [0.7, -0.5, 0.4, 0.9];
+    let set = |q: [f64; 4]| {
+        let c = &c;
+        let sim = sim.clone();
+        async move {
+            for (i, v) in q.iter().enumerate() {
+                c.call("reset_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": i, "target_value": v})).await;
+            }
+        }
+    };
+    set(reached).await;
+    let ee = c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 3})).await;
+    let (pos, orn) = (floats(&ee["link_world_position"]), floats(&ee["link_world_orientation"]));
+    set([0.2, 0.0, -0.3, 0.0]).await;
+    let ik = c
+        .call("calculate_inverse_kinematics", json!({"sim_id": sim, "object_id": id, "end_effector_link_index": 3, "target_position": pos, "target_orientation": orn}))
+        .await;
+    let q = floats(&ik["joint_positions"]);
+    assert!(ik["position_error"].as_f64().unwrap() < 1e-4, "{ik}");
+    set([q[0], q[1], q[2], q[3]]).await;
+    let got = c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 3})).await;
+    let d = vec_diff(&floats(&got["link_world_position"]), &pos);
+    assert!(d < 1e-4, "IK answer {q:?} puts the hand at {} not {pos:?} (off by {d})", got["link_world_position"]);
+    let d = quat_diff(&floats(&got["link_world_orientation"]), &orn);
+    assert!(d < 1e-3, "IK answer {q:?} turns the hand to {} not {orn:?}", got["link_world_orientation"]);
+}
