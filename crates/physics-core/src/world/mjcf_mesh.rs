@@ -41,7 +41,9 @@ pub struct MeshGeom {
 /// MuJoCo does. The adapter reads them into the event; unparseable text gives none (the load
 /// is refused later, naming the problem).
 pub fn mesh_files(xml: &str, dir: &Path) -> Vec<(String, PathBuf)> {
-    let Ok(model) = Model::from_str(xml, dir) else { return Vec::new() };
+    // Parsed against a folder that does not exist, as the world parses it: the parser itself
+    // must read nothing (an `<asset><model file>` would otherwise be read past the sandbox).
+    let Ok(model) = Model::from_str(xml, Path::new("/nonexistent-physics-mcp-mjcf-base")) else { return Vec::new() };
     let mut out: Vec<(String, PathBuf)> = Vec::new();
     for entry in &model.bodies {
         for g in entry.body.geoms.iter().filter(|g| g.type_ == GeomType::Mesh) {
@@ -171,12 +173,12 @@ fn mesh_data(name: &str, mesh: &Mesh, blobs: &BTreeMap<String, Blob>) -> Result<
             (p.iter().map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect(), t)
         }
         (None, Some(v)) => {
-            if v.len() < 12 || v.len() % 3 != 0 || v.iter().any(|x| !x.is_finite()) {
+            if v.len() < 12 || !v.len().is_multiple_of(3) || v.iter().any(|x| !x.is_finite()) {
                 return Err(format!("mesh {name} needs at least 4 finite vertices (3 numbers each)"));
             }
             let pts: Vec<DVec3> = v.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect();
             let faces = mesh.inline_faces.clone().unwrap_or_default();
-            if faces.len() % 3 != 0 || faces.iter().any(|i| *i as usize >= pts.len()) {
+            if !faces.len().is_multiple_of(3) || faces.iter().any(|i| *i as usize >= pts.len()) {
                 return Err(format!("mesh {name} has faces that are not triples of its vertex indices"));
             }
             (pts, faces.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())

@@ -498,12 +498,15 @@ pub fn mesh_points(name: &str, bytes: &[u8]) -> Result<Vec<[f32; 3]>, Refusal> {
     Ok(mesh_triangles(name, bytes)?.0)
 }
 
+/// A mesh's vertices and its triangles (vertex indices).
+pub type Triangles = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+
 /// The vertices and triangles (vertex indices) of an STL (binary or ASCII) or OBJ mesh, from its
 /// bytes: URDF and MJCF meshes share this reader (MJCF needs the triangles for MuJoCo's mesh
 /// volume and inertia).
-pub fn mesh_triangles(name: &str, bytes: &[u8]) -> Result<(Vec<[f32; 3]>, Vec<[u32; 3]>), Refusal> {
+pub fn mesh_triangles(name: &str, bytes: &[u8]) -> Result<Triangles, Refusal> {
     let lower = name.to_ascii_lowercase();
-    let (points, triangles): (Vec<[f32; 3]>, Vec<[u32; 3]>) = if lower.ends_with(".stl") {
+    let (points, triangles): Triangles = if lower.ends_with(".stl") {
         let mesh = stl_io::read_stl(&mut std::io::Cursor::new(bytes))
             .map_err(|e| format!("mesh {name} is not a readable STL file: {e}"))?;
         let tris = mesh.faces.iter().map(|f| f.vertices.map(|i| i as u32)).collect();
