@@ -22,6 +22,7 @@ fn world_with(name: &str, bytes: &[u8]) -> World {
     let load = Command::LoadMjcf {
         file_path: name.into(),
         mjcf: Blob::new(bytes.to_vec()),
+        meshes: Default::default(),
         position: [0.0; 3],
         orientation: [0.0, 0.0, 0.0, 1.0],
         fixed_base: false,

@@ -3,12 +3,16 @@
 //! `<include file=…/>` element is replaced by the children of the included file's `<mujoco>`
 //! root, as MuJoCo does — so the event carries one self-contained MJCF text. Include paths
 //! resolve relative to the main file's folder (MuJoCo's rule) and go through the sandbox.
+//! The meshes the model's geoms use are read too (relative to the main file's folder and its
+//! `<compiler meshdir/assetdir>`, sandboxed, within the URDF mesh limit) and travel in the
+//! event as blobs, keyed by their `<mesh file>`.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::command::{Blob, Command};
 use crate::mcp::params;
-use crate::urdf_files::MAX_URDF_BYTES;
+use crate::urdf_files::{read_limited, MAX_MESH_BYTES, MAX_URDF_BYTES};
 use crate::value::{self, Refusal};
 use crate::workspace::Sandbox;
 
@@ -92,12 +96,30 @@ pub fn load_mjcf_command(sandbox: &Sandbox, p: &params::LoadMjcf) -> Result<Comm
     let text = read_text(&path, &format!("file_path {user}"), &mut budget)?;
     let mut chain = vec![path];
     let spliced = splice(sandbox, &text, &format!("file_path {user}"), &dir, &mut chain, &mut budget)?;
+    let meshes = read_meshes(sandbox, &spliced, &dir, &user)?;
     Ok(Command::LoadMjcf {
         file_path: user,
         mjcf: Blob::new(spliced.into_bytes()),
+        meshes,
         position,
         orientation,
         fixed_base,
         keyframe,
     })
+}
+
+/// Every mesh file the model's geoms use, read through the sandbox within the URDF mesh limit
+/// (their total), by the `<mesh file>` written in the model.
+fn read_meshes(sandbox: &Sandbox, xml: &str, dir: &Path, user: &str) -> Result<BTreeMap<String, Blob>, Refusal> {
+    let mut meshes = BTreeMap::new();
+    let mut total = 0u64;
+    for (file, path) in crate::world::mjcf_mesh::mesh_files(xml, dir) {
+        let path = sandbox
+            .existing(&path.display().to_string())
+            .map_err(|why| format!("mesh {file} of {user} cannot be read: {why}"))?;
+        let bytes = read_limited(&path, &format!("mesh {file} of {user}"), MAX_MESH_BYTES.saturating_sub(total))?;
+        total += bytes.len() as u64;
+        meshes.insert(file, Blob::new(bytes));
+    }
+    Ok(meshes)
 }

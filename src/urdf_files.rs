@@ -33,7 +33,8 @@ pub fn builtin(name: &str) -> Option<&'static str> {
     BUILTIN.iter().find(|(n, _)| *n == name).map(|(_, text)| *text)
 }
 
-fn read_limited(path: &Path, shown: &str, limit: u64) -> Result<Vec<u8>, Refusal> {
+/// The file's bytes, refused (naming it) when over `limit` or unreadable; MJCF meshes use it too.
+pub(crate) fn read_limited(path: &Path, shown: &str, limit: u64) -> Result<Vec<u8>, Refusal> {
     let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(u64::MAX);
     if size > limit {
         return Err(format!("{shown} is {size} bytes; the limit is {limit}"));

@@ -34,6 +34,9 @@ fn quat_diff(a: &[f64], b: &[f64]) -> f64 {
 /// What each fixture's `ignored` must mention: every model's `<option>` and actuators, and
 /// what each uses that rapier does not simulate (grep the fixtures for these attributes).
 fn expected_ignored(model: &str) -> Vec<&'static str> {
+    if model == "mesh_robot" {
+        return vec!["<option timestep="];
+    }
     let mut v = vec!["<option timestep=", "<actuator>"];
     v.extend(match model {
         "swimmer" => &["<option viscosity>", "<option density>", "condim=\"1\""][..],
@@ -108,6 +111,20 @@ async fn fixtures_load_and_match_mujoco() {
             let got = d["mass"].as_f64().unwrap();
             assert!((got - want).abs() <= 1e-5 * want.max(1e-3), "{model} link {link}: mass {got} vs MuJoCo {want}");
         }
+        if model == "mesh_robot" {
+            // No armature here: each body's principal inertia equals MuJoCo's too (meshes by
+            // every <mesh inertia> rule).
+            for (k, (b, rb)) in bodies.iter().zip(ref_bodies).enumerate() {
+                let link = b["link_index"].as_i64().unwrap();
+                let d = c.call("get_dynamics_info", json!({"sim_id": sim, "object_id": id, "link_index": link})).await;
+                let mut got = floats(&d["local_inertia_diagonal"]);
+                let mut want = floats(&rb["inertia"]);
+                got.sort_by(f64::total_cmp);
+                want.sort_by(f64::total_cmp);
+                let off = vec_diff(&got, &want);
+                assert!(off <= 1e-5 * want[2], "{model} body {k}: principal inertia {got:?} vs MuJoCo {want:?}");
+            }
+        }
         // Which bodies have a frame of their own (a joint, or the free root).
         let link_of_name = |name: &str| -> i64 {
             if name == "world" {
@@ -150,6 +167,11 @@ async fn fixtures_load_and_match_mujoco() {
                 assert!(d < 1e-5, "{at}: position {} vs MuJoCo {} (off by {d})", s["link_world_position"], frame["xpos"]);
                 let d = quat_diff(&floats(&s["link_world_orientation"]), &floats(&frame["xquat"]));
                 assert!(d < 1e-5, "{at}: orientation {} vs MuJoCo {} (off by {d})", s["link_world_orientation"], frame["xquat"]);
+                if model == "mesh_robot" {
+                    // One body per link: its centre of mass is MuJoCo's xipos (mesh placement).
+                    let d = vec_diff(&floats(&s["com_world_position"]), &floats(&frame["xipos"]));
+                    assert!(d < 1e-5, "{at}: centre of mass {} vs MuJoCo {} (off by {d})", s["com_world_position"], frame["xipos"]);
+                }
                 compared += 1;
             }
         }
@@ -247,7 +269,21 @@ async fn bad_mjcf_inputs_are_refused_naming_the_problem_and_change_nothing() {
     write("flex.xml", "<mujoco><deformable><flex name=\"f\"/></deformable><worldbody/></mujoco>");
     write("composite.xml", "<mujoco><worldbody><composite type=\"rope\"/></worldbody></mujoco>");
     write("plugin.xml", "<mujoco><extension><plugin plugin=\"p\"/></extension><worldbody/></mujoco>");
-    write("mesh.xml", "<mujoco><asset><mesh name=\"m\" file=\"m.stl\"/></asset><worldbody><body><geom name=\"hull\" type=\"mesh\" mesh=\"m\"/></body></worldbody></mujoco>");
+    let mesh_model = |file: &str| {
+        format!("<mujoco><asset><mesh name=\"m\" file=\"{file}\"/></asset><worldbody><body><geom name=\"hull\" type=\"mesh\" mesh=\"m\"/></body></worldbody></mujoco>")
+    };
+    write("mesh_missing.xml", &mesh_model("nowhere.stl"));
+    write("mesh_escaping.xml", &mesh_model("../../outside.stl"));
+    write("mesh_malformed.xml", &mesh_model("broken.obj"));
+    write("broken.obj", "v 0 0 0\nv 1 0 0\nf 1 2 7\n");
+    write("mesh_flat.xml", &mesh_model("flat.obj"));
+    write("flat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n");
+    write("mesh_format.xml", &mesh_model("m.msh"));
+    write("m.msh", "binary");
+    write("mesh_huge.xml", &mesh_model("huge.stl"));
+    std::fs::File::create(ws.join("huge.stl")).unwrap().set_len(65 << 20).unwrap();
+    write("mesh_undeclared.xml", "<mujoco><worldbody><body><geom name=\"g\" type=\"mesh\" mesh=\"nope\"/></body></worldbody></mujoco>");
+    write("mesh_fitted.xml", "<mujoco><asset><mesh name=\"m\" file=\"mjcf/meshes/tetra.stl\"/></asset><worldbody><body><geom name=\"fit\" type=\"box\" mesh=\"m\"/></body></worldbody></mujoco>");
     write("missing_include.xml", "<mujoco><include file=\"nowhere.xml\"/><worldbody/></mujoco>");
     write("escaping_include.xml", "<mujoco><include file=\"../../outside.xml\"/><worldbody/></mujoco>");
     write("self_include.xml", "<mujoco><include file=\"self_include.xml\"/><worldbody/></mujoco>");
@@ -274,7 +310,14 @@ async fn bad_mjcf_inputs_are_refused_naming_the_problem_and_change_nothing() {
         (file("flex.xml"), "<flex>"),
         (file("composite.xml"), "<composite>"),
         (file("plugin.xml"), "<plugin>"),
-        (file("mesh.xml"), "geom hull is a mesh"),
+        (file("mesh_missing.xml"), "mesh nowhere.stl of mesh_missing.xml cannot be read"),
+        (file("mesh_escaping.xml"), "Access denied"),
+        (file("mesh_malformed.xml"), "mesh broken.obj"),
+        (file("mesh_flat.xml"), "mesh m has no volume"),
+        (file("mesh_format.xml"), "mesh m.msh has an unsupported format"),
+        (file("mesh_huge.xml"), "mesh huge.stl of mesh_huge.xml is 68157440 bytes"),
+        (file("mesh_undeclared.xml"), "geom g names mesh nope"),
+        (file("mesh_fitted.xml"), "geom fit fits a primitive to mesh m"),
         (file("missing_include.xml"), "nowhere.xml"),
         (file("escaping_include.xml"), "Access denied"),
         (file("self_include.xml"), "cycle"),
@@ -316,6 +359,9 @@ async fn an_mjcf_robot_survives_undo_fork_save_load_restart_and_replay() {
     let ant = c.call("load_mjcf", json!({"sim_id": s, "file_path": "mjcf/ant.xml", "position": [3, 0, 0]})).await["object_id"]
         .as_u64()
         .unwrap();
+    // Meshes travel as blobs: the mesh robot comes back after its files are deleted too.
+    let meshes = c.call("load_mjcf", json!({"sim_id": s, "file_path": "mjcf/mesh_robot.xml", "position": [6, 0, 0]})).await;
+    assert_eq!(meshes["num_joints"], 3, "{meshes}");
     c.call("set_joint_motor_control", json!({"sim_id": s, "object_id": walker, "joint_index": 3, "control_mode": "VELOCITY_CONTROL", "target_velocity": 1, "force": 50})).await;
     c.step(s, 50).await;
     let before = c.hash(s).await;
@@ -462,4 +508,91 @@ async fn a_saved_file_without_history_reloads_its_mjcf_robot_from_the_workspace(
     assert_eq!(floats(&o["position"]), vec![1.0, 2.0, 0.0], "{info}");
     let n = c.call("get_num_joints", json!({"sim_id": copy, "object_id": 0})).await;
     assert_eq!(n["num_joints"], 4, "{n}");
+}
+
+/// A free body whose only geom is a mesh cube (vertices only: MuJoCo makes its faces from the
+/// hull) falls onto the floor and rests on its hull, 0.1 m up; the same cube as a visual mesh
+/// (contype 0) carries the mass but falls through.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_mesh_geom_collides_as_its_convex_hull() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let cube = |contype: u32| {
+        format!(
+            r#"<mujoco><asset><mesh name="cube" vertex="-.1 -.1 -.1  .1 -.1 -.1  .1 .1 -.1  -.1 .1 -.1  -.1 -.1 .1  .1 -.1 .1  .1 .1 .1  -.1 .1 .1"/></asset>
+  <worldbody><geom name="floor" type="plane" size="0 0 1"/>
+    <body name="box" pos="0 0 0.5"><freejoint/><geom name="c" type="mesh" mesh="cube" contype="{contype}" conaffinity="{contype}"/></body>
+  </worldbody></mujoco>"#
+        )
+    };
+    std::fs::write(server.workspace.join("cube.xml"), cube(1)).unwrap();
+    std::fs::write(server.workspace.join("ghost.xml"), cube(0)).unwrap();
+    let c = server.client().await;
+    for (file, rests) in [("cube.xml", true), ("ghost.xml", false)] {
+        let sim = c.new_sim(json!({})).await;
+        let id = c.call("load_mjcf", json!({"sim_id": sim, "file_path": file})).await["object_id"].as_u64().unwrap();
+        let d = c.call("get_dynamics_info", json!({"sim_id": sim, "object_id": id, "link_index": -1})).await;
+        let mass = d["mass"].as_f64().unwrap();
+        assert!((mass - 8.0).abs() < 1e-4, "{file}: a 0.2 m cube of water is 8 kg; got {mass}");
+        c.step(&sim, 480).await;
+        let s = c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": -1})).await;
+        let z = s["link_world_position"][2].as_f64().unwrap();
+        if rests {
+            assert!((z - 0.1).abs() < 0.01, "{file}: the cube should rest on its hull at z 0.1; z {z}");
+        } else {
+            assert!(z < -1.0, "{file}: a visual mesh does not collide; z {z}");
+        }
+    }
+}
+
+/// IK on an MJCF arm whose joints pivot away from their bodies' origins (`pos`) and carry a
+/// `ref`, with two joints in one body: the answer, set by reset_joint_state, puts the
+/// end-effector's frame on the target a reached configuration gave.
+#[tokio::test(flavor = "multi_thread")]
+async fn ik_on_an_mjcf_arm_with_joint_pivots_and_refs_reaches_the_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let arm = r#"<mujoco model="offset_arm"><compiler angle="radian"/><worldbody>
+      <body name="upper" pos="0 0 1">
+        <joint name="shoulder" type="hinge" axis="0 1 0" pos="0 0 0.1" ref="0.2" range="-2 2"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+        <body name="fore" pos="0.4 0 0">
+          <joint name="elbow" type="hinge" axis="0 1 0" pos="-0.05 0 0.02" range="-2 2"/>
+          <joint name="twist" type="hinge" axis="1 0 0" pos="0.1 0 0" ref="-0.3" range="-2 2"/>
+          <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+          <body name="hand" pos="0.3 0 0">
+            <joint name="wrist" type="hinge" axis="0 0 1" pos="0.02 0.01 0" range="-2 2"/>
+            <geom type="box" size="0.05 0.02 0.02" pos="0.05 0 0"/>
+          </body>
+        </body>
+      </body></worldbody></mujoco>"#;
+    std::fs::write(server.workspace.join("offset_arm.xml"), arm).unwrap();
+    let c = server.client().await;
+    let sim = c.new_sim(json!({"gravity": [0, 0, 0]})).await;
+    let id = c.call("load_mjcf", json!({"sim_id": sim, "file_path": "offset_arm.xml", "position": [0.3, -0.2, 0]})).await["object_id"].as_u64().unwrap();
+    let reached = [0.7, -0.5, 0.4, 0.9];
+    let set = |q: [f64; 4]| {
+        let c = &c;
+        let sim = sim.clone();
+        async move {
+            for (i, v) in q.iter().enumerate() {
+                c.call("reset_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": i, "target_value": v})).await;
+            }
+        }
+    };
+    set(reached).await;
+    let ee = c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 3})).await;
+    let (pos, orn) = (floats(&ee["link_world_position"]), floats(&ee["link_world_orientation"]));
+    set([0.2, 0.0, -0.3, 0.0]).await;
+    let ik = c
+        .call("calculate_inverse_kinematics", json!({"sim_id": sim, "object_id": id, "end_effector_link_index": 3, "target_position": pos, "target_orientation": orn}))
+        .await;
+    let q = floats(&ik["joint_positions"]);
+    assert!(ik["position_error"].as_f64().unwrap() < 1e-4, "{ik}");
+    set([q[0], q[1], q[2], q[3]]).await;
+    let got = c.call("get_link_state", json!({"sim_id": sim, "object_id": id, "link_index": 3})).await;
+    let d = vec_diff(&floats(&got["link_world_position"]), &pos);
+    assert!(d < 1e-4, "IK answer {q:?} puts the hand at {} not {pos:?} (off by {d})", got["link_world_position"]);
+    let d = quat_diff(&floats(&got["link_world_orientation"]), &orn);
+    assert!(d < 1e-3, "IK answer {q:?} turns the hand to {} not {orn:?}", got["link_world_orientation"]);
 }

@@ -423,6 +423,11 @@ pub enum Command {
         file_path: String,
         /// The MJCF text with every `<include>` spliced in.
         mjcf: Blob,
+        /// Mesh bytes by the `<mesh file>` written in the model (read at load, relative to the
+        /// main file and `<compiler meshdir/assetdir>`). Omitted when empty, so events of models
+        /// without meshes, recorded before meshes were supported, re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+        meshes: BTreeMap<String, Blob>,
         /// World position of the model's frame (the worldbody's, or the free root's offset).
         position: [f32; 3],
         /// Orientation of the model's frame (normalised).
@@ -674,7 +679,7 @@ impl Command {
             Command::LoadUrdf { urdf, meshes, .. } => {
                 std::iter::once(urdf).chain(meshes.values()).collect()
             }
-            Command::LoadMjcf { mjcf, .. } => vec![mjcf],
+            Command::LoadMjcf { mjcf, meshes, .. } => std::iter::once(mjcf).chain(meshes.values()).collect(),
             _ => Vec::new(),
         }
     }
@@ -683,7 +688,7 @@ impl Command {
     pub fn hydrate(&mut self, src: &dyn BlobSource) -> Result<(), String> {
         let blobs: Vec<&mut Blob> = match self {
             Command::LoadUrdf { urdf, meshes, .. } => std::iter::once(urdf).chain(meshes.values_mut()).collect(),
-            Command::LoadMjcf { mjcf, .. } => vec![mjcf],
+            Command::LoadMjcf { mjcf, meshes, .. } => std::iter::once(mjcf).chain(meshes.values_mut()).collect(),
             _ => Vec::new(),
         };
         if !blobs.is_empty() {
@@ -742,9 +747,9 @@ impl Command {
                 };
                 crate::world::urdf_model(urdf, meshes, rules).map(|_| ())
             }
-            Command::LoadMjcf { mjcf, keyframe, .. } => {
+            Command::LoadMjcf { mjcf, meshes, keyframe, .. } => {
                 room_for_object(world, limits)?;
-                crate::world::mjcf::prepare_blob(mjcf, keyframe.as_deref()).map(|_| ())
+                crate::world::mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()).map(|_| ())
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 exists(*object_id)?;

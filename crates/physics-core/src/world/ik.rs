@@ -20,10 +20,24 @@ pub const TOL_POSITION: f64 = 1.0e-5;
 /// Orientation error (rad) under which a solution is accepted.
 pub const TOL_ORIENTATION: f64 = 1.0e-5;
 
+/// A joint as the engine holds it: its frame in the parent link's frame and in the child
+/// link's, the joint moving about (or along) that frame's x axis. An MJCF joint needs this —
+/// its `pos` (the pivot) need not be its body's origin, and `ref` shifts its coordinate — where
+/// a URDF joint's frame is its child link's frame.
+#[derive(Clone, Copy, Debug)]
+pub struct JointFrames {
+    /// Joint frame in the parent link's frame: position, orientation.
+    pub parent: (DVec3, DQuat),
+    /// Joint frame in the child link's frame.
+    pub child: (DVec3, DQuat),
+}
+
 /// One IK question.
 pub struct IkQuery<'a> {
     /// Every joint of the robot, PyBullet order.
     pub joints: &'a [JointSpec],
+    /// Per joint, the engine's frames (MJCF robots); None: the URDF frames of `joints`.
+    pub frames: Option<&'a [JointFrames]>,
     /// World pose of the base link frame.
     pub base_pos: DVec3,
     /// World orientation of the base.
@@ -96,6 +110,23 @@ fn forward(
     let (mut p, mut r) = (q.base_pos, q.base_rot);
     for c in path {
         let j = &q.joints[c.spec];
+        if let Some(f) = q.frames.and_then(|f| f.get(c.spec)) {
+            // parent link · joint frame · motion · (child's joint frame)⁻¹
+            p += r * f.parent.0;
+            r = (r * f.parent.1).normalize();
+            if let Some(m) = c.movable {
+                let world_axis = r * DVec3::X;
+                axes.push((m, j.kind, p, world_axis));
+                match j.kind {
+                    JointKind::Prismatic => p += world_axis * config[m],
+                    _ => r = (r * DQuat::from_axis_angle(DVec3::X, config[m])).normalize(),
+                }
+            }
+            let inv = f.child.1.inverse();
+            p += r * (inv * -f.child.0);
+            r = (r * inv).normalize();
+            continue;
+        }
         p += r * DVec3::from_array(j.origin_pos);
         r = (r * DQuat::from_array(j.origin_rot)).normalize();
         let Some(m) = c.movable else { continue };
@@ -307,6 +338,7 @@ pub fn link_pose(
 ) -> (DVec3, DQuat) {
     let q = IkQuery {
         joints,
+        frames: None,
         base_pos,
         base_rot,
         end_effector: link,

@@ -218,19 +218,19 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
     Ok(notes)
 }
 
-/// Prepares the model the event's blob holds (the check and the fold share it).
-pub fn prepare_blob(mjcf: &Blob, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
+/// Prepares the model the event's blobs hold (the check and the fold share it).
+pub fn prepare_blob(mjcf: &Blob, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
     if !mjcf.is_loaded() {
         return Err("the MJCF text is missing from the event".into());
     }
     let text = std::str::from_utf8(&mjcf.bytes).map_err(|_| "file_path is not an MJCF model: it is not UTF-8 text".to_string())?;
-    prepare(text, keyframe)
+    prepare(text, meshes, keyframe)
 }
 
-/// Parses, checks and converts MJCF text (includes already spliced).
-pub fn prepare(xml: &str, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
+/// Parses, checks and converts MJCF text (includes already spliced; meshes by `<mesh file>`).
+pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
     let mut ignored = scan(xml)?;
-    // The base directory is never read: includes are spliced and meshes are refused.
+    // The base directory is never read: includes are spliced and meshes come from the blobs.
     let base = Path::new("/nonexistent-physics-mcp-mjcf-base");
     let model = Model::from_str(xml, base).map_err(|e| {
         let msg = e.to_string();
@@ -282,7 +282,6 @@ pub fn prepare(xml: &str, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
         for (gi, g) in entry.body.geoms.iter().enumerate() {
             let gname = g.name.clone().unwrap_or_else(|| format!("#{gi} of body {}", if id == 0 { "world".into() } else { body_name(id) }));
             match g.type_ {
-                GeomType::Mesh => return Err(format!("geom {gname} is a mesh geom: meshes are not supported by load_mjcf yet")),
                 GeomType::Hfield => return Err(format!("geom {gname} is a height field, which is not supported")),
                 GeomType::Sdf => return Err(format!("geom {gname} is an SDF geom, which is not supported")),
                 _ => {}
@@ -307,7 +306,13 @@ pub fn prepare(xml: &str, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
         contact_filter_mode: ContactFilterMode::Asymmetric,
         ..MjcfLoaderOptions::default()
     };
-    let robot = MjcfRobot::from_model(&model, options, base);
+    let mesh_geoms = super::mjcf_mesh::prepare(xml, &model, meshes, &mut ignored)?;
+    let mut robot = if mesh_geoms.is_empty() {
+        MjcfRobot::from_model(&model, options, base)
+    } else {
+        MjcfRobot::from_model(&super::mjcf_mesh::placeholders(&model, &mesh_geoms), options, base)
+    };
+    super::mjcf_mesh::finish(&mut robot, &model, &mesh_geoms);
     // A geom the crate could not build would be a silently missing collider: refuse instead.
     for b in robot.bodies.iter().filter(|b| !b.is_intermediate) {
         let entry = &model.bodies[b.mjcf_body_id];
@@ -380,7 +385,7 @@ fn plane_colliders(model: &Model, mjcf_body: usize) -> Vec<Collider> {
 }
 
 /// A body's "additional" mass properties as the crate set them (zero for spacers).
-fn body_mprops(b: &RigidBody) -> MassProperties {
+pub(super) fn body_mprops(b: &RigidBody) -> MassProperties {
     match b.mass_properties().additional_local_mprops.as_deref() {
         Some(RigidBodyAdditionalMassProps::MassProps(mp)) => *mp,
         _ => MassProperties::default(),
@@ -388,12 +393,13 @@ fn body_mprops(b: &RigidBody) -> MassProperties {
 }
 
 impl World {
-    /// Inserts a prepared MJCF model with its frame at `pose`; returns load_mjcf's result.
+    /// Inserts a prepared MJCF model (from its text and mesh blobs) with its frame at `pose`;
+    /// returns load_mjcf's result.
     pub(super) fn insert_mjcf(
         &mut self,
         prepared: Prepared,
         file_path: &str,
-        blob: &Blob,
+        (blob, meshes): (&Blob, &BTreeMap<String, Blob>),
         pose: Pose,
         fixed_base: bool,
         keyframe: Option<&str>,
@@ -608,7 +614,7 @@ impl World {
         let robot = Robot {
             file_path: file_path.to_string(),
             urdf_hash: blob.hash.clone(),
-            mesh_hashes: BTreeMap::new(),
+            mesh_hashes: meshes.iter().map(|(k, b)| (k.clone(), b.hash.clone())).collect(),
             name: model.name.clone().unwrap_or_default(),
             fixed_base,
             base_name: if base == 0 { "world".into() } else { base_entry.body.name.clone().unwrap_or_default() },

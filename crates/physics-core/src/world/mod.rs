@@ -11,6 +11,7 @@ pub mod constraints;
 mod hash;
 pub mod ik;
 pub mod mjcf;
+pub mod mjcf_mesh;
 mod robot;
 pub mod scene;
 pub mod urdf;
@@ -484,14 +485,14 @@ impl World {
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
             }
-            Command::LoadMjcf { file_path, mjcf, position, orientation, fixed_base, keyframe } => {
-                match mjcf::prepare_blob(mjcf, keyframe.as_deref()) {
+            Command::LoadMjcf { file_path, mjcf, meshes, position, orientation, fixed_base, keyframe } => {
+                match mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()) {
                     Ok(prepared) => {
                         let pose = Pose::from_parts(
                             Vector::from_array(*position),
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
-                        self.insert_mjcf(prepared, file_path, mjcf, pose, *fixed_base, keyframe.as_deref()).into()
+                        self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, *fixed_base, keyframe.as_deref()).into()
                     }
                     Err(why) => Outcome::Message(Message::new(why)),
                 }

@@ -619,8 +619,14 @@ impl World {
         });
         let t = base.translation;
         let r = base.rotation;
+        // MJCF joints: the engine's joint frames (pivot at the joint's `pos`, `ref` folded in).
+        let frames: Option<Vec<super::ik::JointFrames>> = match self.tables.objects.get(&id).map(|o| &o.kind) {
+            Some(super::ObjectKind::Mjcf { .. }) => robot.links.iter().map(|l| self.joint_frames(l.body)).collect(),
+            _ => None,
+        };
         let q = super::ik::IkQuery {
             joints: &joints,
+            frames: frames.as_deref(),
             base_pos: DVec3::new(t.x as f64, t.y as f64, t.z as f64),
             base_rot: DQuat::from_xyzw(r.x as f64, r.y as f64, r.z as f64, r.w as f64).normalize(),
             end_effector: ee,
@@ -638,6 +644,19 @@ impl World {
             orientation_error: ans.orientation_error,
             iterations: ans.iterations,
         })
+    }
+
+    /// The frames of the multibody joint that attaches `body` to its parent, in f64 (IK).
+    fn joint_frames(&self, body: RigidBodyHandle) -> Option<super::ik::JointFrames> {
+        use rapier3d::glamx::{DQuat, DVec3};
+        let mbs = &self.physics.multibody_joints;
+        let link = mbs.rigid_body_link(body)?;
+        let data = &mbs.get_multibody(link.multibody)?.link(link.id)?.joint.data;
+        let d = |p: &Pose| {
+            let (t, r) = (p.translation, p.rotation);
+            (DVec3::new(t.x as f64, t.y as f64, t.z as f64), DQuat::from_xyzw(r.x as f64, r.y as f64, r.z as f64, r.w as f64).normalize())
+        };
+        Some(super::ik::JointFrames { parent: d(&data.local_frame1), child: d(&data.local_frame2) })
     }
 
     /// Moves a robot's base; the links follow through forward kinematics.

@@ -492,28 +492,47 @@ fn geometry(
     }))
 }
 
-/// The vertices of an STL (binary or ASCII) or OBJ mesh, from its bytes.
+/// The vertices of an STL (binary or ASCII) or OBJ mesh, from its bytes (a URDF mesh collides
+/// as their convex hull).
 pub fn mesh_points(name: &str, bytes: &[u8]) -> Result<Vec<[f32; 3]>, Refusal> {
+    Ok(mesh_triangles(name, bytes)?.0)
+}
+
+/// A mesh's vertices and its triangles (vertex indices).
+pub type Triangles = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+
+/// The vertices and triangles (vertex indices) of an STL (binary or ASCII) or OBJ mesh, from its
+/// bytes: URDF and MJCF meshes share this reader (MJCF needs the triangles for MuJoCo's mesh
+/// volume and inertia).
+pub fn mesh_triangles(name: &str, bytes: &[u8]) -> Result<Triangles, Refusal> {
     let lower = name.to_ascii_lowercase();
-    let points: Vec<[f32; 3]> = if lower.ends_with(".stl") {
+    let (points, triangles): Triangles = if lower.ends_with(".stl") {
         let mesh = stl_io::read_stl(&mut std::io::Cursor::new(bytes))
             .map_err(|e| format!("mesh {name} is not a readable STL file: {e}"))?;
-        mesh.vertices.iter().map(|v| v.0).collect()
+        let tris = mesh.faces.iter().map(|f| f.vertices.map(|i| i as u32)).collect();
+        (mesh.vertices.iter().map(|v| v.0).collect(), tris)
     } else if lower.ends_with(".obj") {
         let opts = tobj::LoadOptions { triangulate: true, ..Default::default() };
         let (models, _) = tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &opts, |_| {
             Err(tobj::LoadError::GenericFailure)
         })
         .map_err(|e| format!("mesh {name} is not a readable OBJ file: {e}"))?;
-        models
-            .iter()
-            .flat_map(|m| m.mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]))
-            .collect()
+        let mut points = Vec::new();
+        let mut tris = Vec::new();
+        for m in &models {
+            let offset = points.len() as u32;
+            points.extend(m.mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+            tris.extend(m.mesh.indices.chunks_exact(3).map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]));
+        }
+        (points, tris)
     } else {
         return Err(format!("mesh {name} has an unsupported format (STL and OBJ are supported)"));
     };
     if points.is_empty() || points.iter().flatten().any(|x| !x.is_finite()) {
         return Err(format!("mesh {name} has no vertices or non-finite ones"));
     }
-    Ok(points)
+    if triangles.iter().flatten().any(|i| *i as usize >= points.len()) {
+        return Err(format!("mesh {name} has a face naming a vertex it does not have"));
+    }
+    Ok((points, triangles))
 }
