@@ -17,6 +17,7 @@ use crate::batch::Call;
 use crate::command::Command;
 use crate::outputs::{Swept, SweptObject, SweptVariant};
 use crate::sim::{lock_sim, remove_log_files, Registry, Sim};
+use crate::timeline::ForkSource;
 use crate::value::{Args, Refusal};
 use crate::world::StepControl;
 
@@ -71,31 +72,28 @@ impl Registry {
     ) -> Result<Swept, Refusal> {
         let parent = self.get(id)?;
         let Request { variants, steps, observe, keep } = req;
-        // Forked one after another under the parent's lock, all at its head.
-        let running = {
-            let mut p = lock_sim(&parent);
+        // What every fork copies, read once under the parent's lock; the forks themselves are
+        // made by the workers, side by side, from the parent's file.
+        let source = {
+            let p = lock_sim(&parent);
             p.ensure_live()?;
-            let checked = self.check_sweep(variants.len(), steps, keep);
-            let forked = checked.and_then(|()| {
-                let mut running = Vec::with_capacity(variants.len());
-                for (index, calls) in variants.into_iter().enumerate() {
-                    let fork_args = fork_arguments(id, p.log().head_seq());
-                    match self.fork_unpublished(&p, None, uuid::Uuid::new_v4().to_string(), &fork_args) {
-                        Ok((_, sim)) => running.push(Running { index, sim, calls, control: controls() }),
-                        Err(why) => {
-                            discard(running.into_iter().map(|r| r.sim));
-                            return Err(format!("variants[{index}] could not be forked: {why}"));
-                        }
-                    }
+            match self.check_sweep(variants.len(), steps, keep).and_then(|()| ForkSource::of(&p, None)) {
+                Ok(s) => s,
+                Err(why) => {
+                    drop(p);
+                    return Err(lock_sim(&parent).refuse("run_sweep", args, why));
                 }
-                Ok(running)
-            });
-            match forked {
-                Ok(r) => r,
-                Err(why) => return Err(p.refuse("run_sweep", args, why)),
             }
         };
-        let done = run_all(running, workers, |r| run_variant(r, steps, &observe, self.limits()));
+        let fork_args = fork_arguments(id, source.at());
+        let items: Vec<(usize, Vec<Call>, Control)> =
+            variants.into_iter().enumerate().map(|(index, calls)| (index, calls, controls())).collect();
+        let done = run_all(items, workers, |(index, calls, control)| {
+            match self.fork_from(&source, None, uuid::Uuid::new_v4().to_string(), &fork_args) {
+                Ok((_, sim)) => run_variant(Running { index, sim, calls, control }, steps, &observe, self.limits()),
+                Err(why) => (None, Err(format!("variants[{index}] could not be forked: {why}"))),
+            }
+        });
         let outcome = finish(done, budget);
         let mut p = lock_sim(&parent);
         let (swept, sims) = match outcome {
@@ -189,7 +187,7 @@ fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R +
 }
 
 /// One variant's calls (as a batch) and steps, then what `observe` asks of it.
-fn run_variant(r: Running, steps: u64, observe: &Observe, limits: &crate::limits::Limits) -> (Sim, Result<SweptVariant, Refusal>) {
+fn run_variant(r: Running, steps: u64, observe: &Observe, limits: &crate::limits::Limits) -> (Option<Sim>, Result<SweptVariant, Refusal>) {
     let Running { index, mut sim, calls, mut control } = r;
     // A panic in the engine fails this variant (its fork is deleted with the others), not
     // the worker thread and with it the whole server request.
@@ -200,7 +198,7 @@ fn run_variant(r: Running, steps: u64, observe: &Observe, limits: &crate::limits
     let out = worked
         .map_err(|why| format!("variants[{index}]: {why}"))
         .map(|(state_hash, objects, trajectory)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory });
-    (sim, out)
+    (Some(sim), out)
 }
 
 /// What a variant reports: (state hash, objects, trajectory).
@@ -261,12 +259,12 @@ fn variant_work(
 /// The variants' results in order with their forks, or the first refusal (by variant index)
 /// with every fork to delete; an answer over the reply budget is refused too.
 #[allow(clippy::type_complexity)]
-fn finish(done: Vec<(Sim, Result<SweptVariant, Refusal>)>, budget: usize) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
+fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, budget: usize) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
     let mut sims = Vec::with_capacity(done.len());
     let mut variants = Vec::with_capacity(done.len());
     let mut first_refusal = None;
     for (sim, r) in done {
-        sims.push(sim);
+        sims.extend(sim);
         match r {
             Ok(v) => variants.push(v),
             Err(why) => {

@@ -250,6 +250,46 @@ impl Sim {
     }
 }
 
+/// What a fork takes from its parent, read once under the parent's lock: the chain up to the
+/// fork point and the state there (snapshot bytes and hash).
+pub(crate) struct ForkSource {
+    chain: Vec<Event>,
+    snapshot: Vec<u8>,
+    state_hash: String,
+    gui: bool,
+    at: u64,
+    parent_id: String,
+    parent_path: std::path::PathBuf,
+}
+
+impl ForkSource {
+    /// The seq the fork starts from.
+    pub(crate) fn at(&self) -> u64 {
+        self.at
+    }
+
+    /// `p`'s chain and state at `at_seq` (default: its head), which must be a
+    /// state-changing event of it.
+    pub(crate) fn of(p: &Sim, at_seq: Option<u64>) -> Result<ForkSource, Refusal> {
+        let at = at_seq.unwrap_or(p.log().head_seq());
+        let at_event = p.log().event(at).map_err(store_err)?;
+        if !at_event.as_ref().is_some_and(|e| e.kind.is_state_changing()) {
+            return Err(format!("at_seq {at} is not a state-changing event of simulation {}", p.id()));
+        }
+        let chain = p.log().chain_to(at).map_err(store_err)?;
+        let rebuilt = rebuild_at(p.log(), p.id(), at, false).map_err(store_err)?;
+        Ok(ForkSource {
+            chain,
+            snapshot: rebuilt.world.snapshot(),
+            state_hash: rebuilt.world.state_hash(),
+            gui: rebuilt.world.gui(),
+            at,
+            parent_id: p.id().to_string(),
+            parent_path: p.log().path().to_path_buf(),
+        })
+    }
+}
+
 impl Registry {
     /// fork_simulation: a new simulation holding `parent`'s chain up to `at_seq` (default:
     /// its head), inherited, then its own root. The parent records the call as a read.
@@ -282,7 +322,7 @@ impl Registry {
 
     /// A fork of `p` at `at_seq` (default: its head) under its partial name: a real,
     /// replayable simulation that no one else sees (not listed, not counted) until it is
-    /// published, and that a restart removes if it never is (run_sweep's variants).
+    /// published, and that a restart removes if it never is.
     pub(crate) fn fork_unpublished(
         &self,
         p: &Sim,
@@ -290,32 +330,44 @@ impl Registry {
         new_id: String,
         args: &Args,
     ) -> Result<(Forked, Sim), Refusal> {
-        let at = at_seq.unwrap_or(p.log().head_seq());
-        let at_event = p.log().event(at).map_err(store_err)?;
-        if !at_event.as_ref().is_some_and(|e| e.kind.is_state_changing()) {
-            return Err(format!(
-                "at_seq {at} is not a state-changing event of simulation {}",
-                p.id()
-            ));
-        }
-        let chain = p.log().chain_to(at).map_err(store_err)?;
-        let rebuilt = rebuild_at(p.log(), &new_id, at, false).map_err(store_err)?;
-        let gui = rebuilt.world.gui();
+        let source = ForkSource::of(p, at_seq)?;
+        self.fork_from(&source, Some(p.log()), new_id, args)
+    }
+
+    /// A fork made from `source` (unpublished, as `fork_unpublished`). The chain's blobs and
+    /// snapshots are copied from `parent`, or, without it, from the parent's file opened
+    /// read-only — so run_sweep's workers make their forks side by side, off the parent's lock.
+    pub(crate) fn fork_from(
+        &self,
+        source: &ForkSource,
+        parent: Option<&Log>,
+        new_id: String,
+        args: &Args,
+    ) -> Result<(Forked, Sim), Refusal> {
+        let opened;
+        let parent = match parent {
+            Some(log) => log,
+            None => {
+                opened = Log::open_read_only(&source.parent_path).map_err(store_err)?;
+                &opened
+            }
+        };
         let root_cmd = Command::ForkSimulation {
             simulation_id: new_id.clone(),
-            parent_id: p.id().to_string(),
-            at_seq: at,
-            gui,
+            parent_id: source.parent_id.clone(),
+            at_seq: source.at,
+            gui: source.gui,
         };
         let out = Forked {
-            simulation_id: new_id.clone(),
-            parent_id: p.id().to_string(),
-            at_seq: at,
-            state_hash: rebuilt.world.state_hash(),
+            simulation_id: new_id,
+            parent_id: source.parent_id.clone(),
+            at_seq: source.at,
+            state_hash: source.state_hash.clone(),
             viewer_url: None,
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-        let sim = self.adopt_unpublished((&chain, p.log(), Some(p.log())), &rebuilt.world, root_cmd, "fork_simulation", args, &result)?;
+        let state = (source.snapshot.as_slice(), source.state_hash.as_str());
+        let sim = self.adopt_unpublished((&source.chain, parent, Some(parent)), state, root_cmd, "fork_simulation", args, &result)?;
         Ok((out, sim))
     }
 
@@ -331,16 +383,18 @@ impl Registry {
         args: &Args,
         result: &Value,
     ) -> Result<Sim, Refusal> {
-        let sim = self.adopt_unpublished(ancestry, world, root_cmd, tool, args, result)?;
+        let snapshot = world.snapshot();
+        let sim = self.adopt_unpublished(ancestry, (&snapshot, &world.state_hash()), root_cmd, tool, args, result)?;
         let path = self.path_for(sim.id());
         sim.publish(&path)
     }
 
-    /// `adopt` under the partial name (`Sim::publish` gives it its final one).
+    /// `adopt` under the partial name (`Sim::publish` gives it its final one), its root's
+    /// state given as (snapshot bytes, state hash).
     pub(crate) fn adopt_unpublished(
         &self,
         (chain, blobs, parent): (&[Event], &dyn BlobSource, Option<&Log>),
-        world: &World,
+        (snapshot, state_hash): (&[u8], &str),
         root_cmd: Command,
         tool: &str,
         args: &Args,
@@ -367,7 +421,7 @@ impl Registry {
             inherited: false,
             result_hash: Some(crate::digest::result_hash(&result)),
             result: Some(result),
-            state_hash: world.state_hash(),
+            state_hash: state_hash.to_string(),
         };
         let path = self.path_for(&id);
         let partial = crate::store::partial_path(&path);
@@ -378,9 +432,8 @@ impl Registry {
                     .map_err(|e| e.to_string())?;
                 log.put_blob(hash, &raw).map_err(store_err)?;
             }
-            let snapshot = world.snapshot();
-            let snap_hash = crate::digest::content_hash(&snapshot);
-            log.append_root_with_ancestry(chain, parent, root, (&snapshot, &snap_hash))
+            let snap_hash = crate::digest::content_hash(snapshot);
+            log.append_root_with_ancestry(chain, parent, root, (snapshot, &snap_hash))
                 .map_err(store_err)?;
             crate::crash_point!("adopt_before_publish");
             drop(log);
