@@ -13,6 +13,8 @@ pub mod ik;
 pub mod mjcf;
 mod robot;
 pub mod scene;
+#[cfg(feature = "threads")]
+mod threads;
 pub mod urdf;
 
 use std::collections::{BTreeMap, BTreeSet};
