@@ -98,7 +98,7 @@ fn bench_snapshot_restore(c: &mut Criterion) {
             let e = physics_mcp::store::Event {
                 seq, kind: physics_mcp::store::Kind::Change, parent: None, tool: "bench".into(),
                 arguments: "{}".into(), command: None, version: 1, ok: true, mutates: true,
-                inherited: false, result: None, result_hash: None, state_hash: String::new(),
+                inherited: false, result: None, result_hash: None, state_hash: String::new(), engine: None,
             };
             log.append_durable(e, seq, Some((&snap, &hash))).unwrap();
         })
@@ -114,7 +114,7 @@ fn bench_snapshot_restore(c: &mut Criterion) {
                 let e = physics_mcp::store::Event {
                     seq, kind: physics_mcp::store::Kind::Change, parent: None, tool: "bench".into(),
                     arguments: "{}".into(), command: None, version: 1, ok: true, mutates: true,
-                    inherited: false, result: None, result_hash: None, state_hash: String::new(),
+                    inherited: false, result: None, result_hash: None, state_hash: String::new(), engine: None,
                 };
                 let t = Instant::now();
                 log.append_durable(e, seq, Some((&snap, &hash))).unwrap();

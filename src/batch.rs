@@ -207,6 +207,7 @@ impl Sim {
             result: None,
             result_hash: None,
             state_hash: String::new(),
+            engine: None,
         }
     }
 }

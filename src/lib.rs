@@ -33,7 +33,7 @@
 //! - `npy`     — NumPy `.npy` files for get_camera_image's depth and segmentation arrays.
 #![warn(missing_docs)]
 
-pub use physics_core::{command, digest, limits, outputs, value, world};
+pub use physics_core::{command, digest, engine, limits, outputs, value, world};
 
 pub mod animation;
 pub mod batch;

@@ -180,6 +180,11 @@ fn run_report(file: &Path, out: &Path) -> anyhow::Result<()> {
 
 fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<bool> {
     use std::io::IsTerminal;
+    // Before anything else: a log made by another engine build may not reproduce its hashes.
+    let builds = physics_mcp::replay::engine_builds(file)?;
+    if let (false, Some(warning)) = (json, builds.warning()) {
+        println!("{warning}");
+    }
     let bar = if std::io::stderr().is_terminal() {
         indicatif::ProgressBar::new(0)
     } else {
@@ -201,7 +206,7 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
     match result {
         Ok(s) => {
             if json {
-                println!("{}", serde_json::json!({"ok": true, "summary": s, "seconds": seconds}));
+                println!("{}", serde_json::json!({"ok": true, "engine_builds": builds, "summary": s, "seconds": seconds}));
             } else {
                 println!(
                     "ok: {} events ({} state-changing, {} reads checked, {} snapshots), {} steps, final hash {}, {:.2} s",
@@ -212,7 +217,7 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
         }
         Err(physics_mcp::replay::ReplayError::Diverged(d)) => {
             if json {
-                println!("{}", serde_json::json!({"ok": false, "divergence": d}));
+                println!("{}", serde_json::json!({"ok": false, "engine_builds": builds, "divergence": d}));
             } else {
                 eprintln!(
                     "DIVERGED at seq {} ({}), {}: expected {}, got {}\n  arguments: {}",

@@ -296,6 +296,76 @@ pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<S
     })
 }
 
+/// The engine build that made one root event of a log or saved file.
+#[derive(Serialize, Debug, Clone, PartialEq, Eq)]
+pub struct RootBuild {
+    /// The root event.
+    pub seq: u64,
+    /// The build it records, or `UNRECORDED_ENGINE_BUILD` for a root from before builds were
+    /// recorded.
+    pub engine: String,
+    /// Whether the root recorded it (false: read as the build of its time).
+    pub recorded: bool,
+}
+
+/// Which engine builds made a log's roots (inherited ones included), against this binary's:
+/// SPEC "Compatibility" wants `replay` to say so before anything else when they differ.
+#[derive(Serialize, Debug, Clone)]
+pub struct EngineBuilds {
+    /// This binary's build (`engine::ENGINE_BUILD`).
+    pub this: String,
+    /// Every root event, in seq order.
+    pub roots: Vec<RootBuild>,
+    /// Whether any root was made by another build than this binary.
+    pub differs: bool,
+}
+
+impl EngineBuilds {
+    fn of(roots: impl Iterator<Item = (u64, Option<String>)>) -> EngineBuilds {
+        let roots: Vec<RootBuild> = roots
+            .map(|(seq, engine)| RootBuild {
+                seq,
+                recorded: engine.is_some(),
+                engine: crate::engine::engine_build_of(engine.as_deref()).into(),
+            })
+            .collect();
+        let differs = roots.iter().any(|r| r.engine != crate::engine::ENGINE_BUILD);
+        EngineBuilds { this: crate::engine::ENGINE_BUILD.into(), roots, differs }
+    }
+
+    /// The roots made by another build than this binary.
+    pub fn foreign(&self) -> Vec<&RootBuild> {
+        self.roots.iter().filter(|r| r.engine != self.this).collect()
+    }
+
+    /// One line saying which roots another build made, or `None` when this build made them all.
+    pub fn warning(&self) -> Option<String> {
+        let foreign = self.foreign();
+        if foreign.is_empty() {
+            return None;
+        }
+        let which: Vec<String> = foreign.iter().map(|r| format!("root event {} by {}", r.seq, r.engine)).collect();
+        Some(format!(
+            "engine build differs: this log was made by another engine build ({}); this binary is {}, so its recorded hashes may not reproduce",
+            which.join(", "),
+            self.this
+        ))
+    }
+}
+
+/// The engine builds of a simulation log's roots, or of a saved JSON file's (`.json`).
+pub fn engine_builds(path: &Path) -> Result<EngineBuilds, StoreError> {
+    if path.extension().is_some_and(|x| x == "json") {
+        let bytes = std::fs::read(path).map_err(|e| StoreError::Corrupt(format!("{}: {e}", path.display())))?;
+        let file: crate::save::SaveFile = serde_json::from_slice(&bytes)
+            .map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))?;
+        let events = file.history.map(|h| h.events).unwrap_or_default();
+        return Ok(EngineBuilds::of(events.into_iter().filter(|e| e.kind == "root").map(|e| (e.seq, e.engine))));
+    }
+    let events = Log::open_read_only(path)?.all_events()?;
+    Ok(EngineBuilds::of(events.into_iter().filter(|e| e.kind == Kind::Root).map(|e| (e.seq, e.engine))))
+}
+
 /// The events of a log, for `history`.
 pub fn events(path: &Path) -> Result<Vec<Event>, StoreError> {
     Log::open_read_only(path)?.all_events()

@@ -97,6 +97,10 @@ pub struct SavedEvent {
     pub result_hash: Option<String>,
     /// State hash after it.
     pub state_hash: String,
+    /// Root events: the engine build that made them; absent in files saved before builds
+    /// were recorded (such roots read as `engine::UNRECORDED_ENGINE_BUILD`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub engine: Option<String>,
 }
 
 /// A snapshot with its MAC.
@@ -281,6 +285,7 @@ pub fn saved_event(e: &Event) -> SavedEvent {
         version: e.version,
         result_hash: e.result_hash.clone(),
         state_hash: e.state_hash.clone(),
+        engine: e.engine.clone(),
     }
 }
 
@@ -314,6 +319,7 @@ pub fn log_event(e: &SavedEvent) -> Event {
         result: None,
         result_hash: e.result_hash.clone(),
         state_hash: e.state_hash.clone(),
+        engine: e.engine.clone(),
     }
 }
 

@@ -189,6 +189,7 @@ impl Sim {
             result_hash: Some(crate::digest::result_hash(&result_json)),
             result: Some(result_json),
             state_hash: world.state_hash(),
+            engine: Some(crate::engine::ENGINE_BUILD.into()),
         };
         let state_hash = event.state_hash.clone();
         let head = event.seq;
@@ -305,6 +306,7 @@ impl Sim {
             result: None,
             result_hash: None,
             state_hash: String::new(),
+            engine: None,
         }
     }
 

@@ -422,6 +422,7 @@ impl Registry {
             result_hash: Some(crate::digest::result_hash(&result)),
             result: Some(result),
             state_hash: state_hash.to_string(),
+            engine: Some(crate::engine::ENGINE_BUILD.into()),
         };
         let path = self.path_for(&id);
         let partial = crate::store::partial_path(&path);

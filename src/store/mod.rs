@@ -15,7 +15,14 @@ use std::sync::Arc;
 use rusqlite::{params, Connection, OptionalExtension};
 
 /// Schema migrations, applied in order; `PRAGMA user_version` counts those applied.
-const MIGRATIONS: &[&str] = &[include_str!("../../migrations/0001_init.sql")];
+const MIGRATIONS: &[&str] = &[
+    include_str!("../../migrations/0001_init.sql"),
+    include_str!("../../migrations/0002_engine_build.sql"),
+];
+
+/// The first schema version whose events have the `engine` column (read-only opens of older
+/// files read it as NULL: roots made before builds were recorded).
+const ENGINE_COLUMN_SINCE: i64 = 2;
 
 /// Buffered read/refused events are committed once this many are waiting.
 const LAZY_FLUSH_AT: usize = 256;
@@ -106,6 +113,9 @@ pub struct Event {
     pub result_hash: Option<String>,
     /// The state hash after this event.
     pub state_hash: String,
+    /// Root events: the engine build that made them (`physics_core::engine::ENGINE_BUILD`
+    /// of that binary); `None` on other events and on roots recorded before builds were.
+    pub engine: Option<String>,
 }
 
 /// Errors of the log layer (I/O and SQLite), reported to clients as one sentence.
@@ -179,6 +189,8 @@ pub struct Log {
     pending: Vec<Event>,
     commits_since_checkpoint: u32,
     checkpointing: Arc<AtomicBool>,
+    /// The SELECT list of events for this file's schema (see `event_columns`).
+    select_columns: String,
     /// The acknowledgement file (`-seq`), once the log is open under its final name.
     acknowledged: Option<std::fs::File>,
 }
@@ -259,15 +271,26 @@ fn row_to_event(r: &rusqlite::Row) -> rusqlite::Result<Event> {
         result: r.get(10)?,
         result_hash: r.get(11)?,
         state_hash: r.get(12)?,
+        engine: r.get(13)?,
     })
 }
 
 const EVENT_COLUMNS: &str = "seq, kind, parent, tool, arguments, command, version, ok, mutates, \
-                             inherited, result, result_hash, state_hash";
+                             inherited, result, result_hash, state_hash, engine";
+
+/// `EVENT_COLUMNS` for a file of schema `version` (read-only opens do not migrate): one
+/// before the `engine` column selects NULL in its place.
+fn event_columns(version: i64) -> String {
+    if version >= ENGINE_COLUMN_SINCE {
+        EVENT_COLUMNS.to_string()
+    } else {
+        EVENT_COLUMNS.replace(", engine", ", NULL AS engine")
+    }
+}
 
 fn insert_event(tx: &rusqlite::Transaction, e: &Event) -> Result<(), StoreError> {
     tx.prepare_cached(&format!(
-        "INSERT INTO events ({EVENT_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)"
+        "INSERT INTO events ({EVENT_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)"
     ))?
     .execute(params![
         e.seq as i64,
@@ -283,6 +306,7 @@ fn insert_event(tx: &rusqlite::Transaction, e: &Event) -> Result<(), StoreError>
         e.result,
         e.result_hash,
         e.state_hash,
+        e.engine,
     ])?;
     Ok(())
 }
@@ -303,6 +327,7 @@ impl Log {
             params![sim_id],
         )?;
         conn.execute("INSERT INTO head (id, head_seq) VALUES (1, 0)", [])?;
+        let select_columns = event_columns(MIGRATIONS.len() as i64);
         Ok(Log {
             conn,
             path: path.to_path_buf(),
@@ -311,6 +336,7 @@ impl Log {
             pending: Vec::new(),
             commits_since_checkpoint: 0,
             checkpointing: Arc::default(),
+            select_columns,
             acknowledged: None,
         })
     }
@@ -405,6 +431,8 @@ impl Log {
             .ok_or_else(|| StoreError::Corrupt("no head".into()))?;
         let last_seq: i64 =
             conn.query_row("SELECT COALESCE(MAX(seq), 0) FROM events", [], |r| r.get(0))?;
+        let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+        let select_columns = event_columns(version);
         Ok(Log {
             conn,
             path: path.to_path_buf(),
@@ -413,20 +441,22 @@ impl Log {
             pending: Vec::new(),
             commits_since_checkpoint: 0,
             checkpointing: Arc::default(),
+            select_columns,
             acknowledged: None,
         })
     }
 
-    /// Opens a log for reading only (replay, history, diff): no migrations, no writes.
+    /// Opens a log for reading only (replay, history, diff): no migrations, no writes; a file
+    /// of an older schema is read as it is.
     pub fn open_read_only(path: &Path) -> Result<Log, StoreError> {
         if !path.is_file() {
             return Err(StoreError::Corrupt(format!("{} is not a file", path.display())));
         }
         let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)?;
         let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
-        if version != MIGRATIONS.len() as i64 {
+        if !(1..=MIGRATIONS.len() as i64).contains(&version) {
             return Err(StoreError::Corrupt(format!(
-                "log schema version {version}, this build reads version {}",
+                "log schema version {version}, this build reads versions 1 to {}",
                 MIGRATIONS.len()
             )));
         }
@@ -624,7 +654,8 @@ impl Log {
     /// All events with seq > `since`, ascending, at most `limit`, buffered ones included.
     pub fn events_since(&self, since: u64, limit: usize) -> Result<Vec<Event>, StoreError> {
         let mut stmt = self.conn.prepare_cached(&format!(
-            "SELECT {EVENT_COLUMNS} FROM events WHERE seq > ?1 ORDER BY seq LIMIT ?2"
+            "SELECT {} FROM events WHERE seq > ?1 ORDER BY seq LIMIT ?2",
+            self.select_columns
         ))?;
         let mut out: Vec<Event> = stmt
             .query_map(params![since as i64, limit as i64], row_to_event)?
@@ -641,7 +672,7 @@ impl Log {
         }
         Ok(self
             .conn
-            .prepare_cached(&format!("SELECT {EVENT_COLUMNS} FROM events WHERE seq = ?1"))?
+            .prepare_cached(&format!("SELECT {} FROM events WHERE seq = ?1", self.select_columns))?
             .query_row(params![seq as i64], row_to_event)
             .optional()?)
     }

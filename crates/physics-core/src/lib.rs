@@ -12,12 +12,14 @@
 //!   `snapshot`/`restore`.
 //! - `outputs` — the structured results of the tools (with JSON schemas).
 //! - `digest`  — content hashes of snapshots and blobs (blake3, parallel when large).
+//! - `engine`  — the engine build (rapier version and features) every root event records.
 //! - `limits`  — the limits every request is checked against (a plain struct; the CLI's flags
 //!   for them live in the server crate).
 #![warn(missing_docs)]
 
 pub mod command;
 pub mod digest;
+pub mod engine;
 pub mod limits;
 pub mod outputs;
 pub mod value;

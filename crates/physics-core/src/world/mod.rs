@@ -14,6 +14,8 @@ pub mod mjcf;
 pub mod mjcf_mesh;
 mod robot;
 pub mod scene;
+#[cfg(feature = "threads")]
+mod threads;
 pub mod urdf;
 
 use std::collections::{BTreeMap, BTreeSet};
