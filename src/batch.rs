@@ -29,8 +29,8 @@ pub const READS: [&str; 4] = ["get_object_state", "get_joint_state", "get_link_s
 pub enum Planned {
     /// A state-changing call.
     Change(Result<Command, Refusal>),
-    /// A read.
-    Read(Result<Read, Refusal>),
+    /// A read (boxed: some reads' parameters are large).
+    Read(Result<Box<Read>, Refusal>),
 }
 
 /// One call of a batch: its tool, its arguments as they will be logged, what it is.

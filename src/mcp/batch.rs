@@ -25,7 +25,7 @@ fn change<P: Params>(tool: &str, a: &Args, decide: impl FnOnce(P) -> Result<Comm
 
 /// A read's decision: its arguments parsed as `P` (strictly, as the tool alone would).
 fn read<P: Params>(tool: &str, a: &Args, wrap: fn(P) -> Read) -> Planned {
-    Planned::Read(params::parse::<P>(tool, a).map(wrap))
+    Planned::Read(params::parse::<P>(tool, a).map(|p| Box::new(wrap(p))))
 }
 
 /// What `tool` with arguments `a` is inside a batch; None for a tool a batch cannot hold.
