@@ -135,7 +135,8 @@ impl Sim {
         for (i, call) in calls.into_iter().enumerate() {
             let seq = self.log.next_seq() + i as u64;
             let refused = |why: Refusal| call_refused(i, &call.tool, &why);
-            let mut e = self.unnumbered_event(&call, seq);
+            // Arguments stay raw JSON until the batch commits (`store_arguments` may write a blob).
+            let mut e = crate::sim::blank_event(seq, Kind::Read, &call.tool, serde_json::to_string(&call.args).unwrap_or_default());
             match call.planned {
                 Planned::Change(decided) => {
                     let cmd = decided.and_then(|c| c.validate(&work.world, limits).map(|()| c)).map_err(refused)?;
@@ -189,33 +190,11 @@ impl Sim {
         }
         Ok(Plan { work, events, snapshots, results, blobs })
     }
-
-    /// A call's event before it is decided (a read; a change fills in the rest), with its
-    /// arguments as raw JSON until the batch commits.
-    fn unnumbered_event(&self, call: &Call, seq: u64) -> Event {
-        Event {
-            seq,
-            kind: Kind::Read,
-            parent: None,
-            tool: call.tool.clone(),
-            arguments: serde_json::to_string(&call.args).unwrap_or_default(),
-            command: None,
-            version: crate::command::EVENT_VERSION,
-            ok: true,
-            mutates: false,
-            inherited: false,
-            result: None,
-            result_hash: None,
-            state_hash: String::new(),
-            engine: None,
-        }
-    }
 }
 
 /// A snapshot of `world` taken at event `seq`: (seq, bytes, content hash).
 fn snapshot_of(world: &crate::world::World, seq: u64) -> (u64, Vec<u8>, String) {
-    let bytes = world.snapshot();
-    let hash = crate::digest::content_hash(&bytes);
+    let (bytes, hash) = crate::sim::snapshot_with_hash(world);
     (seq, bytes, hash)
 }
 

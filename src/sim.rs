@@ -292,22 +292,7 @@ impl Sim {
     pub(crate) fn event(&mut self, kind: Kind, tool: &str, args: &Args) -> Event {
         let raw = serde_json::to_string(args).unwrap_or_default();
         let arguments = self.log.store_arguments(raw);
-        Event {
-            seq: self.log.next_seq(),
-            kind,
-            parent: None,
-            tool: tool.into(),
-            arguments,
-            command: None,
-            version: EVENT_VERSION,
-            ok: kind != Kind::Refused,
-            mutates: kind.is_state_changing(),
-            inherited: false,
-            result: None,
-            result_hash: None,
-            state_hash: String::new(),
-            engine: None,
-        }
+        blank_event(self.log.next_seq(), kind, tool, arguments)
     }
 
     /// Records a refusal (nothing changes) and hands the sentence back.
@@ -377,11 +362,7 @@ impl Sim {
         let due = self.work_since_snapshot >= SNAPSHOT_EVERY_BODY_STEPS
             || self.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES;
         let started = std::time::Instant::now();
-        let snapshot = due.then(|| {
-            let bytes = self.world.snapshot();
-            let hash = crate::digest::content_hash(&bytes);
-            (bytes, hash)
-        });
+        let snapshot = due.then(|| snapshot_with_hash(&self.world));
         let head = e.seq;
         let committed = self.log.append_durable(
             e,
@@ -519,6 +500,34 @@ impl Sim {
             tracing::warn!("could not flush simulation {}: {e}", self.id());
         }
     }
+}
+
+/// An event of `kind` at `seq` with nothing decided yet (no parent, command, result or
+/// hash): what a call's event starts as, alone or in a batch.
+pub(crate) fn blank_event(seq: u64, kind: Kind, tool: &str, arguments: String) -> Event {
+    Event {
+        seq,
+        kind,
+        parent: None,
+        tool: tool.into(),
+        arguments,
+        command: None,
+        version: EVENT_VERSION,
+        ok: kind != Kind::Refused,
+        mutates: kind.is_state_changing(),
+        inherited: false,
+        result: None,
+        result_hash: None,
+        state_hash: String::new(),
+        engine: None,
+    }
+}
+
+/// The world's snapshot bytes and their content hash, as a log stores them.
+pub(crate) fn snapshot_with_hash(world: &World) -> (Vec<u8>, String) {
+    let bytes = world.snapshot();
+    let hash = crate::digest::content_hash(&bytes);
+    (bytes, hash)
 }
 
 /// A world rebuilt at some event, with how far it is from the snapshot it started from.

@@ -8,9 +8,6 @@
 //! variant's refusal, or a cancellation, deletes them all and refuses the sweep. The swept
 //! simulation only records the sweep as one read (or refused) event.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
-
 use serde_json::json;
 
 use crate::batch::Call;
@@ -163,27 +160,15 @@ fn fork_arguments(parent: &str, at_seq: u64) -> Args {
     a
 }
 
-/// Runs `f` on every item with `workers` threads taking the next item as they finish;
-/// results come back in the items' order.
-fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    let n = items.len();
-    let queue: Vec<Mutex<Option<T>>> = items.into_iter().map(|t| Mutex::new(Some(t))).collect();
-    let out: Vec<Mutex<Option<R>>> = (0..n).map(|_| Mutex::new(None)).collect();
-    let next = AtomicUsize::new(0);
-    std::thread::scope(|s| {
-        for _ in 0..workers.clamp(1, n.max(1)) {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(slot) = queue.get(i) else { break };
-                let item = slot.lock().unwrap_or_else(|p| p.into_inner()).take();
-                if let Some(item) = item {
-                    let r = f(item);
-                    *out[i].lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
-                }
-            });
-        }
-    });
-    out.into_iter().filter_map(|m| m.into_inner().unwrap_or_else(|p| p.into_inner())).collect()
+/// Runs `f` on every item on a pool of `workers` threads; results come back in the items'
+/// order.
+fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R + Sync + Send) -> Vec<R> {
+    use rayon::prelude::*;
+    let run = || items.into_par_iter().with_max_len(1).map(&f).collect();
+    match rayon::ThreadPoolBuilder::new().num_threads(workers.max(1)).build() {
+        Ok(pool) => pool.install(run),
+        Err(_) => run(),
+    }
 }
 
 /// One variant's calls (as a batch) and steps, then what `observe` asks of it.
