@@ -3,7 +3,9 @@
 //! - the 1000-box pile built through MCP over HTTP (the real release binary, one rmcp client):
 //!   1,001 add_box calls one by one vs the same calls in one `batch`;
 //! - run_sweep of 16 variants × 1,000 steps of a 100-box scene, in-process through
-//!   `Registry::sweep`: one worker vs one worker per core.
+//!   `Registry::sweep`: one worker vs one worker per core;
+//! - one step of the 1000-box pile (settled 100 steps, then 100 steps per round, in-process)
+//!   on 1 vs 2 threads (`--threads`), checking both end in the same state hash.
 
 // A benchmark reads the clock and its files; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -172,5 +174,50 @@ fn bench_sweep_workers(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_pile_build_over_http, bench_sweep_workers);
+/// Milliseconds per step of 100 steps of the settled pile restored from `snapshot`, stepping
+/// on `threads`, and the state hash it ends in.
+fn pile_steps(snapshot: &[u8], threads: usize) -> (f64, String) {
+    physics_mcp::cli::step_on_threads(threads).expect("stepping threads");
+    let mut w = physics_mcp::world::World::restore("pile", false, snapshot).unwrap();
+    assert_eq!(w.num_threads(), Some(threads));
+    let t = Instant::now();
+    w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    (t.elapsed().as_secs_f64() * 1e3 / 100.0, w.state_hash())
+}
+
+fn bench_pile_threads(c: &mut Criterion) {
+    let mut w = pile::pile_world();
+    w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    let snapshot = w.snapshot();
+    let (mut one, mut two, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..ROUNDS {
+        let (a, ha) = pile_steps(&snapshot, 1);
+        let (b, hb) = pile_steps(&snapshot, 2);
+        assert_eq!(ha, hb, "1 and 2 threads end in different states");
+        one.push(a);
+        two.push(b);
+        ratios.push(a / b);
+    }
+    println!(
+        "REPORT pile step (1000 boxes, in-process): 1 thread {:.2} ms, 2 threads {:.2} ms, speed-up {:.2}x (medians of {ROUNDS} paired rounds of 100 steps; min {:.2}x)",
+        median(one),
+        median(two),
+        median(ratios.clone()),
+        ratios.iter().cloned().fold(f64::MAX, f64::min)
+    );
+    let mut g = c.benchmark_group("pile_100_steps_threads");
+    g.sample_size(10);
+    for threads in [1, 2] {
+        g.bench_function(format!("threads_{threads}"), |b| b.iter(|| pile_steps(&snapshot, threads)));
+    }
+    g.finish();
+    physics_mcp::cli::step_on_threads(1).expect("a stepping thread");
+}
+
+criterion_group! {
+    name = benches;
+    // In-process worlds step on one thread, as the server does by default (`--threads 1`).
+    config = { physics_mcp::cli::step_on_threads(1).expect("a stepping thread"); Criterion::default() };
+    targets = bench_pile_build_over_http, bench_sweep_workers, bench_pile_threads
+}
 criterion_main!(benches);

@@ -33,6 +33,17 @@ pub struct LimitArgs {
     pub max_reply_bytes: usize,
 }
 
+/// `--threads N`: every step command of this process runs on N threads from now on (the
+/// calling thread's pool of N, physics-core's `world/threads.rs`), whichever world it steps —
+/// created, recovered, undone, forked, loaded or replayed. Refuses 0.
+pub fn step_on_threads(n: usize) -> Result<(), String> {
+    if n == 0 {
+        return Err("must be at least 1".into());
+    }
+    crate::world::set_step_threads(n);
+    Ok(())
+}
+
 impl From<LimitArgs> for Limits {
     fn from(a: LimitArgs) -> Limits {
         // Destructured, so a field added to one struct and not the other does not compile.

@@ -3,6 +3,7 @@
 //! foreign saved file and `replay` all fold through here, so they cannot disagree about what an
 //! event means (a cancelled step, #16) or let an unchecked command into `World::apply`.
 
+use std::sync::atomic::Ordering::Relaxed;
 use std::collections::BTreeSet;
 
 use serde_json::Value;
@@ -425,7 +426,7 @@ impl Cadence {
 
 /// Sees a re-simulation: the world (read-only) and where it is; returning false stops the
 /// re-simulation there (the world returned is then wherever it stopped, unchecked).
-pub type Observer<'a> = &'a mut dyn FnMut(&World, &Moment) -> bool;
+pub type Observer<'a> = &'a mut (dyn FnMut(&World, &Moment) -> bool + Send);
 
 /// The one re-simulation: restores `lent`'s snapshot into a scratch world, folds its chain
 /// through `fold_decoded` checking every recorded state hash (a mismatch names the seq), and
@@ -441,7 +442,7 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
     };
     check_hash(&world, first)?;
     let Interval { from_seq, to_seq } = lent.interval;
-    let start = |world: &World, observer: &mut dyn FnMut(&World, &Moment) -> bool| {
+    let start = |world: &World, observer: &mut (dyn FnMut(&World, &Moment) -> bool + Send)| {
         let m = Moment { at: At::Start, seq: from_seq, steps: 0, step_in_event: 0, sample: true, last: from_seq == to_seq };
         observer(world, &m) && from_seq != to_seq
     };
@@ -452,23 +453,24 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
     let mut cadence = Cadence::new(every);
     let limits = Limits::unbounded();
     for (e, cmd) in &lent.chain[1..] {
-        let stop = std::cell::Cell::new(false);
+        // Atomic only because a step may run on the world's pool (see physics-core's threads.rs).
+        let stop = std::sync::atomic::AtomicBool::new(false);
         let mut in_event = 0u64;
         {
             let mut on_step = |w: &World| {
-                if !started || stop.get() {
+                if !started || stop.load(Relaxed) {
                     return;
                 }
                 in_event += 1;
                 if cadence.step() {
                     let m = Moment { at: At::Step, seq: e.seq, steps: cadence.steps, step_in_event: in_event, sample: true, last: false };
-                    stop.set(!observer(w, &m));
+                    stop.store(!observer(w, &m), Relaxed);
                 }
             };
-            let mut control = |_: u64| !stop.get();
+            let mut control = |_: u64| !stop.load(Relaxed);
             fold_decoded(&mut world, e, cmd.clone(), &limits, false, &mut control, &mut on_step)?;
         }
-        if stop.get() {
+        if stop.load(Relaxed) {
             return Ok(world);
         }
         check_hash(&world, e)?;

@@ -17,6 +17,10 @@ use physics_mcp::store::SyncMode;
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
+    /// Threads each simulation steps on (rapier's parallel solver). Results and hashes are the
+    /// same for any count; more threads help large scenes when cores are free.
+    #[arg(long, global = true, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=256))]
+    threads: u16,
 }
 
 /// Where simulations live and how they are limited (shared by serve and stdio).
@@ -286,6 +290,10 @@ fn main() {
     #[cfg(feature = "failpoints")]
     let _failpoints = physics_mcp::failpoints::setup();
     ignore_file_size_signal();
+    if let Err(e) = physics_mcp::cli::step_on_threads(usize::from(cli.threads)) {
+        eprintln!("physics-mcp: --threads: {e}");
+        std::process::exit(2);
+    }
     // One async worker: the async side only moves small JSON messages between hyper, rmcp's
     // session tasks and our handlers (simulation work runs on the blocking pool, reads take a
     // try_lock), and with one worker those hand-offs stay on one thread instead of waking

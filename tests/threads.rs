@@ -1,16 +1,15 @@
-//! Issue 13 item 3: may one simulation step on several threads (rapier's `parallel`)? Only if
-//! every state hash is bit-identical to today's single-threaded build for 1, 2 and 4 threads,
-//! snapshot → restore → continue included, with the pool handed back after the restore.
+//! Issue 13 item 3: one simulation may step on several threads (rapier's `parallel`, the
+//! server's `--threads N`) because every state hash is bit-identical to the single-threaded
+//! build for 1, 2 and 4 threads, snapshot → restore → continue included, with the pool handed
+//! back after the restore.
 //!
 //! Three scenes — the 1000-box pile (benches/pile.rs), 64 free two-link URDF arms falling in
 //! stacks (multibodies in contact), 64 revolute box pairs plus spherical, fixed and prismatic
 //! chains (impulse joints) — are stepped in chunks, hashing after each, snapshotted half way,
-//! restored and continued. The default build checks those hashes against
-//! `tests/fixtures/threads_reference.json` (re-written by `PHYSICS_MCP_RECORD_THREADS=1 cargo
-//! test --test threads`, which must only ever be run on the default build); the `threads`
-//! build (`cargo test --features threads --test threads`) compares every thread count with
-//! that reference and with its own 1-thread run, and reports each divergence: the first hash
-//! that differs, by scene and thread count.
+//! restored and continued, and compared with `tests/fixtures/threads_reference.json`: the
+//! hashes the single-threaded build (before `parallel` was enabled) recorded. Every `replays/`
+//! log is refolded on 1, 2 and 4 threads too. A divergence is reported by scene, thread count
+//! and the first hash that differs.
 
 // A test may read its fixture and the environment; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -168,21 +167,17 @@ fn constraints() -> World {
     w
 }
 
-/// How a world steps: the default (single-threaded build, or the calling thread's pool) or on
-/// a pool of its own handed back after every restore.
-#[cfg(feature = "threads")]
+/// How a world steps: on the stepping thread's pool (`None`) or on a pool of its own, handed
+/// back after every restore.
 type Pool = Option<std::sync::Arc<rapier3d::rayon::ThreadPool>>;
-#[cfg(not(feature = "threads"))]
-type Pool = Option<()>;
 
 fn with_pool(w: &mut World, pool: &Pool) {
-    #[cfg(feature = "threads")]
-    {
-        w.set_thread_pool(pool.clone());
-        assert_eq!(w.num_threads(), pool.as_ref().map(|p| p.current_num_threads()));
-    }
-    #[cfg(not(feature = "threads"))]
-    let _ = (w, pool);
+    w.set_thread_pool(pool.clone());
+    assert_eq!(w.num_threads(), pool.as_ref().map(|p| p.current_num_threads()));
+}
+
+fn pool_of(threads: usize) -> std::sync::Arc<rapier3d::rayon::ThreadPool> {
+    std::sync::Arc::new(rapier3d::rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap())
 }
 
 /// The scene's hashes: after building, after every chunk, the snapshot's content hash at the
@@ -224,21 +219,18 @@ fn first_difference(a: &[String], b: &[String]) -> Option<usize> {
     (0..a.len().max(b.len())).find(|&i| a.get(i) != b.get(i))
 }
 
-/// The default build reproduces the recorded reference (or records it when asked), so the
-/// reference the `threads` build is measured against is today's single-threaded build.
-#[cfg(not(feature = "threads"))]
+/// Without a pool of its own a world steps on the test thread's (rayon's global pool, one
+/// thread per core) and reproduces the reference: hashes recorded by the build before rapier's
+/// `parallel` was enabled (commit 07251e2), the single-threaded engine the `replays/` logs
+/// were made by. The file is never re-recorded: it is what later builds are measured against.
 #[test]
-fn the_default_build_reproduces_the_reference_hashes() {
+fn the_reference_hashes_of_the_single_threaded_build_are_reproduced() {
     let now: BTreeMap<String, Vec<String>> = scenes().iter().map(|s| (s.name.to_string(), run(s, &None))).collect();
-    if std::env::var_os("PHYSICS_MCP_RECORD_THREADS").is_some() {
-        std::fs::write(reference_path(), serde_json::to_string_pretty(&now).unwrap() + "\n").unwrap();
-        return;
-    }
     let recorded = reference();
     for (name, hashes) in &now {
         let expected = &recorded[name];
         if let Some(i) = first_difference(expected, hashes) {
-            panic!("{name}: the default build differs from the reference at {:?} vs {:?}", expected.get(i), hashes.get(i));
+            panic!("{name}: this build differs from the reference at {:?} vs {:?}", expected.get(i), hashes.get(i));
         }
         // The restore → continue part equals the uninterrupted run.
         for h in hashes.iter().filter(|h| h.starts_with("restored ")) {
@@ -247,9 +239,8 @@ fn the_default_build_reproduces_the_reference_hashes() {
     }
 }
 
-/// Every thread count against the default build's reference and against this build's own
+/// Every thread count against the single-threaded build's reference and against its own
 /// one-thread run; prints every divergence (the report) and fails if there is any.
-#[cfg(feature = "threads")]
 #[test]
 fn every_thread_count_reproduces_the_single_threaded_build() {
     let recorded = reference();
@@ -257,8 +248,7 @@ fn every_thread_count_reproduces_the_single_threaded_build() {
     for scene in scenes() {
         let mut one_thread = None;
         for threads in [1usize, 2, 4] {
-            let pool = rapier3d::rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            let hashes = run(&scene, &Some(std::sync::Arc::new(pool)));
+            let hashes = run(&scene, &Some(pool_of(threads)));
             let expected = &recorded[scene.name];
             let mut line = format!("THREADS {} threads={threads}: ", scene.name);
             match first_difference(expected, &hashes) {
@@ -284,4 +274,28 @@ fn every_thread_count_reproduces_the_single_threaded_build() {
         }
     }
     assert!(divergences.is_empty(), "{} divergences:\n{}", divergences.len(), divergences.join("\n"));
+}
+
+/// Every `replays/` log refolds to its recorded hashes with 1, 2 and 4 threads per step
+/// (`set_step_threads`, what `--threads` sets). The only test here that sets the count, and
+/// the others' worlds have pools of their own, which win over it.
+#[test]
+fn every_replay_log_refolds_on_1_2_and_4_threads() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("replays");
+    let mut logs: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+        .collect();
+    logs.sort();
+    assert!(logs.len() >= 6, "replays/ holds {} logs", logs.len());
+    for threads in [1usize, 2, 4] {
+        physics_mcp::world::set_step_threads(threads);
+        for log in &logs {
+            let summary = physics_mcp::replay::replay(log, None, |_, _| {})
+                .unwrap_or_else(|e| panic!("{} does not refold on {threads} threads: {e}", log.display()));
+            assert!(summary.events > 0, "{}: {summary:?}", log.display());
+        }
+    }
+    physics_mcp::world::set_step_threads(0);
 }

@@ -110,7 +110,7 @@ pub struct Story {
 
 /// Gathers the story of a log: a full replay for the verdict, then one re-simulation of the
 /// head's chain for the pictures and plots. `progress(steps done, steps in all)`.
-pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<Story, String> {
+pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<Story, String> {
     let verdict = match crate::replay::replay(path, None, |_, _| {}) {
         Ok(s) => format!("verified: {} events replayed, {} state hashes, {} reads and {} snapshots checked", s.events, s.state_events, s.reads_checked, s.snapshots_checked),
         Err(e) => format!("NOT verified: {e}"),

@@ -14,9 +14,10 @@ pub mod mjcf;
 pub mod mjcf_mesh;
 mod robot;
 pub mod scene;
-#[cfg(feature = "threads")]
 mod threads;
 pub mod urdf;
+
+pub use threads::{set_step_threads, step_threads};
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::OnceLock;
@@ -299,12 +300,12 @@ pub struct World {
 }
 
 /// Hook called during long steps with the steps done so far; returning false stops early.
-pub type StepControl<'a> = &'a mut dyn FnMut(u64) -> bool;
+pub type StepControl<'a> = &'a mut (dyn FnMut(u64) -> bool + Send);
 
 /// Hook that sees the world after every simulated step of a step command (re-simulation
 /// samples, live viewer progress). It gets a shared borrow, so it cannot change the state:
 /// results and state hashes are the same with or without it.
-pub type StepObserver<'a> = &'a mut dyn FnMut(&World);
+pub type StepObserver<'a> = &'a mut (dyn FnMut(&World) + Send);
 
 impl World {
     /// Builds the world a root `CreateSimulation` command describes.
@@ -533,6 +534,11 @@ impl World {
 
     /// Advances `n` steps, clearing one-step forces after the first. Returns the steps taken.
     fn step(&mut self, n: u64, control: StepControl, observe: StepObserver) -> u64 {
+        self.in_pool(|w| w.step_here(n, control, observe))
+    }
+
+    /// [`World::step`] on the calling thread.
+    fn step_here(&mut self, n: u64, control: StepControl, observe: StepObserver) -> u64 {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
         let excluded = mjcf::ExcludedPairs::of(self);
@@ -575,7 +581,7 @@ impl World {
     /// per-step workspaces, left out exactly as a snapshot leaves them out.
     pub fn duplicate(&self) -> World {
         let p = &self.physics;
-        World {
+        let mut copy = World {
             simulation_id: self.simulation_id.clone(),
             gui: self.gui,
             physics: PhysicsWorld {
@@ -593,7 +599,10 @@ impl World {
             },
             tables: self.tables.clone(),
             scene: OnceLock::new(),
-        }
+        };
+        // The copy steps where its original does (the pool is no state; see threads.rs).
+        copy.set_thread_pool(p.thread_pool());
+        copy
     }
 
     /// Rebuilds a world from `snapshot` bytes. Identity comes from the caller (a fork or load

@@ -1,26 +1,119 @@
-//! Multi-threaded stepping, compiled only with the `threads` feature (rapier's `parallel`):
-//! an evaluation of SPEC "Scale: … threads", not part of the default build. The pool is the
-//! caller's (the core starts no threads of its own) and is not part of the world's state: a
-//! snapshot does not carry it (rapier skips the pipeline when serialising), so whoever restores
-//! a world must hand it the pool again — without one, rapier steps on whatever rayon pool the
-//! calling thread is in.
+//! Which threads step a world (SPEC "Scale: … threads"; rapier's `parallel` feature). Results
+//! and hashes do not depend on it: rapier 0.36's parallel step is bit-identical for any thread
+//! count, which `tests/threads.rs` checks against hashes recorded by the single-threaded build
+//! for every `replays/` log and three scenes, restore included. So no snapshot, event or hash
+//! carries it.
+//!
+//! The server names a thread count once, at start (`--threads N`). A step command then runs on
+//! a pool of N threads that belongs to the thread asking for the step (built on its first step,
+//! gone with it), not to the world and not to the process:
+//! - not to the world, because rapier keeps a world's pool in a field its serialisation skips:
+//!   a restored world (recovery, undo, fork, load, replay) would step elsewhere until handed it
+//!   again; here there is nothing to hand back;
+//! - not one pool for the process, because rapier's step waits, outside rayon, for a task it
+//!   spawned on its own pool: two steps on one N-thread pool from N callers each hold a worker
+//!   while their tasks queue behind them, and never finish. One pool per calling thread runs
+//!   one step at a time, so a spare worker is always there (with one thread rapier runs that
+//!   task inline).
+//!
+//! Simulations on different threads (sessions, run_sweep's variants) step side by side as
+//! before; each step gets N threads.
 
+use std::cell::RefCell;
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 use std::sync::Arc;
 
-use rapier3d::rayon::ThreadPool;
+use rapier3d::rayon::{ThreadPool, ThreadPoolBuilder};
 
 use super::World;
 
+/// Threads per step; 0 (the default): no pool of ours, a step runs on the calling thread and
+/// rapier's parallel parts on whatever rayon pool that thread is in.
+static STEP_THREADS: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    /// This thread's stepping pool, built on its first step (see the module doc).
+    static POOL: RefCell<Option<Arc<ThreadPool>>> = const { RefCell::new(None) };
+}
+
+/// Every step from now on runs on `n` threads (0: on the calling thread, as a library user
+/// that never calls this gets). Pools already built with another count are replaced.
+pub fn set_step_threads(n: usize) {
+    STEP_THREADS.store(n, Relaxed);
+}
+
+/// The count named by [`set_step_threads`].
+pub fn step_threads() -> usize {
+    STEP_THREADS.load(Relaxed)
+}
+
+/// The calling thread's stepping pool, built (threads named `physics-step-<i>`) on first use
+/// or when the count changed; `None` without a count or if the threads cannot be started (the
+/// step then runs on the calling thread: slower, never different).
+fn stepping_pool() -> Option<Arc<ThreadPool>> {
+    let n = step_threads();
+    if n == 0 {
+        return None;
+    }
+    POOL.with(|slot| {
+        let mut slot = slot.borrow_mut();
+        if slot.as_ref().is_none_or(|p| p.current_num_threads() != n) {
+            let built = ThreadPoolBuilder::new().num_threads(n).thread_name(|i| format!("physics-step-{i}")).build();
+            *slot = built.ok().map(Arc::new);
+        }
+        slot.clone()
+    })
+}
+
 impl World {
-    /// Steps on `pool` from now on (`None`: on the calling thread's rayon pool). Changes no
-    /// state and no hash — if rapier's parallel step is as deterministic as it claims.
+    /// Steps on `pool` from now on instead of the calling thread's stepping pool (`None`: back
+    /// to that): for tests that compare thread counts side by side. Changes no state and no
+    /// hash, and is not kept by a snapshot.
     pub fn set_thread_pool(&mut self, pool: Option<Arc<ThreadPool>>) {
         self.physics.set_thread_pool(pool);
     }
 
-    /// The size of the pool set with `set_thread_pool`, if one is: what a test asserts after
-    /// a restore.
+    /// How many threads this world's steps run on, when that is a pool's: its own pool's size,
+    /// else the `--threads` count; `None` when steps run on the calling thread.
     pub fn num_threads(&self) -> Option<usize> {
-        self.physics.num_threads()
+        self.physics.num_threads().or(Some(step_threads()).filter(|&n| n > 0))
+    }
+
+    /// Runs `work` (a whole step command) inside this world's pool, or the calling thread's
+    /// stepping pool: one hand-over per command instead of one per simulated step, which on a
+    /// one-body world would cost more than the step itself. Inside, rapier finds itself in its
+    /// pool and does not hand over again.
+    pub(super) fn in_pool<R: Send>(&mut self, work: impl FnOnce(&mut World) -> R + Send) -> R {
+        match self.physics.thread_pool().or_else(stepping_pool) {
+            Some(pool) => pool.install(|| work(self)),
+            None => work(self),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::command::Command;
+
+    /// A world restored from a snapshot steps on the calling thread's pool of `--threads`
+    /// threads, with nothing handed back; a world's own pool wins over it.
+    #[test]
+    fn restored_worlds_step_on_the_step_threads() {
+        set_step_threads(3);
+        let root = Command::CreateSimulation { simulation_id: "t".into(), gravity: [0.0, 0.0, -9.81], gui: false };
+        let (mut w, _) = World::create(&root).unwrap();
+        w.apply(&Command::StepSimulation { steps: 3 }, &mut |_| true);
+        let mut r = World::restore("t", false, &w.snapshot()).unwrap();
+        let mut seen = Vec::new();
+        let step = Command::StepSimulation { steps: 2 };
+        r.apply_observed(&step, &mut |_| true, &mut |_| {
+            seen.push((rapier3d::rayon::current_num_threads(), std::thread::current().name().map(String::from)))
+        });
+        assert_eq!(r.num_threads(), Some(3));
+        assert!(seen.iter().all(|(n, name)| *n == 3 && name.as_deref().is_some_and(|s| s.starts_with("physics-step-"))), "{seen:?}");
+        r.set_thread_pool(Some(Arc::new(ThreadPoolBuilder::new().num_threads(2).build().unwrap())));
+        assert_eq!(r.num_threads(), Some(2));
+        set_step_threads(0);
     }
 }
