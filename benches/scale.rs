@@ -36,6 +36,28 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Paired timings (ms) of two ways to do one thing, measured round by round.
+#[derive(Default)]
+struct Paired {
+    a: Vec<f64>,
+    b: Vec<f64>,
+}
+
+impl Paired {
+    fn push(&mut self, a: f64, b: f64) {
+        self.a.push(a);
+        self.b.push(b);
+    }
+
+    /// "A x ms, B y ms, speed-up r (medians of n paired rounds; min m)", the REPORT form.
+    fn report(&self, a_name: &str, b_name: &str, decimals: usize) -> String {
+        let ratios: Vec<f64> = self.a.iter().zip(&self.b).map(|(a, b)| a / b).collect();
+        let min = ratios.iter().cloned().fold(f64::MAX, f64::min);
+        let (a, b, n) = (median(self.a.clone()), median(self.b.clone()), self.a.len());
+        format!("{a_name} {a:.decimals$} ms, {b_name} {b:.decimals$} ms, speed-up {:.2}x (medians of {n} paired rounds; min {min:.2}x)", median(ratios))
+    }
+}
+
 /// The pile as `{tool, arguments}` calls, as a client sends them.
 fn pile_calls() -> Vec<Value> {
     raw_pile()
@@ -53,7 +75,7 @@ fn bench_pile_build_over_http(c: &mut Criterion) {
     let server = common::Server::start(dir.path(), &[]);
     let client = rt.block_on(server.client());
     let calls = pile_calls();
-    let (mut one_by_one, mut batched, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let mut paired = Paired::default();
     for _ in 0..ROUNDS {
         let a = rt.block_on(client.new_sim(json!({})));
         let t = Instant::now();
@@ -73,16 +95,11 @@ fn bench_pile_build_over_http(c: &mut Criterion) {
         for s in [a, b] {
             rt.block_on(client.call("destroy_simulation", json!({"sim_id": s})));
         }
-        one_by_one.push(single);
-        batched.push(batch);
-        ratios.push(single / batch);
+        paired.push(single, batch);
     }
     println!(
-        "REPORT pile build over MCP/HTTP (1,001 add_box, one rmcp client, release server): one call per box {:.1} ms, one batch {:.1} ms, speed-up {:.2}x (medians of {ROUNDS} paired rounds; min speed-up {:.2}x)",
-        median(one_by_one),
-        median(batched),
-        median(ratios.clone()),
-        ratios.iter().cloned().fold(f64::MAX, f64::min)
+        "REPORT pile build over MCP/HTTP (1,001 add_box, one rmcp client, release server): {}",
+        paired.report("one call per box", "one batch", 1)
     );
     c.bench_function("batch_pile_build_http", |bench| {
         bench.iter(|| {
@@ -152,20 +169,13 @@ fn bench_sweep_workers(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
     let (reg, id) = sweep_scene(dir.path());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let (mut one, mut many, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let mut paired = Paired::default();
     for _ in 0..ROUNDS {
-        let a = run_sweep(&reg, &id, 1);
-        let b = run_sweep(&reg, &id, cores);
-        one.push(a);
-        many.push(b);
-        ratios.push(a / b);
+        paired.push(run_sweep(&reg, &id, 1), run_sweep(&reg, &id, cores));
     }
     println!(
-        "REPORT run_sweep 16 variants x 1,000 steps of a 100-box scene (in-process): 1 worker {:.0} ms, {cores} workers {:.0} ms, speed-up {:.2}x (medians of {ROUNDS} paired rounds; min {:.2}x)",
-        median(one),
-        median(many),
-        median(ratios.clone()),
-        ratios.iter().cloned().fold(f64::MAX, f64::min)
+        "REPORT run_sweep 16 variants x 1,000 steps of a 100-box scene (in-process): {}",
+        paired.report("1 worker", &format!("{cores} workers"), 0)
     );
     let mut g = c.benchmark_group("run_sweep_16x1000_100_boxes");
     g.sample_size(10);
@@ -189,22 +199,14 @@ fn bench_pile_threads(c: &mut Criterion) {
     let mut w = pile::pile_world();
     w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
     let snapshot = w.snapshot();
-    let (mut one, mut two, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let mut paired = Paired::default();
     for _ in 0..ROUNDS {
         let (a, ha) = pile_steps(&snapshot, 1);
         let (b, hb) = pile_steps(&snapshot, 2);
         assert_eq!(ha, hb, "1 and 2 threads end in different states");
-        one.push(a);
-        two.push(b);
-        ratios.push(a / b);
+        paired.push(a, b);
     }
-    println!(
-        "REPORT pile step (1000 boxes, in-process): 1 thread {:.2} ms, 2 threads {:.2} ms, speed-up {:.2}x (medians of {ROUNDS} paired rounds of 100 steps; min {:.2}x)",
-        median(one),
-        median(two),
-        median(ratios.clone()),
-        ratios.iter().cloned().fold(f64::MAX, f64::min)
-    );
+    println!("REPORT pile step (1000 boxes, in-process, rounds of 100 steps): {}", paired.report("1 thread", "2 threads", 2));
     let mut g = c.benchmark_group("pile_100_steps_threads");
     g.sample_size(10);
     for threads in [1, 2] {

@@ -8,6 +8,8 @@
 //! variant's refusal, or a cancellation, deletes them all and refuses the sweep. The swept
 //! simulation only records the sweep as one read (or refused) event.
 
+use std::sync::Mutex;
+
 use serde_json::json;
 
 use crate::batch::Call;
@@ -160,15 +162,28 @@ fn fork_arguments(parent: &str, at_seq: u64) -> Args {
     a
 }
 
-/// Runs `f` on every item on a pool of `workers` threads; results come back in the items'
-/// order.
-fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R + Sync + Send) -> Vec<R> {
-    use rayon::prelude::*;
-    let run = || items.into_par_iter().with_max_len(1).map(&f).collect();
-    match rayon::ThreadPoolBuilder::new().num_threads(workers.max(1)).build() {
-        Ok(pool) => pool.install(run),
-        Err(_) => run(),
-    }
+/// Runs `f` on every item on `workers` threads, each taking the next item when done with
+/// one; results come back in the items' order. Plain threads, not a rayon pool: a variant's
+/// step runs on its worker's stepping pool (physics-core `world/threads.rs`), and a rayon
+/// worker waiting for that would start other variants meanwhile — one "worker" would keep
+/// several variants and their steps in flight, and `workers` would no longer say how many
+/// cores a sweep takes.
+fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    let n = items.len();
+    let queue = Mutex::new(items.into_iter().enumerate());
+    let done: Mutex<Vec<Option<R>>> = Mutex::new((0..n).map(|_| None).collect());
+    std::thread::scope(|s| {
+        for _ in 0..workers.clamp(1, n.max(1)) {
+            s.spawn(|| loop {
+                let next = queue.lock().unwrap_or_else(|e| e.into_inner()).next();
+                let Some((i, item)) = next else { break };
+                let r = f(item);
+                done.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(r);
+            });
+        }
+    });
+    let done = done.into_inner().unwrap_or_else(|e| e.into_inner());
+    done.into_iter().map(|r| r.expect("every item was taken by a worker")).collect()
 }
 
 /// One variant's calls (as a batch) and steps, then what `observe` asks of it.
