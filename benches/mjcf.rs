@@ -68,10 +68,5 @@ fn bench_mjcf(c: &mut Criterion) {
     println!("REPORT mjcf ant.xml step at 0.01 s: {:.4} ms/step", median(steps) * 1e3);
 }
 
-criterion_group! {
-    name = benches;
-    // In-process worlds step on one thread, as the server does by default (`--threads 1`).
-    config = { physics_mcp::cli::step_on_threads(1).expect("a stepping thread"); Criterion::default() };
-    targets = bench_mjcf
-}
+criterion_group!(benches, bench_mjcf);
 criterion_main!(benches);

@@ -282,10 +282,5 @@ fn bench_over_http(c: &mut Criterion) {
 
 // HTTP latency first: the disk-heavy benchmarks leave background I/O (WAL checkpoints) behind
 // that shows up in sub-millisecond percentiles.
-criterion_group! {
-    name = benches;
-    // In-process worlds step on one thread, as the server does by default (`--threads 1`).
-    config = { physics_mcp::cli::step_on_threads(1).expect("a stepping thread"); Criterion::default() };
-    targets = bench_over_http, bench_pile_steps, bench_snapshot_restore, bench_log_and_sync
-}
+criterion_group!(benches, bench_over_http, bench_pile_steps, bench_snapshot_restore, bench_log_and_sync);
 criterion_main!(benches);

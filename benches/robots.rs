@@ -88,10 +88,5 @@ fn bench_ik(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group! {
-    name = benches;
-    // In-process worlds step on one thread, as the server does by default (`--threads 1`).
-    config = { physics_mcp::cli::step_on_threads(1).expect("a stepping thread"); Criterion::default() };
-    targets = bench_ik
-}
+criterion_group!(benches, bench_ik);
 criterion_main!(benches);

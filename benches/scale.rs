@@ -189,7 +189,7 @@ fn bench_sweep_workers(c: &mut Criterion) {
 fn pile_steps(snapshot: &[u8], threads: usize) -> (f64, String) {
     physics_mcp::cli::step_on_threads(threads).expect("stepping threads");
     let mut w = physics_mcp::world::World::restore("pile", false, snapshot).unwrap();
-    assert_eq!(w.num_threads(), Some(threads));
+    assert_eq!(w.num_threads(), threads);
     let t = Instant::now();
     w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
     (t.elapsed().as_secs_f64() * 1e3 / 100.0, w.state_hash())
@@ -216,10 +216,5 @@ fn bench_pile_threads(c: &mut Criterion) {
     physics_mcp::cli::step_on_threads(1).expect("a stepping thread");
 }
 
-criterion_group! {
-    name = benches;
-    // In-process worlds step on one thread, as the server does by default (`--threads 1`).
-    config = { physics_mcp::cli::step_on_threads(1).expect("a stepping thread"); Criterion::default() };
-    targets = bench_pile_build_over_http, bench_sweep_workers, bench_pile_threads
-}
+criterion_group!(benches, bench_pile_build_over_http, bench_sweep_workers, bench_pile_threads);
 criterion_main!(benches);

@@ -182,10 +182,5 @@ fn bench_camera(c: &mut Criterion) {
     );
 }
 
-criterion_group! {
-    name = benches;
-    // In-process worlds step on one thread, as the server does by default (`--threads 1`).
-    config = { physics_mcp::cli::step_on_threads(1).expect("a stepping thread"); Criterion::default() };
-    targets = bench_rays, bench_camera
-}
+criterion_group!(benches, bench_rays, bench_camera);
 criterion_main!(benches);

@@ -142,10 +142,5 @@ fn bench_long_history(c: &mut Criterion) {
     );
 }
 
-criterion_group! {
-    name = benches;
-    // In-process worlds step on one thread, as the server does by default (`--threads 1`).
-    config = { physics_mcp::cli::step_on_threads(1).expect("a stepping thread"); Criterion::default() };
-    targets = bench_trajectory, bench_long_history
-}
+criterion_group!(benches, bench_trajectory, bench_long_history);
 criterion_main!(benches);

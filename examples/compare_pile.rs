@@ -47,8 +47,7 @@ fn median(v: &[f64]) -> f64 {
 
 fn main() {
     let runs: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(5).max(1);
-    // One stepping thread, as the server by default (`--threads 1`) and as PyBullet steps.
-    physics_mcp::cli::step_on_threads(1).expect("a stepping thread");
+    // Steps run on one thread (the default, as the server's `--threads 1`), as PyBullet's do.
     let mut w = pile::pile_world();
     step(&mut w, WARM);
     let snap = w.snapshot();

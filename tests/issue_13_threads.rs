@@ -43,7 +43,7 @@ fn add_box(sim: &SharedSim, z: f32, mass: f32) {
 
 /// The pool size `sim` steps on, after checking that a step of it runs on a `physics-step-*`
 /// thread (the pool `--threads` builds), not on the caller's.
-fn stepping_threads(what: &str, sim: &SharedSim) -> Option<usize> {
+fn stepping_threads(what: &str, sim: &SharedSim) -> usize {
     let seen = Arc::new(Mutex::new(Vec::new()));
     let record = seen.clone();
     let mut observe = move |_: &physics_mcp::world::World| {
@@ -64,7 +64,7 @@ fn every_world_the_server_makes_steps_on_the_threads_pool() {
     physics_mcp::cli::step_on_threads(THREADS).unwrap();
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("ws")).unwrap();
-    let expect = Some(THREADS);
+    let expect = THREADS;
     {
         let reg = registry(dir.path());
         let root = Command::CreateSimulation { simulation_id: "a".into(), gravity: [0.0, 0.0, -9.81], gui: false };

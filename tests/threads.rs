@@ -173,7 +173,7 @@ type Pool = Option<std::sync::Arc<rapier3d::rayon::ThreadPool>>;
 
 fn with_pool(w: &mut World, pool: &Pool) {
     w.set_thread_pool(pool.clone());
-    assert_eq!(w.num_threads(), pool.as_ref().map(|p| p.current_num_threads()));
+    assert_eq!(w.num_threads(), pool.as_ref().map_or(physics_mcp::world::step_threads(), |p| p.current_num_threads()));
 }
 
 fn pool_of(threads: usize) -> std::sync::Arc<rapier3d::rayon::ThreadPool> {
@@ -297,5 +297,5 @@ fn every_replay_log_refolds_on_1_2_and_4_threads() {
             assert!(summary.events > 0, "{}: {summary:?}", log.display());
         }
     }
-    physics_mcp::world::set_step_threads(0);
+    physics_mcp::world::set_step_threads(1);
 }

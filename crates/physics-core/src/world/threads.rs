@@ -27,19 +27,21 @@ use rapier3d::rayon::{ThreadPool, ThreadPoolBuilder};
 
 use super::World;
 
-/// Threads per step; 0 (the default): no pool of ours, a step runs on the calling thread and
-/// rapier's parallel parts on whatever rayon pool that thread is in.
-static STEP_THREADS: AtomicUsize = AtomicUsize::new(0);
+/// Threads per step; 1 unless the server says otherwise. Never "none": without a pool of ours
+/// rapier would run its parallel parts on whatever rayon pool the calling thread is in — the
+/// global one, for a step called from a `rayon::scope` or `par_iter` (animations re-simulate
+/// inside one) — and two such steps can hold both of its workers in that `recv`.
+static STEP_THREADS: AtomicUsize = AtomicUsize::new(1);
 
 thread_local! {
     /// This thread's stepping pool, built on its first step (see the module doc).
     static POOL: RefCell<Option<Arc<ThreadPool>>> = const { RefCell::new(None) };
 }
 
-/// Every step from now on runs on `n` threads (0: on the calling thread, as a library user
-/// that never calls this gets). Pools already built with another count are replaced.
+/// Every step from now on runs on `n` threads (at least 1). Pools already built with another
+/// count are replaced on their thread's next step.
 pub fn set_step_threads(n: usize) {
-    STEP_THREADS.store(n, Relaxed);
+    STEP_THREADS.store(n.max(1), Relaxed);
 }
 
 /// The count named by [`set_step_threads`].
@@ -48,13 +50,11 @@ pub fn step_threads() -> usize {
 }
 
 /// The calling thread's stepping pool, built (threads named `physics-step-<i>`) on first use
-/// or when the count changed; `None` without a count or if the threads cannot be started (the
-/// step then runs on the calling thread: slower, never different).
+/// or when the count changed; `None` if the threads cannot be started (the step then runs on
+/// the calling thread: never different, and as safe as before `parallel` unless that thread is
+/// a worker of a shared pool).
 fn stepping_pool() -> Option<Arc<ThreadPool>> {
     let n = step_threads();
-    if n == 0 {
-        return None;
-    }
     POOL.with(|slot| {
         let mut slot = slot.borrow_mut();
         if slot.as_ref().is_none_or(|p| p.current_num_threads() != n) {
@@ -73,10 +73,10 @@ impl World {
         self.physics.set_thread_pool(pool);
     }
 
-    /// How many threads this world's steps run on, when that is a pool's: its own pool's size,
-    /// else the `--threads` count; `None` when steps run on the calling thread.
-    pub fn num_threads(&self) -> Option<usize> {
-        self.physics.num_threads().or(Some(step_threads()).filter(|&n| n > 0))
+    /// How many threads this world's steps run on: its own pool's size, else the `--threads`
+    /// count.
+    pub fn num_threads(&self) -> usize {
+        self.physics.num_threads().unwrap_or_else(step_threads)
     }
 
     /// Runs `work` (a whole step command) inside this world's pool, or the calling thread's
@@ -110,10 +110,10 @@ mod tests {
         r.apply_observed(&step, &mut |_| true, &mut |_| {
             seen.push((rapier3d::rayon::current_num_threads(), std::thread::current().name().map(String::from)))
         });
-        assert_eq!(r.num_threads(), Some(3));
+        assert_eq!(r.num_threads(), 3);
         assert!(seen.iter().all(|(n, name)| *n == 3 && name.as_deref().is_some_and(|s| s.starts_with("physics-step-"))), "{seen:?}");
         r.set_thread_pool(Some(Arc::new(ThreadPoolBuilder::new().num_threads(2).build().unwrap())));
-        assert_eq!(r.num_threads(), Some(2));
-        set_step_threads(0);
+        assert_eq!(r.num_threads(), 2);
+        set_step_threads(1);
     }
 }
