@@ -196,3 +196,42 @@ async fn simulations_stepped_at_once_on_two_threads_each_all_finish() {
         .expect("simultaneous steps on 2 threads each did not finish in 300 s");
     assert!(hashes.windows(2).all(|w| w[0] == w[1]), "the same calls ended in different states: {hashes:?}");
 }
+
+/// Steps called from rayon workers at once all finish. A step called on a worker of another
+/// rayon pool (here the global one, through `rayon::scope`, as animations once re-simulated)
+/// waits for its stepping pool by running other queued jobs — possibly another caller's whole
+/// re-simulation, whose steps then need a stepping pool of their own: with one pool per thread
+/// they shared it and hung (found by review). Free-falling boxes keep rapier's deferred BVH
+/// task firing every step. The timeout only turns a hang into a failure.
+#[test]
+fn steps_called_from_rayon_workers_at_once_all_finish() {
+    use physics_mcp::world::World;
+    physics_mcp::cli::step_on_threads(THREADS).unwrap();
+    let falling = |seed: usize| {
+        let root = Command::CreateSimulation { simulation_id: format!("f{seed}"), gravity: [0.0, 0.0, -9.81], gui: false };
+        let (mut w, _) = World::create(&root).unwrap();
+        for i in 0..30 {
+            let position = [(i % 6) as f32 * 0.3, (i / 6) as f32 * 0.3, seed as f32];
+            let body = Command::AddBody { shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] }, position, orientation: [0.0, 0.0, 0.0, 1.0], mass: 1.0, color: None };
+            w.apply(&body, &mut |_| true);
+        }
+        w
+    };
+    let (done, finished) = std::sync::mpsc::channel();
+    for caller in 0..6 {
+        let done = done.clone();
+        let mut w = falling(caller);
+        std::thread::spawn(move || {
+            rapier3d::rayon::scope(|_| {
+                for _ in 0..5 {
+                    w.apply(&Command::StepSimulation { steps: 400 }, &mut |_| true);
+                }
+            });
+            done.send(w.state_hash()).unwrap();
+        });
+    }
+    drop(done);
+    for _ in 0..6 {
+        finished.recv_timeout(std::time::Duration::from_secs(300)).expect("steps called from rayon workers at once did not finish in 300 s");
+    }
+}

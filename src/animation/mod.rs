@@ -129,7 +129,10 @@ pub fn frames_of(lent: &Lent, every: u64, cam: &Camera) -> Result<(Vec<Vec<u8>>,
 pub fn frames_with(lent: &Lent, every: u64, cam: &Camera, progress: &mut (dyn FnMut(u64) + Send)) -> Result<(Vec<Vec<u8>>, Vec<u64>), String> {
     let rendered: Mutex<Vec<(usize, Vec<u8>)>> = Mutex::new(Vec::new());
     let mut steps = Vec::new();
-    let outcome = rayon::scope(|s| {
+    // In place: the re-simulation runs on the calling thread, only the rendering on the pool.
+    // (`rayon::scope` would run it on a global-pool worker, which while its step waits may
+    // start another caller's whole animation on its own stack.)
+    let outcome = rayon::in_place_scope(|s| {
         let rendered = &rendered;
         fold::resimulate(lent, every, &mut |w, m| {
             if m.at == fold::At::Step {

@@ -581,7 +581,7 @@ impl World {
     /// per-step workspaces, left out exactly as a snapshot leaves them out.
     pub fn duplicate(&self) -> World {
         let p = &self.physics;
-        let mut copy = World {
+        World {
             simulation_id: self.simulation_id.clone(),
             gui: self.gui,
             physics: PhysicsWorld {
@@ -599,10 +599,7 @@ impl World {
             },
             tables: self.tables.clone(),
             scene: OnceLock::new(),
-        };
-        // The copy steps where its original does (the pool is no state; see threads.rs).
-        copy.set_thread_pool(p.thread_pool());
-        copy
+        }
     }
 
     /// Rebuilds a world from `snapshot` bytes. Identity comes from the caller (a fork or load

@@ -14,12 +14,13 @@
 //!   spawned on its own pool: two steps on one N-thread pool from N callers each hold a worker
 //!   while their tasks queue behind them, and never finish. One pool per calling thread runs
 //!   one step at a time, so a spare worker is always there (with one thread rapier runs that
-//!   task inline).
+//!   task inline). A calling thread that is itself a worker of another rayon pool may, while
+//!   it waits for its step, start another job that steps too: that step gets a second pool.
 //!
 //! Simulations on different threads (sessions, run_sweep's variants) step side by side as
 //! before; each step gets N threads.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 use std::sync::Arc;
 
@@ -34,8 +35,13 @@ use super::World;
 static STEP_THREADS: AtomicUsize = AtomicUsize::new(1);
 
 thread_local! {
-    /// This thread's stepping pool, built on its first step (see the module doc).
-    static POOL: RefCell<Option<Arc<ThreadPool>>> = const { RefCell::new(None) };
+    /// This thread's stepping pools, built on first use (see the module doc): one per step in
+    /// progress on this thread's stack. Usually one; more when this thread is a worker of
+    /// another rayon pool, which, while it waits for its step, may start another job that
+    /// steps too — a second step on the same pool would be the hang the module doc describes.
+    static POOLS: RefCell<Vec<Arc<ThreadPool>>> = const { RefCell::new(Vec::new()) };
+    /// Steps in progress on this thread's stack.
+    static DEPTH: Cell<usize> = const { Cell::new(0) };
 }
 
 /// Every step from now on runs on `n` threads (at least 1). Pools already built with another
@@ -49,26 +55,45 @@ pub fn step_threads() -> usize {
     STEP_THREADS.load(Relaxed)
 }
 
-/// The calling thread's stepping pool, built (threads named `physics-step-<i>`) on first use
-/// or when the count changed; `None` if the threads cannot be started (the step then runs on
-/// the calling thread: never different, and as safe as before `parallel` unless that thread is
-/// a worker of a shared pool).
-fn stepping_pool() -> Option<Arc<ThreadPool>> {
+/// The calling thread's stepping pool for a step at `depth` (steps already in progress on its
+/// stack), built (threads named `physics-step-<i>`) on first use or when the count changed;
+/// `None` if the threads cannot be started (the step then runs on the calling thread: never
+/// different, only slower).
+fn stepping_pool(depth: usize) -> Option<Arc<ThreadPool>> {
     let n = step_threads();
-    POOL.with(|slot| {
-        let mut slot = slot.borrow_mut();
-        if slot.as_ref().is_none_or(|p| p.current_num_threads() != n) {
-            let built = ThreadPoolBuilder::new().num_threads(n).thread_name(|i| format!("physics-step-{i}")).build();
-            *slot = built.ok().map(Arc::new);
+    POOLS.with(|pools| {
+        let mut pools = pools.borrow_mut();
+        if pools.get(depth).is_none_or(|p| p.current_num_threads() != n) {
+            let built = ThreadPoolBuilder::new().num_threads(n).thread_name(|i| format!("physics-step-{i}")).build().ok()?;
+            pools.truncate(depth);
+            pools.push(Arc::new(built));
         }
-        slot.clone()
+        pools.get(depth).cloned()
     })
+}
+
+/// Marks a step in progress on this thread until dropped (also when the step panics).
+struct InProgress(usize);
+
+impl InProgress {
+    fn enter() -> InProgress {
+        let depth = DEPTH.get();
+        DEPTH.set(depth + 1);
+        InProgress(depth)
+    }
+}
+
+impl Drop for InProgress {
+    fn drop(&mut self) {
+        DEPTH.set(self.0);
+    }
 }
 
 impl World {
     /// Steps on `pool` from now on instead of the calling thread's stepping pool (`None`: back
     /// to that): for tests that compare thread counts side by side. Changes no state and no
-    /// hash, and is not kept by a snapshot.
+    /// hash, and is not kept by a snapshot or a copy. The pool must serve one step at a time
+    /// (two worlds stepped at once on one pool can hang, see the module doc).
     pub fn set_thread_pool(&mut self, pool: Option<Arc<ThreadPool>>) {
         self.physics.set_thread_pool(pool);
     }
@@ -84,7 +109,11 @@ impl World {
     /// one-body world would cost more than the step itself. Inside, rapier finds itself in its
     /// pool and does not hand over again.
     pub(super) fn in_pool<R: Send>(&mut self, work: impl FnOnce(&mut World) -> R + Send) -> R {
-        match self.physics.thread_pool().or_else(stepping_pool) {
+        if let Some(pool) = self.physics.thread_pool() {
+            return pool.install(|| work(self));
+        }
+        let step = InProgress::enter();
+        match stepping_pool(step.0) {
             Some(pool) => pool.install(|| work(self)),
             None => work(self),
         }
