@@ -20,17 +20,7 @@ fn host_port(url: &str) -> String {
 
 /// Opens a raw MCP session (initialize + initialized) and returns its id.
 async fn raw_session(http: &reqwest::Client, url: &str) -> Result<String, (u16, String)> {
-    let init = json!({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": {
-        "protocolVersion": "2025-06-18", "capabilities": {}, "clientInfo": {"name": "raw", "version": "0"}}});
-    let r = http.post(url).header("Accept", ACCEPT).json(&init).send().await.unwrap();
-    let status = r.status().as_u16();
-    let sid = r.headers().get("mcp-session-id").map(|v| v.to_str().unwrap().to_string());
-    let body = r.text().await.unwrap();
-    let Some(sid) = sid else { return Err((status, body)) };
-    let note = json!({"jsonrpc": "2.0", "method": "notifications/initialized"});
-    let r = http.post(url).header("Accept", ACCEPT).header("mcp-session-id", &sid).json(&note).send().await.unwrap();
-    assert!(r.status().is_success(), "initialized: {}", r.status());
-    Ok(sid)
+    common::raw_session(http, url, "2025-06-18").await
 }
 
 /// The server's peak resident memory (VmHWM), in MiB.

@@ -48,21 +48,8 @@ impl Reply {
 impl Raw {
     async fn connect(url: &str) -> Raw {
         let http = reqwest::Client::new();
-        let init = json!({"jsonrpc": "2.0", "id": 0, "method": "initialize", "params": {
-            "protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "budget", "version": "0"}}});
-        let response = http
-            .post(url)
-            .header("Accept", "application/json, text/event-stream")
-            .header("Content-Type", "application/json")
-            .body(init.to_string())
-            .send()
-            .await
-            .expect("POST initialize");
-        let session = response.headers()["mcp-session-id"].to_str().unwrap().to_string();
-        let _ = response.bytes().await;
-        let mut raw = Raw { http, url: url.to_string(), session, next_id: 1 };
-        raw.post(json!({"jsonrpc": "2.0", "method": "notifications/initialized"})).await;
-        raw
+        let session = common::raw_session(&http, url, "2025-11-25").await.expect("initialize");
+        Raw { http, url: url.to_string(), session, next_id: 1 }
     }
 
     /// POSTs one message; returns the raw body.

@@ -253,19 +253,7 @@ async fn ending_a_session_answers_204_no_content() {
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start(dir.path(), &[]);
     let http = reqwest::Client::new();
-    let init = json!({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": {
-        "protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "raw", "version": "0"}}});
-    let response = http
-        .post(&server.url)
-        .header("Accept", "application/json, text/event-stream")
-        .header("Content-Type", "application/json")
-        .body(init.to_string())
-        .send()
-        .await
-        .expect("POST initialize");
-    assert_eq!(response.status().as_u16(), 200);
-    let session = response.headers()["mcp-session-id"].to_str().unwrap().to_string();
-    response.text().await.expect("initialize reply");
+    let session = common::raw_session(&http, &server.url, "2025-11-25").await.expect("initialize");
     let end = |session: Option<String>| {
         let mut request = http.delete(&server.url).header("MCP-Protocol-Version", "2025-11-25");
         if let Some(s) = session {

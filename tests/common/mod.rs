@@ -235,6 +235,24 @@ impl Client {
 }
 
 /// Reads a 3-vector from a JSON result.
+/// Opens a raw MCP session over HTTP — `initialize` at `protocol`, then
+/// `notifications/initialized` — for tests that need the wire itself (headers, sessions,
+/// exact bytes). Returns the session id, or the status and body of a refused `initialize`.
+pub async fn raw_session(http: &reqwest::Client, url: &str, protocol: &str) -> Result<String, (u16, String)> {
+    const ACCEPT: &str = "application/json, text/event-stream";
+    let init = json!({"jsonrpc": "2.0", "id": 0, "method": "initialize", "params": {
+        "protocolVersion": protocol, "capabilities": {}, "clientInfo": {"name": "raw", "version": "0"}}});
+    let r = http.post(url).header("Accept", ACCEPT).json(&init).send().await.expect("POST initialize");
+    let status = r.status().as_u16();
+    let sid = r.headers().get("mcp-session-id").map(|v| v.to_str().unwrap().to_string());
+    let body = r.text().await.expect("initialize reply");
+    let Some(sid) = sid.filter(|_| status == 200) else { return Err((status, body)) };
+    let note = json!({"jsonrpc": "2.0", "method": "notifications/initialized"});
+    let r = http.post(url).header("Accept", ACCEPT).header("mcp-session-id", &sid).json(&note).send().await.unwrap();
+    assert!(r.status().is_success(), "initialized: {}", r.status());
+    Ok(sid)
+}
+
 pub fn v3(v: &Value) -> [f64; 3] {
     let a = v.as_array().expect("array");
     [a[0].as_f64().unwrap(), a[1].as_f64().unwrap(), a[2].as_f64().unwrap()]
