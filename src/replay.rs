@@ -257,13 +257,16 @@ pub fn replay(path: &Path, until: Option<u64>, mut progress: impl FnMut(u64, u64
     Ok(r.summary)
 }
 
+/// A saved JSON file, parsed (not verified).
+fn read_saved(path: &Path) -> Result<crate::save::SaveFile, StoreError> {
+    let bytes = std::fs::read(path).map_err(|e| StoreError::Corrupt(format!("{}: {e}", path.display())))?;
+    serde_json::from_slice(&bytes).map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))
+}
+
 /// Replays a saved JSON file's history: every event refolded from create_simulation in a
 /// fresh world (its snapshot is never trusted here), every recorded state hash checked.
 pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<Summary, ReplayError> {
-    let bytes = std::fs::read(path).map_err(|e| StoreError::Corrupt(format!("{}: {e}", path.display())))?;
-    let file: crate::save::SaveFile = serde_json::from_slice(&bytes)
-        .map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))?;
-    let h = file
+    let h = read_saved(path)?
         .history
         .ok_or_else(|| StoreError::Corrupt("the file has no history to replay".into()))?;
     let untrusted = [0u8; 32];
@@ -356,10 +359,7 @@ impl EngineBuilds {
 /// The engine builds of a simulation log's roots, or of a saved JSON file's (`.json`).
 pub fn engine_builds(path: &Path) -> Result<EngineBuilds, StoreError> {
     if path.extension().is_some_and(|x| x == "json") {
-        let bytes = std::fs::read(path).map_err(|e| StoreError::Corrupt(format!("{}: {e}", path.display())))?;
-        let file: crate::save::SaveFile = serde_json::from_slice(&bytes)
-            .map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))?;
-        let events = file.history.map(|h| h.events).unwrap_or_default();
+        let events = read_saved(path)?.history.map(|h| h.events).unwrap_or_default();
         return Ok(EngineBuilds::of(events.into_iter().filter(|e| e.kind == "root").map(|e| (e.seq, e.engine))));
     }
     let events = Log::open_read_only(path)?.all_events()?;

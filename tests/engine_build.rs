@@ -3,6 +3,9 @@
 //! (rapier3d 0.36.1 with serde-serialize and enhanced-determinism); `replay` of a log made by
 //! another engine build says so before anything else.
 
+mod common;
+
+use common::config;
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;
 
@@ -10,19 +13,10 @@ use physics_mcp::command::{Command, Shape};
 use physics_mcp::engine::{ENGINE_BUILD, UNRECORDED_ENGINE_BUILD};
 use physics_mcp::limits::Limits;
 use physics_mcp::replay::engine_builds;
-use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::store::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry};
 use physics_mcp::value::Args;
 use serde_json::{json, Value};
 
-fn config(dir: &Path) -> Config {
-    Config {
-        data_dir: dir.join("data"),
-        workspace: dir.join("ws"),
-        limits: Limits::default(),
-        sync: SyncMode::Normal,
-    }
-}
 
 fn args(v: Value) -> Args {
     v.as_object().unwrap().clone()

@@ -13,8 +13,7 @@ use std::sync::{Arc, Mutex};
 use common::Server;
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
-use physics_mcp::sim::{lock_sim, Config, Registry, SharedSim};
-use physics_mcp::store::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry, SharedSim};
 use physics_mcp::sweep::{Control, Observe, Request};
 use physics_mcp::value::Args;
 use serde_json::{json, Value};
@@ -22,8 +21,7 @@ use serde_json::{json, Value};
 const THREADS: usize = 3;
 
 fn registry(dir: &Path) -> Registry {
-    let config = Config { data_dir: dir.join("data"), workspace: dir.join("ws"), limits: Limits::default(), sync: SyncMode::Normal };
-    Registry::open(config).expect("registry")
+    Registry::open(common::config(dir)).expect("registry")
 }
 
 fn args(v: Value) -> Args {

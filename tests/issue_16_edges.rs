@@ -2,23 +2,17 @@
 //! kind is an error (the file is skipped, not served with the event silently reinterpreted),
 //! and a destroyed simulation refuses late writers without recreating its files.
 
+mod common;
+
+use common::config;
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;
 
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
-use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::store::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry};
 use physics_mcp::value::Args;
 
-fn config(dir: &Path) -> Config {
-    Config {
-        data_dir: dir.join("data"),
-        workspace: dir.join("ws"),
-        limits: Limits::default(),
-        sync: SyncMode::Normal,
-    }
-}
 
 fn sphere() -> Command {
     Command::AddBody {

@@ -235,6 +235,16 @@ impl Client {
 }
 
 /// Reads a 3-vector from a JSON result.
+/// An in-process registry's configuration in `dir` (data/ and ws/ under it), default limits.
+pub fn config(dir: &Path) -> physics_mcp::sim::Config {
+    physics_mcp::sim::Config {
+        data_dir: dir.join("data"),
+        workspace: dir.join("ws"),
+        limits: physics_mcp::limits::Limits::default(),
+        sync: physics_mcp::store::SyncMode::Normal,
+    }
+}
+
 /// Opens a raw MCP session over HTTP — `initialize` at `protocol`, then
 /// `notifications/initialized` — for tests that need the wire itself (headers, sessions,
 /// exact bytes). Returns the session id, or the status and body of a refused `initialize`.
