@@ -17,7 +17,7 @@ use rmcp::ServiceExt;
 use subtle::ConstantTimeEq;
 use tokio_util::sync::CancellationToken;
 
-use super::session_limit::{limit_sessions, SessionLimit};
+use super::session_limit::{limit_sessions, BoundedSessions};
 use super::{PhysicsServer, Sessions};
 use crate::sim::Registry;
 
@@ -126,14 +126,14 @@ fn sse_retry() -> Option<std::time::Duration> {
         .map(std::time::Duration::from_millis)
 }
 
-/// MCP sessions (in memory): priming events as `sse_retry` says, and an idle session lives for
-/// `SESSION_IDLE` instead of rmcp's 5 minutes — an agent often thinks longer than that
-/// between calls, and an expired session makes its client start over.
-fn session_manager() -> Arc<LocalSessionManager> {
+/// MCP sessions (in memory), at most `max` live: priming events as `sse_retry` says, and an
+/// idle session lives for `SESSION_IDLE` instead of rmcp's 5 minutes — an agent often thinks
+/// longer than that between calls, and an expired session makes its client start over.
+fn session_manager(max: usize) -> Arc<BoundedSessions> {
     let mut manager = LocalSessionManager::default();
     manager.session_config.sse_retry = sse_retry();
     manager.session_config.keep_alive = Some(SESSION_IDLE);
-    Arc::new(manager)
+    Arc::new(BoundedSessions::new(manager, max))
 }
 
 /// How long an idle MCP session is kept.
@@ -170,8 +170,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let server_reg = reg.clone();
     let sessions = Sessions::default();
     let viewer_base: Arc<str> = Arc::from(format!("http://{local}"));
-    let manager = session_manager();
-    let limit = SessionLimit { manager: manager.clone(), max: opts.max_sessions };
+    let manager = session_manager(opts.max_sessions);
     let service = StreamableHttpService::new(
         move || Ok(PhysicsServer::new(server_reg.clone(), sessions.clone()).with_viewer(viewer_base.clone())),
         manager,
@@ -183,7 +182,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let mcp = axum::Router::new()
         .nest_service("/mcp", service)
         .layer(middleware::from_fn(session_end_no_content))
-        .layer(middleware::from_fn_with_state(limit, limit_sessions));
+        .layer(middleware::from_fn(limit_sessions));
     let app = mcp
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
