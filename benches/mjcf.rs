@@ -27,6 +27,7 @@ fn world_with(name: &str, bytes: &[u8]) -> World {
         orientation: [0.0, 0.0, 0.0, 1.0],
         fixed_base: false,
         keyframe: None,
+        parsed: Default::default(),
     };
     let out = w.apply(&load, &mut |_| true);
     assert!(matches!(out, physics_mcp::outputs::Outcome::MjcfLoaded(_)), "{name} loads: {:?}", out.to_value());

@@ -1,22 +1,29 @@
-//! `batch` (SPEC "Scale"): many calls on one simulation in one request, all or nothing.
+//! The one path by which calls change a live simulation: a list of calls carried out in
+//! order, each checked against the state the earlier ones leave, each its own event, all
+//! committed in one transaction after the reply has been measured. A single state-changing
+//! call is a list of one ([`Mode::Alone`]); `batch` (SPEC "Scale") is a list of up to
+//! 10,000, all or nothing ([`Mode::AllOrNothing`]).
 //!
-//! The calls are applied in order to a working copy of the world (`World::duplicate`), each
-//! checked against the state the earlier ones leave. The first refusal (or a cancelled step)
-//! refuses the whole batch: one refused event is logged and the world, its hash, head and
-//! undo chain are as before. Accepted, every call is its own event — a change or a read,
-//! exactly what the same call made alone records — and all of them commit in one
-//! transaction, so undo still takes back one call and replay needs nothing new.
+//! - Alone, the call is applied to the live world (it was checked first, so only a
+//!   cancellation can stop it part-way, and a cancelled step is recorded as the steps it
+//!   took). Its reply is measured and, if need be, shortened (`budget::shorten`) before the
+//!   commit; should it not fit at all, or the commit fail, the world is folded back from the
+//!   log, so it never holds a change the log does not.
+//! - All or nothing, the calls are applied to a copy (`World::duplicate`); the first refusal,
+//!   a cancelled step or a reply over the budget refuses the whole batch — one refused event
+//!   is logged and the world, its hash, head and undo chain are as before. Accepted, every
+//!   call is its own event (undo granularity unchanged) and replay needs nothing new.
 
 use serde_json::Value;
 
-use crate::command::Command;
+use crate::command::{Blob, Command};
 use crate::limits::Limits;
-use crate::outputs::Batched;
+use crate::outputs::{Batched, Outcome};
 use crate::reads::{Read, ReadContext};
 use crate::sim::{Sim, SNAPSHOT_EVERY_BODY_STEPS, SNAPSHOT_EVERY_CHANGES};
 use crate::store::{Event, Kind};
 use crate::value::{Args, Refusal};
-use crate::world::StepControl;
+use crate::world::{StepControl, StepObserver, World};
 
 /// The most calls one batch may hold (SPEC).
 pub const MAX_CALLS: usize = 10_000;
@@ -25,7 +32,7 @@ pub const MAX_CALLS: usize = 10_000;
 pub const READS: [&str; 4] = ["get_object_state", "get_joint_state", "get_link_state", "get_simulation_info"];
 
 /// What the adapter decided a call is: a change's command or one of the batch's reads —
-/// or why the call is refused, which refuses the batch.
+/// or why the call is refused.
 pub enum Planned {
     /// A state-changing call.
     Change(Result<Command, Refusal>),
@@ -33,7 +40,7 @@ pub enum Planned {
     Read(Result<Box<Read>, Refusal>),
 }
 
-/// One call of a batch: its tool, its arguments as they will be logged, what it is.
+/// One call: its tool, its arguments as they will be logged, what it is.
 pub struct Call {
     /// The tool name.
     pub tool: String,
@@ -43,12 +50,35 @@ pub struct Call {
     pub planned: Planned,
 }
 
+/// How a list of calls is carried out (module doc).
+pub enum Mode<'a> {
+    /// One call on the live world; `observe` sees it after every step it takes.
+    Alone(StepObserver<'a>),
+    /// A batch on a copy, all or nothing; refusals are logged as the batch's (`args`).
+    AllOrNothing {
+        /// The batch's own arguments.
+        args: &'a Args,
+    },
+}
+
+/// What a list of calls did, before its events commit.
+pub struct Carried {
+    /// Each call's result (the recorded JSON).
+    pub results: Vec<Value>,
+    /// The state-changing result of a call made alone.
+    pub outcome: Option<Outcome>,
+    /// The head after the calls.
+    pub head_seq: u64,
+    /// The state hash after the calls.
+    pub state_hash: String,
+}
+
 /// The sentence that refuses a batch because of one of its calls.
 pub fn call_refused(index: usize, tool: &str, why: &str) -> Refusal {
     format!("calls[{index}] ({tool}) was refused, so nothing changed: {why}")
 }
 
-/// Steps asked by the batch's step calls together, refused over --max-steps before any work.
+/// Steps asked by the calls' step commands together, refused over --max-steps before any work.
 fn check_steps(calls: &[Call], limits: &Limits) -> Result<(), Refusal> {
     let steps: u64 = calls
         .iter()
@@ -66,34 +96,143 @@ fn check_steps(calls: &[Call], limits: &Limits) -> Result<(), Refusal> {
     Ok(())
 }
 
+/// The calls worked out (on the live world or a copy), not yet written.
+struct Worked {
+    carried: Carried,
+    events: Vec<Event>,
+    /// Snapshots due along the way: (seq, bytes, content hash).
+    snapshots: Vec<(u64, Vec<u8>, String)>,
+    blobs: Vec<Blob>,
+    work_since_snapshot: u64,
+    changes_since_snapshot: u32,
+}
+
 impl Sim {
-    /// Applies `calls` all or nothing (module doc). `args` are the batch's own arguments (for
-    /// the refused event); `budget` is the reply budget the answer must fit.
-    pub fn batch(
+    /// A single state-changing call: `decided` is the adapter's parse of the arguments. The
+    /// command is checked, applied, its reply measured against `limits.max_reply_bytes`
+    /// (shortened if need be), then committed (with a snapshot when due) and answered.
+    pub fn change(
         &mut self,
+        tool: &str,
         args: &Args,
-        calls: Vec<Call>,
+        decided: Result<Command, Refusal>,
         limits: &Limits,
-        budget: usize,
         control: StepControl,
-    ) -> Result<Batched, Refusal> {
-        self.ensure_live()?;
-        let planned = check_steps(&calls, limits).and_then(|()| self.plan(calls, limits, control));
-        let Plan { work, events, snapshots, results, blobs } = match planned {
-            Ok(p) => p,
-            Err(why) => return Err(self.refuse("batch", args, why)),
-        };
-        let head_seq = events.iter().rev().find(|e| e.kind == Kind::Change).map_or(self.log.head_seq(), |e| e.seq);
-        let state_hash = events.last().map_or(self.state_hash.clone(), |e| e.state_hash.clone());
-        let out = Batched { results, head_seq, state_hash };
-        let bytes = crate::mcp::reply::reply_bytes("batch", serde_json::to_value(&out).unwrap_or_default());
-        if bytes > budget {
-            return Err(self.refuse("batch", args, crate::mcp::reply::over_budget("batch", bytes as u64, budget)));
-        }
-        for b in &blobs {
-            if let Err(err) = self.log.put_blob(&b.hash, &b.bytes) {
-                return Err(self.refuse("batch", args, format!("The batch's files could not be recorded: {err}")));
+    ) -> Result<Outcome, Refusal> {
+        self.change_observed(tool, args, decided, limits, control, &mut |_| {})
+    }
+
+    /// `change` with `observe` seeing the world after every step the command takes (step
+    /// samples, live viewer progress). It cannot change the state: the event, its recorded
+    /// result and its hash are exactly those of `change`.
+    pub fn change_observed(
+        &mut self,
+        tool: &str,
+        args: &Args,
+        decided: Result<Command, Refusal>,
+        limits: &Limits,
+        control: StepControl,
+        observe: StepObserver,
+    ) -> Result<Outcome, Refusal> {
+        let call = Call { tool: tool.to_string(), args: args.clone(), planned: Planned::Change(decided) };
+        let budget = limits.max_reply_bytes;
+        // The reply the MCP layer will send (`budget::shorten` again, the same way) must fit.
+        let measure = |c: &Carried| c.results.first().map_or(Ok(()), |v| crate::budget::shorten(tool, v.clone(), budget).map(|_| ()));
+        let (carried, ()) = self.carry_out(vec![call], Mode::Alone(observe), limits, control, measure)?;
+        carried.outcome.ok_or_else(|| "Internal error: the call gave no result".to_string())
+    }
+
+    /// `batch`: applies `calls` all or nothing (module doc). `args` are the batch's own
+    /// arguments (for the refused event); the answer must fit `limits.max_reply_bytes`.
+    pub fn batch(&mut self, args: &Args, calls: Vec<Call>, limits: &Limits, control: StepControl) -> Result<Batched, Refusal> {
+        let budget = limits.max_reply_bytes;
+        let (_, out) = self.carry_out(calls, Mode::AllOrNothing { args }, limits, control, |c| {
+            let out = Batched { results: c.results.clone(), head_seq: c.head_seq, state_hash: c.state_hash.clone() };
+            let bytes = crate::budget::reply_bytes("batch", serde_json::to_value(&out).unwrap_or_default());
+            if bytes > budget {
+                return Err(crate::budget::over_budget("batch", bytes as u64, budget));
             }
+            Ok(out)
+        })?;
+        Ok(out)
+    }
+
+    /// The one path (module doc): works the calls out, lets `reply` build and measure the
+    /// answer, then commits every event in one transaction. A refusal is logged (as the
+    /// call's own alone, as the batch's otherwise) and changes nothing.
+    pub(crate) fn carry_out<R>(
+        &mut self,
+        calls: Vec<Call>,
+        mut mode: Mode,
+        limits: &Limits,
+        control: StepControl,
+        reply: impl FnOnce(&Carried) -> Result<R, Refusal>,
+    ) -> Result<(Carried, R), Refusal> {
+        self.ensure_live()?;
+        let alone = matches!(mode, Mode::Alone(_));
+        let (tool, args) = match &mode {
+            Mode::Alone(_) => (calls[0].tool.clone(), calls[0].args.clone()),
+            Mode::AllOrNothing { args } => ("batch".to_string(), (*args).clone()),
+        };
+        if let Err(why) = check_steps(&calls, limits) {
+            return Err(self.refuse(&tool, &args, why));
+        }
+        let mut copy = (!alone).then(|| self.world.duplicate());
+        let mut nothing = |_: &World| {};
+        let observe: StepObserver = match &mut mode {
+            Mode::Alone(o) => &mut **o,
+            Mode::AllOrNothing { .. } => &mut nothing,
+        };
+        let from = (self.log.next_seq(), self.log.head_seq(), (self.work_since_snapshot, self.changes_since_snapshot));
+        let world = match copy.as_mut() {
+            Some(w) => w,
+            None => &mut self.world,
+        };
+        let worked = work_out(from, &self.state_hash, world, calls, alone, limits, control, observe);
+        let worked = match worked {
+            Ok(w) => w,
+            Err(why) => return Err(self.refuse(&tool, &args, why)),
+        };
+        let changes = worked.events.iter().any(|e| e.kind == Kind::Change);
+        let answer = match reply(&worked.carried) {
+            Ok(r) => r,
+            Err(why) => {
+                if alone && changes {
+                    // Applied to the live world but not to be sent: fold the log back first.
+                    self.reload();
+                }
+                return Err(self.refuse(&tool, &args, why));
+            }
+        };
+        let Worked { carried, events, snapshots, blobs, work_since_snapshot, changes_since_snapshot } = worked;
+        if let Err(why) = self.commit_worked(events, &carried, &snapshots, &blobs) {
+            if alone {
+                // The world moved but the log did not: fold the log again so they agree.
+                self.reload();
+                return Err(format!("The call could not be recorded and was undone: {why}"));
+            }
+            return Err(self.refuse(&tool, &args, format!("The batch could not be recorded and changed nothing: {why}")));
+        }
+        if let Some(world) = copy {
+            self.world = world;
+        }
+        self.state_hash = carried.state_hash.clone();
+        self.work_since_snapshot = work_since_snapshot;
+        self.changes_since_snapshot = changes_since_snapshot;
+        if !snapshots.is_empty() {
+            self.thin_snapshots();
+        }
+        if changes {
+            self.redo.clear();
+        }
+        Ok((carried, answer))
+    }
+
+    /// Writes the calls' blobs, then their events, the new head and the snapshots in one
+    /// transaction; a slow snapshot is noted as a stall.
+    fn commit_worked(&mut self, events: Vec<Event>, carried: &Carried, snapshots: &[(u64, Vec<u8>, String)], blobs: &[Blob]) -> Result<(), String> {
+        for b in blobs {
+            self.log.put_blob(&b.hash, &b.bytes).map_err(|e| format!("its files could not be recorded: {e}"))?;
         }
         let events: Vec<Event> = events
             .into_iter()
@@ -103,111 +242,107 @@ impl Sim {
             })
             .collect();
         let snaps: Vec<crate::store::Snap> = snapshots.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
-        if let Err(err) = self.log.append_batch(&events, head_seq, &snaps) {
-            return Err(self.refuse("batch", args, format!("The batch could not be recorded and changed nothing: {err}")));
+        let started = std::time::Instant::now();
+        self.log.append_batch(&events, carried.head_seq, &snaps).map_err(|e| e.to_string())?;
+        let ms = started.elapsed().as_millis() as u64;
+        if let Some((seq, bytes, _)) = snapshots.last() {
+            if ms >= crate::sim::stall_ms() {
+                self.stalls.push(format!("the snapshot at seq {seq} ({} bytes) took {ms} ms to write", bytes.len()));
+            }
         }
-        self.world = work.world;
-        self.state_hash = out.state_hash.clone();
-        self.work_since_snapshot = work.work_since_snapshot;
-        self.changes_since_snapshot = work.changes_since_snapshot;
-        if !snapshots.is_empty() {
-            self.thin_snapshots();
-        }
-        if events.iter().any(|e| e.kind == Kind::Change) {
-            self.redo.clear();
-        }
-        Ok(out)
+        Ok(())
     }
+}
 
-    /// Applies the calls to a copy of the world, building their events (seqs after the
-    /// log's last), the snapshots due on the way and each call's result. Nothing is written.
-    fn plan(&self, calls: Vec<Call>, limits: &Limits, control: StepControl) -> Result<Plan, Refusal> {
-        let mut work = crate::sim::Rebuilt {
-            world: self.world.duplicate(),
-            work_since_snapshot: self.work_since_snapshot,
-            changes_since_snapshot: self.changes_since_snapshot,
-        };
-        let (mut head, mut hash) = (self.log.head_seq(), self.state_hash.clone());
-        let mut events = Vec::with_capacity(calls.len());
-        let mut snapshots = Vec::new();
-        let mut results = Vec::with_capacity(calls.len());
-        let mut blobs = Vec::new();
-        for (i, call) in calls.into_iter().enumerate() {
-            let seq = self.log.next_seq() + i as u64;
-            let refused = |why: Refusal| call_refused(i, &call.tool, &why);
-            // Arguments stay raw JSON until the batch commits (`store_arguments` may write a blob).
-            let mut e = crate::sim::blank_event(seq, Kind::Read, &call.tool, serde_json::to_string(&call.args).unwrap_or_default());
-            match call.planned {
-                Planned::Change(decided) => {
-                    let cmd = decided.and_then(|c| c.validate(&work.world, limits).map(|()| c)).map_err(refused)?;
-                    let asked = match &cmd {
-                        Command::StepSimulation { steps } => Some(*steps),
-                        _ => None,
-                    };
-                    blobs.extend(cmd.blobs().into_iter().cloned());
-                    let result = work.world.apply(&cmd, &mut *control);
-                    if asked.is_some_and(|a| result.steps_taken().is_some_and(|t| t < a)) {
-                        return Err(format!("The batch was cancelled at calls[{i}] ({}) and changed nothing", call.tool));
-                    }
-                    work.work_since_snapshot += crate::fold::work(&cmd, &work.world);
-                    work.changes_since_snapshot += 1;
-                    let value = result.to_value();
-                    let json = value.to_string();
-                    hash = work.world.state_hash();
-                    e.kind = Kind::Change;
-                    e.mutates = true;
-                    e.parent = Some(head);
-                    e.command = Some(serde_json::to_string(&cmd).map_err(|err| err.to_string())?);
-                    e.result_hash = Some(crate::digest::result_hash(&json));
-                    e.result = Some(json);
-                    e.state_hash = hash.clone();
-                    head = seq;
-                    // Within a batch a snapshot is taken for real work (steps); the count of
-                    // cheap changes is settled once, at the batch's last change (below).
-                    if work.work_since_snapshot >= SNAPSHOT_EVERY_BODY_STEPS {
-                        snapshots.push(snapshot_of(&work.world, seq));
-                        work.work_since_snapshot = 0;
-                        work.changes_since_snapshot = 0;
-                    }
-                    results.push(value);
+/// Applies `calls` to `world` in order, building their events (seqs from `next_seq`, the head
+/// moving from `head`), the snapshots due on the way (from the counters `since`) and each
+/// call's result. Nothing is written.
+#[allow(clippy::too_many_arguments)]
+fn work_out(
+    (next_seq, mut head, since): (u64, u64, (u64, u32)),
+    hash: &str,
+    world: &mut World,
+    calls: Vec<Call>,
+    alone: bool,
+    limits: &Limits,
+    control: StepControl,
+    observe: StepObserver,
+) -> Result<Worked, Refusal> {
+    let (mut work_since, mut changes_since) = since;
+    let mut hash = hash.to_string();
+    let mut events = Vec::with_capacity(calls.len());
+    let mut snapshots = Vec::new();
+    let mut results = Vec::with_capacity(calls.len());
+    let mut blobs = Vec::new();
+    let mut outcome = None;
+    let head_before = head;
+    for (i, call) in calls.into_iter().enumerate() {
+        let seq = next_seq + i as u64;
+        let refused = |why: Refusal| if alone { why } else { call_refused(i, &call.tool, &why) };
+        // Arguments stay raw JSON until the calls commit (`store_arguments` may write a blob).
+        let mut e = crate::sim::blank_event(seq, Kind::Read, &call.tool, serde_json::to_string(&call.args).unwrap_or_default());
+        match call.planned {
+            Planned::Change(decided) => {
+                let cmd = decided.and_then(|c| c.validate(world, limits).map(|()| c)).map_err(refused)?;
+                let asked = match &cmd {
+                    Command::StepSimulation { steps } => Some(*steps),
+                    _ => None,
+                };
+                blobs.extend(cmd.blobs().into_iter().cloned());
+                let result = world.apply_observed(&cmd, &mut *control, &mut *observe);
+                let cancelled = asked.is_some_and(|a| result.steps_taken().is_some_and(|t| t < a));
+                if cancelled && !alone {
+                    return Err(format!("The batch was cancelled at calls[{i}] ({}) and changed nothing", call.tool));
                 }
-                Planned::Read(read) => {
-                    let cx = ReadContext { world: &work.world, head_seq: head, last_seq: seq - 1, state_hash: &hash };
-                    let value = read
-                        .and_then(|r| r.replay(&cx).unwrap_or_else(|| Err("not a read a batch can hold".into())))
-                        .map_err(refused)?;
-                    e.result_hash = Some(crate::digest::result_hash(&value.to_string()));
-                    e.state_hash = hash.clone();
-                    results.push(value);
+                // Logged as carried out: a cancelled step records the steps it took, so every
+                // fold of the log repeats exactly what the world did.
+                let cmd = cmd.as_taken(result.steps_taken());
+                work_since += crate::fold::work(&cmd, world);
+                changes_since += 1;
+                let value = result.to_value();
+                let json = value.to_string();
+                hash = world.state_hash();
+                e.kind = Kind::Change;
+                e.mutates = true;
+                e.parent = Some(head);
+                e.command = Some(serde_json::to_string(&cmd).map_err(|err| err.to_string())?);
+                e.result_hash = Some(crate::digest::result_hash(&json));
+                e.result = Some(json);
+                e.state_hash = hash.clone();
+                head = seq;
+                // A snapshot is taken for real work (steps) where it happens; the count of
+                // cheap changes is settled once, after the last call (below).
+                if work_since >= SNAPSHOT_EVERY_BODY_STEPS {
+                    snapshots.push(snapshot_of(world, seq));
+                    (work_since, changes_since) = (0, 0);
+                }
+                results.push(value);
+                if alone {
+                    outcome = Some(result);
                 }
             }
-            events.push(e);
+            Planned::Read(read) => {
+                let cx = ReadContext { world, head_seq: head, last_seq: seq - 1, state_hash: &hash };
+                let value = read
+                    .and_then(|r| r.replay(&cx).unwrap_or_else(|| Err("not a read a batch can hold".into())))
+                    .map_err(refused)?;
+                e.result_hash = Some(crate::digest::result_hash(&value.to_string()));
+                e.state_hash = hash.clone();
+                results.push(value);
+            }
         }
-        if work.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES && head != self.log.head_seq() {
-            snapshots.push(snapshot_of(&work.world, head));
-            work.work_since_snapshot = 0;
-            work.changes_since_snapshot = 0;
-        }
-        Ok(Plan { work, events, snapshots, results, blobs })
+        events.push(e);
     }
+    if changes_since >= SNAPSHOT_EVERY_CHANGES && head != head_before {
+        snapshots.push(snapshot_of(world, head));
+        (work_since, changes_since) = (0, 0);
+    }
+    let carried = Carried { results, outcome, head_seq: head, state_hash: hash };
+    Ok(Worked { carried, events, snapshots, blobs, work_since_snapshot: work_since, changes_since_snapshot: changes_since })
 }
 
 /// A snapshot of `world` taken at event `seq`: (seq, bytes, content hash).
-fn snapshot_of(world: &crate::world::World, seq: u64) -> (u64, Vec<u8>, String) {
+fn snapshot_of(world: &World, seq: u64) -> (u64, Vec<u8>, String) {
     let (bytes, hash) = crate::sim::snapshot_with_hash(world);
     (seq, bytes, hash)
-}
-
-/// A batch worked out on a copy of the world, not yet written.
-struct Plan {
-    /// The world after the last call, with the snapshot bookkeeping.
-    work: crate::sim::Rebuilt,
-    /// One event per call, in seq order.
-    events: Vec<Event>,
-    /// Snapshots due along the way: (seq, bytes, content hash).
-    snapshots: Vec<(u64, Vec<u8>, String)>,
-    /// Each call's result.
-    results: Vec<Value>,
-    /// The files the calls carry (load_urdf, load_mjcf), stored before the events.
-    blobs: Vec<crate::command::Blob>,
 }

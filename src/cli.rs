@@ -29,8 +29,19 @@ pub struct LimitArgs {
     pub max_image_px: usize,
     /// Bytes per tool reply (the JSON-RPC message); larger results are refused, saying what
     /// to change (fewer rays, a smaller image, `every`, or `output_path`).
-    #[arg(long, default_value_t = DEFAULT.max_reply_bytes)]
+    #[arg(long, default_value_t = DEFAULT.max_reply_bytes, value_parser = reply_bytes)]
     pub max_reply_bytes: usize,
+}
+
+/// `--max-reply-bytes`: at least `budget::MIN_REPLY_BYTES`, so every state-changing reply,
+/// shortened, fits.
+fn reply_bytes(s: &str) -> Result<usize, String> {
+    let n: usize = s.trim().parse().map_err(|_| format!("must be a number of bytes; got {s}"))?;
+    let min = crate::budget::MIN_REPLY_BYTES;
+    if n < min {
+        return Err(format!("must be at least {min} bytes; got {n}"));
+    }
+    Ok(n)
 }
 
 /// `--threads N`: every step command of this process runs on N threads from now on (the

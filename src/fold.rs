@@ -31,6 +31,19 @@ pub enum FoldError {
         /// The refusal sentence.
         why: String,
     },
+    /// The event's model names a file the log does not hold (an MJCF `<asset><model file>`
+    /// recorded before files were resolved into blobs): folding it would read that file.
+    NeedsFile {
+        /// The event.
+        seq: u64,
+        /// The file as the model names it.
+        file: String,
+    },
+    /// Shutdown stopped the fold (a re-simulation) at this event.
+    Stopped {
+        /// The event.
+        seq: u64,
+    },
     /// The world after the event is not the one the event recorded.
     Diverged {
         /// The event.
@@ -49,6 +62,8 @@ impl std::fmt::Display for FoldError {
         match self {
             FoldError::Undecodable { seq, why } => write!(f, "event {seq} does not decode: {why}"),
             FoldError::Refused { seq, why } => write!(f, "event {seq} is refused: {why}"),
+            FoldError::NeedsFile { seq, file } => write!(f, "event {seq} needs file {file}, which the log does not hold"),
+            FoldError::Stopped { seq } => write!(f, "{} at event {seq}", crate::shutdown::STOPPED),
             FoldError::Diverged { seq, tool, expected, actual } => {
                 write!(f, "state hash diverges at seq {seq} ({tool}): expected {expected}, got {actual}")
             }
@@ -181,6 +196,13 @@ pub fn fold_decoded(
             return Err(FoldError::Refused { seq: e.seq, why: "a second create_simulation in one chain".into() })
         }
         _ => {
+            // A fold reads nothing but the log: a model that names a file of its own is not
+            // folded (SPEC "Compatibility": the one exception to old logs folding).
+            if let Command::LoadMjcf { mjcf, .. } = &cmd {
+                if let Some(r) = crate::world::mjcf::file_reference(&String::from_utf8_lossy(&mjcf.bytes)) {
+                    return Err(FoldError::NeedsFile { seq: e.seq, file: r.file });
+                }
+            }
             cmd.validate(world, limits).map_err(|why| FoldError::Refused { seq: e.seq, why })?;
             Some(world.apply_observed(&cmd, control, observe))
         }
@@ -467,8 +489,11 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
                     stop.store(!observer(w, &m), Relaxed);
                 }
             };
-            let mut control = |_: u64| !stop.load(Relaxed);
+            let mut control = |_: u64| !stop.load(Relaxed) && !crate::shutdown::requested();
             fold_decoded(&mut world, e, cmd.clone(), &limits, false, &mut control, &mut on_step)?;
+        }
+        if crate::shutdown::requested() {
+            return Err(FoldError::Stopped { seq: e.seq });
         }
         if stop.load(Relaxed) {
             return Ok(world);

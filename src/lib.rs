@@ -37,6 +37,7 @@ pub use physics_core::{command, digest, engine, limits, outputs, value, world};
 
 pub mod animation;
 pub mod batch;
+pub mod budget;
 pub mod cli;
 pub mod client;
 pub mod failpoints;
@@ -48,7 +49,8 @@ pub mod replay;
 pub mod report;
 pub mod save;
 pub mod sensing;
-pub mod workspace;
+pub mod shutdown;
+pub mod files;
 pub mod sim;
 pub mod store;
 pub mod sweep;

@@ -86,6 +86,8 @@ enum Cmd {
         /// Frame size for --render, WxH.
         #[arg(long, default_value = "320x240", value_parser = parse_size)]
         size: (u32, u32),
+        #[arg(long)]
+        force: bool,
     },
     /// Write a recorded session as one self-contained, offline HTML page: header, timeline of
     /// every event with thumbnails, the run as an animation, height and speed plots.
@@ -95,6 +97,8 @@ enum Cmd {
         /// The page to write.
         #[arg(short = 'o', long = "output", value_name = "OUT.html")]
         out: PathBuf,
+        #[arg(long)]
+        force: bool,
     },
     /// Print a log's events as a table.
     History {
@@ -145,7 +149,7 @@ fn progress_bar(what: &str) -> indicatif::ProgressBar {
 }
 
 /// `replay FILE --render OUT.gif`.
-fn run_render(file: &Path, out: &Path, span: physics_mcp::report::Span, every: Option<u64>, size: (u32, u32)) -> anyhow::Result<()> {
+fn run_render(file: &Path, out: &Path, span: physics_mcp::report::Span, every: Option<u64>, size: (u32, u32), force: bool) -> anyhow::Result<()> {
     let bar = progress_bar("rendering");
     let started = std::time::Instant::now();
     let anim = physics_mcp::report::render_gif(file, span, every, size, |done, total| {
@@ -154,7 +158,7 @@ fn run_render(file: &Path, out: &Path, span: physics_mcp::report::Span, every: O
     });
     bar.finish_and_clear();
     let anim = anim.map_err(anyhow::Error::msg)?;
-    std::fs::write(out, &anim.gif).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    physics_mcp::files::write::write_operator_file(out, &anim.gif, force).map_err(anyhow::Error::msg)?;
     println!(
         "wrote {}: {} frames {}x{}, {} bytes, {:.2} s",
         out.display(),
@@ -168,7 +172,7 @@ fn run_render(file: &Path, out: &Path, span: physics_mcp::report::Span, every: O
 }
 
 /// `report FILE -o OUT.html`.
-fn run_report(file: &Path, out: &Path) -> anyhow::Result<()> {
+fn run_report(file: &Path, out: &Path, force: bool) -> anyhow::Result<()> {
     let bar = progress_bar("re-simulating");
     let started = std::time::Instant::now();
     let story = physics_mcp::report::gather(file, |done, total| {
@@ -177,7 +181,7 @@ fn run_report(file: &Path, out: &Path) -> anyhow::Result<()> {
     });
     bar.finish_and_clear();
     let page = physics_mcp::report::html(&story.map_err(anyhow::Error::msg)?).map_err(anyhow::Error::msg)?;
-    std::fs::write(out, &page).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    physics_mcp::files::write::write_operator_file(out, page.as_bytes(), force).map_err(anyhow::Error::msg)?;
     println!("wrote {}: {} bytes, {:.2} s", out.display(), page.len(), started.elapsed().as_secs_f64());
     Ok(())
 }
@@ -304,7 +308,7 @@ fn main() {
         .build()
         .map_err(anyhow::Error::from)
         .and_then(|rt| {
-            rt.block_on(async {
+            let result = rt.block_on(async {
                 match cli.command {
                     Cmd::Serve {
                         bind,
@@ -317,17 +321,17 @@ fn main() {
                         serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
-                    Cmd::Replay { file, render: Some(out), interval, size, .. } => {
+                    Cmd::Replay { file, render: Some(out), interval, size, force, .. } => {
                         let span = physics_mcp::report::Span { from: interval.from, to: interval.to };
-                        run_render(&file, &out, span, interval.every, size)
+                        run_render(&file, &out, span, interval.every, size, force)
                     }
-                    Cmd::Report { file, out } => run_report(&file, &out),
-                    Cmd::Replay { file, until, json, trajectory, interval, .. } => {
+                    Cmd::Report { file, out, force } => run_report(&file, &out, force),
+                    Cmd::Replay { file, until, json, trajectory, interval, force, .. } => {
                         if !run_replay(&file, until, json)? {
                             std::process::exit(1);
                         }
                         if let Some(out) = trajectory {
-                            let t = physics_mcp::replay::write_trajectory(&file, &out, &interval)
+                            let t = physics_mcp::replay::write_trajectory(&file, &out, &interval, force)
                                 .map_err(|e| anyhow::anyhow!("--trajectory: {e}"))?;
                             eprintln!(
                                 "trajectory: {} samples of {} objects (seq {} to {}, every {} steps) written to {}",
@@ -356,7 +360,11 @@ fn main() {
                         }
                     },
                 }
-            })
+            });
+            // A blocking task that has not stopped (it commits its own events) does not hold
+            // the exit: shutdown takes at most `shutdown::DEADLINE` (docs/guarantees).
+            rt.shutdown_timeout(std::time::Duration::from_millis(300));
+            result
         });
     if let Err(e) = result {
         eprintln!("physics-mcp: {e:#}");

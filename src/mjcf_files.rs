@@ -11,32 +11,47 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::command::{Blob, Command};
+use crate::files::Reader;
 use crate::mcp::params;
-use crate::urdf_files::{read_limited, MAX_MESH_BYTES, MAX_URDF_BYTES};
+use crate::urdf_files::{MAX_MESH_BYTES, MAX_URDF_BYTES};
 use crate::value::{self, Refusal};
-use crate::workspace::Sandbox;
 
 /// Most nested include levels followed (a cycle is refused before this).
 const MAX_INCLUDE_DEPTH: usize = 16;
 
-fn read_text(path: &Path, shown: &str, budget: &mut u64) -> Result<String, Refusal> {
-    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(u64::MAX);
-    if size > *budget {
-        return Err(format!("{shown} is {size} bytes; the MJCF limit is {MAX_URDF_BYTES} bytes with its includes"));
-    }
-    let bytes = std::fs::read(path).map_err(|e| format!("could not read {shown}: {e}"))?;
+/// The text of an MJCF file (or include), within what is left of the model's byte budget.
+fn read_text(reader: &mut Reader, path: PathBuf, shown: &str, budget: &mut u64) -> Result<String, Refusal> {
+    let (_, bytes) = reader
+        .read_resolved(path, shown, *budget)
+        .map_err(|why| format!("{why} (the MJCF limit is {MAX_URDF_BYTES} bytes with its includes)"))?;
     *budget -= bytes.len() as u64;
-    String::from_utf8(bytes).map_err(|_| format!("{shown} is not an MJCF model: it is not UTF-8 text"))
+    String::from_utf8(bytes.to_vec()).map_err(|_| format!("{shown} is not an MJCF model: it is not UTF-8 text"))
+}
+
+/// Refuses what the server cannot resolve into the event: a sub-model in another file
+/// (`<asset><model file>`, which the parser would read itself), named by its element.
+fn refuse_unresolvable(doc: &roxmltree::Document, shown: &str) -> Result<(), Refusal> {
+    for n in doc.descendants().filter(|n| n.is_element() && n.tag_name().name() == "model") {
+        if let Some(file) = n.attribute("file") {
+            return Err(format!(
+                "{shown} uses <asset><model file=\"{file}\">: sub-models in other files are not supported; paste the sub-model's bodies into the model (or <include> them)"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The text with every `<include>` replaced by the included file's content, recursively.
-fn splice(sandbox: &Sandbox, text: &str, shown: &str, dir: &Path, chain: &mut Vec<PathBuf>, budget: &mut u64) -> Result<String, Refusal> {
+fn splice(reader: &mut Reader, text: &str, shown: &str, dir: &Path, chain: &mut Vec<PathBuf>, budget: &mut u64) -> Result<String, Refusal> {
     let doc = roxmltree::Document::parse(text).map_err(|e| format!("{shown} is not well-formed XML: {e}"))?;
-    let includes: Vec<(std::ops::Range<usize>, String)> = doc
-        .descendants()
-        .filter(|n| n.is_element() && n.tag_name().name() == "include")
-        .map(|n| (n.range(), n.attribute("file").unwrap_or("").to_string()))
-        .collect();
+    refuse_unresolvable(&doc, shown)?;
+    let mut includes: Vec<(std::ops::Range<usize>, String)> = Vec::new();
+    for n in doc.descendants().filter(|n| n.is_element() && n.tag_name().name() == "include") {
+        if n.children().any(|c| c.is_element()) {
+            return Err(format!("{shown} has an <include> with elements inside it; an <include> must be empty"));
+        }
+        includes.push((n.range(), n.attribute("file").unwrap_or("").to_string()));
+    }
     if includes.is_empty() {
         return Ok(text.to_string());
     }
@@ -50,15 +65,17 @@ fn splice(sandbox: &Sandbox, text: &str, shown: &str, dir: &Path, chain: &mut Ve
             return Err(format!("{shown} has an <include> without a file attribute"));
         }
         let candidate = dir.join(&file);
-        let path = sandbox
+        let path = reader
+            .sandbox()
             .existing(&candidate.display().to_string())
             .map_err(|why| format!("include {file} of {shown} cannot be read: {why}"))?;
         if chain.contains(&path) {
             return Err(format!("include {file} of {shown} includes itself (a cycle)"));
         }
-        let inner_text = read_text(&path, &format!("include {file}"), budget)?;
-        chain.push(path.clone());
-        let inner = splice(sandbox, &inner_text, &format!("include {file}"), dir, chain, budget)?;
+        let inner_shown = format!("include {file}");
+        let inner_text = read_text(reader, path.clone(), &inner_shown, budget)?;
+        chain.push(path);
+        let inner = splice(reader, &inner_text, &inner_shown, dir, chain, budget)?;
         chain.pop();
         let inner_doc = roxmltree::Document::parse(&inner).map_err(|e| format!("include {file} is not well-formed XML: {e}"))?;
         let root = inner_doc.root_element();
@@ -79,24 +96,26 @@ fn splice(sandbox: &Sandbox, text: &str, shown: &str, dir: &Path, chain: &mut Ve
 }
 
 /// Builds load_mjcf's command from its arguments (as a loaded file's object entry gives them).
-pub fn decide_load_mjcf(sandbox: &Sandbox, a: &value::Args) -> Result<Command, Refusal> {
-    load_mjcf_command(sandbox, &params::parse("load_mjcf", a)?)
+pub fn decide_load_mjcf(reader: &mut Reader, a: &value::Args) -> Result<Command, Refusal> {
+    load_mjcf_command(reader, &params::parse("load_mjcf", a)?)
 }
 
-/// Builds load_mjcf's command: the MJCF text, its includes spliced in, travels in it.
-pub fn load_mjcf_command(sandbox: &Sandbox, p: &params::LoadMjcf) -> Result<Command, Refusal> {
+/// Builds load_mjcf's command: the MJCF text, its includes spliced in, and its meshes travel
+/// in it; every file is read through `reader` (once per request).
+pub fn load_mjcf_command(reader: &mut Reader, p: &params::LoadMjcf) -> Result<Command, Refusal> {
     let user = p.file_path.0.clone();
     let position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
     let orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
     let fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
     let keyframe = p.keyframe.as_ref().map(|k| k.0.clone());
-    let path = sandbox.existing(&user)?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| sandbox.workspace.clone());
+    let path = reader.sandbox().existing(&user)?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| reader.sandbox().workspace.clone());
     let mut budget = MAX_URDF_BYTES;
-    let text = read_text(&path, &format!("file_path {user}"), &mut budget)?;
+    let shown = format!("file_path {user}");
+    let text = read_text(reader, path.clone(), &shown, &mut budget)?;
     let mut chain = vec![path];
-    let spliced = splice(sandbox, &text, &format!("file_path {user}"), &dir, &mut chain, &mut budget)?;
-    let meshes = read_meshes(sandbox, &spliced, &dir, &user)?;
+    let spliced = splice(reader, &text, &shown, &dir, &mut chain, &mut budget)?;
+    let meshes = read_meshes(reader, &spliced, &dir, &user)?;
     Ok(Command::LoadMjcf {
         file_path: user,
         mjcf: Blob::new(spliced.into_bytes()),
@@ -105,21 +124,24 @@ pub fn load_mjcf_command(sandbox: &Sandbox, p: &params::LoadMjcf) -> Result<Comm
         orientation,
         fixed_base,
         keyframe,
+        parsed: Default::default(),
     })
 }
 
 /// Every mesh file the model's geoms use, read through the sandbox within the URDF mesh limit
 /// (their total), by the `<mesh file>` written in the model.
-fn read_meshes(sandbox: &Sandbox, xml: &str, dir: &Path, user: &str) -> Result<BTreeMap<String, Blob>, Refusal> {
+fn read_meshes(reader: &mut Reader, xml: &str, dir: &Path, user: &str) -> Result<BTreeMap<String, Blob>, Refusal> {
     let mut meshes = BTreeMap::new();
     let mut total = 0u64;
     for (file, path) in crate::world::mjcf_mesh::mesh_files(xml, dir) {
-        let path = sandbox
+        let shown = format!("mesh {file} of {user}");
+        let path = reader
+            .sandbox()
             .existing(&path.display().to_string())
-            .map_err(|why| format!("mesh {file} of {user} cannot be read: {why}"))?;
-        let bytes = read_limited(&path, &format!("mesh {file} of {user}"), MAX_MESH_BYTES.saturating_sub(total))?;
+            .map_err(|why| format!("{shown} cannot be read: {why}"))?;
+        let (_, bytes) = reader.read_resolved(path, &shown, MAX_MESH_BYTES.saturating_sub(total))?;
         total += bytes.len() as u64;
-        meshes.insert(file, Blob::new(bytes));
+        meshes.insert(file, Blob::from_shared(bytes));
     }
     Ok(meshes)
 }

@@ -9,10 +9,18 @@ use crate::save::{
     world_from_history, SaveFile, SavedHistory, SavedSnapshot, MAX_SAVE_BYTES, SAVE_FORMAT,
     SAVE_FORMAT_VERSION,
 };
+use crate::files::write::{write_owned, Owned};
+use crate::files::Reader;
 use crate::sim::{remove_log_files, Registry, Sim};
 use crate::timeline::store_err;
 use crate::mcp::params;
 use crate::value::{Args, Refusal};
+
+/// save_simulation's files: saves this server wrote (their `format` field, first in the file).
+const SAVED_FILE: Owned = Owned {
+    ours: |head| String::from_utf8_lossy(head).contains(&format!("\"{SAVE_FORMAT}\"")),
+    what: "a physics-mcp save",
+};
 
 impl Sim {
     /// Writes the simulation to a workspace file: readable fields plus the full history chain
@@ -29,7 +37,8 @@ impl Sim {
         // The simulation saved is this one: a caller in-process may leave sim_id out.
         let mut args = args.clone();
         args.entry("sim_id").or_insert_with(|| self.id().into());
-        let user = params::parse::<params::Save>("save_simulation", &args)?.file_path.0;
+        let p = params::parse::<params::Save>("save_simulation", &args)?;
+        let (user, overwrite) = (p.file_path.0, p.overwrite.is_some_and(|b| b.0));
         let target = reg.sandbox().writable(&user)?;
         let head = self.log.head_seq();
         let chain = self.log.chain_to(head).map_err(store_err)?;
@@ -65,7 +74,7 @@ impl Sim {
             }),
         };
         let json = serde_json::to_vec(&file).map_err(|e| e.to_string())?;
-        reg.sandbox().write_atomic(&target, &json)?;
+        write_owned(&target, &user, &json, &SAVED_FILE, overwrite)?;
         Ok(Saved {
             message: format!("Simulation {} saved to {}", self.id(), target.display()),
             file_path: target.display().to_string(),
@@ -86,15 +95,13 @@ impl Registry {
         new_id: String,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<Loaded, Refusal> {
-        self.check_room()?;
+        let slot = self.reserve()?;
         let p: params::Load = params::parse("load_simulation", args)?;
         let (user, gui) = (p.file_path.0, p.gui.is_some_and(|g| g.0));
-        let path = self.sandbox().existing(&user)?;
-        let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(u64::MAX);
-        if size > MAX_SAVE_BYTES {
-            return Err(format!("file_path {user} is {size} bytes; saved files are limited to {MAX_SAVE_BYTES}"));
-        }
-        let bytes = std::fs::read(&path).map_err(|e| format!("could not read {user}: {e}"))?;
+        let mut reader = Reader::new(self.sandbox());
+        let (_, bytes) = reader
+            .read(&user, &format!("file_path {user}"), MAX_SAVE_BYTES)
+            .map_err(|why| format!("{why} (saved files are limited to {MAX_SAVE_BYTES} bytes)"))?;
         let file: SaveFile = serde_json::from_slice(&bytes)
             .map_err(|e| format!("The file is not a valid saved simulation: {e}"))?;
         if file.format.as_deref().is_some_and(|f| f != SAVE_FORMAT) {
@@ -113,19 +120,19 @@ impl Registry {
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
                 self.adopt((&chain, &crate::save::SavedBlobs(&h.blobs), None), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
             }
-            None => self.load_readable(&file, &new_id, gui, args)?,
+            None => self.load_readable(&file, &new_id, gui, args, &mut reader)?,
         };
         let out = Loaded { simulation_id: new_id, file_path: user, state_hash: sim.state_hash().to_string(), viewer_url: None };
-        self.insert(sim)?;
+        slot.fill(sim);
         Ok(out)
     }
 
-    fn load_readable(&self, file: &SaveFile, id: &str, gui: bool, args: &Args) -> Result<Sim, Refusal> {
+    fn load_readable(&self, file: &SaveFile, id: &str, gui: bool, args: &Args, reader: &mut Reader) -> Result<Sim, Refusal> {
         let path = self.path_for(id);
         // Built under a partial name and renamed when complete: a kill mid-load leaves nothing.
         let partial = crate::store::partial_path(&path);
         let mut sim: Option<Sim> = None;
-        let emitted = commands_from_readable(&file.readable, id, self.sandbox(), &mut |tool, cmd| {
+        let emitted = commands_from_readable(&file.readable, id, reader, &mut |tool, cmd| {
             match &mut sim {
                 None => {
                     let mut root = cmd;
@@ -145,8 +152,10 @@ impl Registry {
             (Ok(()), Some(sim)) => sim.publish(&path),
             (Ok(()), None) => Err("The file gave no simulation to create".into()),
             (Err(why), sim) => {
-                drop(sim);
-                remove_log_files(&partial);
+                match sim {
+                    Some(sim) => sim.delete(),
+                    None => remove_log_files(&partial),
+                }
                 Err(why)
             }
         }

@@ -259,7 +259,7 @@ pub fn replay(path: &Path, until: Option<u64>, mut progress: impl FnMut(u64, u64
 
 /// A saved JSON file, parsed (not verified).
 fn read_saved(path: &Path) -> Result<crate::save::SaveFile, StoreError> {
-    let bytes = std::fs::read(path).map_err(|e| StoreError::Corrupt(format!("{}: {e}", path.display())))?;
+    let bytes = crate::files::read::read_operator_file(path, crate::save::MAX_SAVE_BYTES).map_err(StoreError::Corrupt)?;
     serde_json::from_slice(&bytes).map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))
 }
 
@@ -423,7 +423,8 @@ pub fn lend_interval(path: &Path, from: Option<u64>, to: Option<u64>) -> Result<
 
 /// `replay FILE --trajectory OUT`: every object's poses and velocities over the interval,
 /// sampled by the one re-simulation core (recorded hashes checked), written as .csv or .jsonl.
-pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs) -> Result<crate::outputs::Trajectory, String> {
+/// An existing `out` is replaced only with `force` (`--force`).
+pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs, force: bool) -> Result<crate::outputs::Trajectory, String> {
     let shown = out.display().to_string();
     crate::trajectory::is_jsonl(&shown, "--trajectory")?;
     let lent = lend_interval(path, args.from, args.to)?;
@@ -433,7 +434,7 @@ pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs
     }
     let t = crate::trajectory::sample_interval(&lent, &req)?;
     let bytes = crate::trajectory::file_bytes(&t, &shown, "--trajectory")?;
-    std::fs::write(out, bytes).map_err(|e| format!("could not write {shown}: {e}"))?;
+    crate::files::write::write_operator_file(out, &bytes, force)?;
     Ok(t)
 }
 

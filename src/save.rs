@@ -16,7 +16,7 @@ use crate::limits::Limits;
 use crate::store::{Event, Kind};
 use crate::urdf_files::decide_load_urdf;
 use crate::value::{self, r32, r32s, Refusal};
-use crate::workspace::Sandbox;
+use crate::files::Reader;
 use crate::world::{ObjectKind, World};
 
 /// Identifies our files.
@@ -395,13 +395,13 @@ pub fn world_from_events(
 
 /// Passes to `emit`, root first, the commands (with their tools) that re-create an old-server
 /// file's objects (no history): the world is approximately the saved one — objects at their
-/// saved poses and velocities, robots read from the workspace through `sandbox` exactly as
+/// saved poses and velocities, robots read from the workspace through `reader` exactly as
 /// load_urdf reads them (joints at zero: the old server saved no joint state). Each command is
-/// emitted as soon as it is built, so a robot's files are held in memory one robot at a time.
+/// emitted as soon as it is built; the files are read once each, within the request's budget.
 pub fn commands_from_readable(
     r: &Readable,
     id: &str,
-    sandbox: &Sandbox,
+    reader: &mut Reader,
     emit: &mut dyn FnMut(&str, Command) -> Result<(), Refusal>,
 ) -> Result<(), Refusal> {
     let gravity = match &r.gravity {
@@ -435,8 +435,8 @@ pub fn commands_from_readable(
                 let (tool, cmd) = primitive_from_readable(o, i, pose)?;
                 emit(&tool, cmd)?
             }
-            "urdf" => emit("load_urdf", urdf_from_readable(o, i, pose, sandbox)?)?,
-            "mjcf" => emit("load_mjcf", mjcf_from_readable(o, i, pose, sandbox)?)?,
+            "urdf" => emit("load_urdf", urdf_from_readable(o, i, pose, reader)?)?,
+            "mjcf" => emit("load_mjcf", mjcf_from_readable(o, i, pose, reader)?)?,
             other => return Err(bad(format!("{} is {other:?}, not primitive, urdf or mjcf", name("type")))),
         }
         let lin = field("linear_velocity").map(|v| value::vec3(&name("linear_velocity"), v)).transpose().map_err(bad)?;
@@ -488,7 +488,7 @@ fn primitive_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: P
 /// One readable robot as load_urdf's command, built by load_urdf's own adapter from the
 /// arguments the old server passed to loadURDF: the same sandbox, built-in assets and blob
 /// reading, so the URDF and its meshes travel in the new log like any load_urdf's.
-fn urdf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, sandbox: &Sandbox) -> Result<Command, Refusal> {
+fn urdf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, reader: &mut Reader) -> Result<Command, Refusal> {
     let name = |k: &str| format!("objects[{i}].{k}");
     let path = |k: &str| match value::arg(o, k) {
         None => Ok(None),
@@ -517,12 +517,12 @@ fn urdf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, 
         ("orientation".to_string(), json!(pose.orientation)),
         ("use_fixed_base".to_string(), json!(fixed_base)),
     ]);
-    decide_load_urdf(sandbox, &args).map_err(|why| format!("{} cannot be loaded: {why}", name(key)))
+    decide_load_urdf(reader, &args).map_err(|why| format!("{} cannot be loaded: {why}", name(key)))
 }
 
 /// One readable MJCF object as the load_mjcf command that re-creates it (read from the
 /// workspace as load_mjcf reads it; joints at the file's keyframe, or qpos0).
-fn mjcf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, sandbox: &Sandbox) -> Result<Command, Refusal> {
+fn mjcf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, reader: &mut Reader) -> Result<Command, Refusal> {
     let name = |k: &str| format!("objects[{i}].{k}");
     let file = match value::arg(o, "mjcf_path") {
         Some(Value::String(p)) => p.clone(),
@@ -544,7 +544,7 @@ fn mjcf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, 
     if let Some(Value::String(k)) = value::arg(o, "keyframe") {
         args.insert("keyframe".to_string(), json!(k));
     }
-    crate::mjcf_files::decide_load_mjcf(sandbox, &args).map_err(|why| format!("{} cannot be loaded: {why}", name("mjcf_path")))
+    crate::mjcf_files::decide_load_mjcf(reader, &args).map_err(|why| format!("{} cannot be loaded: {why}", name("mjcf_path")))
 }
 
 /// One readable constraint as the command that re-creates it (object ids mapped to the

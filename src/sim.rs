@@ -7,7 +7,6 @@
 //! every recorded state hash.
 
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -18,10 +17,11 @@ use crate::fold::{self, Verify};
 use crate::limits::Limits;
 use crate::outputs::{DamagedSimulation, Message, Outcome, SimulationList, SimulationSummary};
 use crate::reads::ReadContext;
-use crate::store::{Event, Kind, Log, StoreError, SyncMode};
+use crate::store::{data_dir, Event, Kind, Log, StoreError, SyncMode};
+pub(crate) use crate::store::data_dir::remove_log_files;
 use crate::value::{Args, Refusal};
-use crate::workspace::Sandbox;
-use crate::world::{StepControl, StepObserver, World};
+use crate::files::Sandbox;
+use crate::world::World;
 
 /// A snapshot is taken once this much simulation work (steps × bodies) has been done since
 /// the last one — about half a second for a 1000-body pile — so rebuilding any recent state
@@ -100,7 +100,7 @@ pub struct Sim {
     damaged: Option<String>,
     /// Snapshot writes slower than [`stall_ms`] since the MCP layer last took them, as
     /// sentences for logging sessions (an operator wants to know the disk is slow).
-    stalls: Vec<String>,
+    pub(crate) stalls: Vec<String>,
 }
 
 /// A snapshot (serialise, hash, commit) slower than this many milliseconds is a stall worth a
@@ -269,6 +269,16 @@ impl Sim {
         self.log.close_for_deletion();
     }
 
+    /// Deletes a simulation that is given up (a sweep's variant, a failed load): its log is
+    /// closed first, waiting for a background checkpoint still writing it, so removing the
+    /// files cannot make that checkpoint fail.
+    pub(crate) fn delete(mut self) {
+        self.log.close_for_deletion();
+        let path = self.log.path().to_path_buf();
+        drop(self);
+        remove_log_files(&path);
+    }
+
     /// The simulation id.
     pub fn id(&self) -> &str {
         self.world.simulation_id()
@@ -309,86 +319,6 @@ impl Sim {
         why
     }
 
-    /// A state-changing call: `decided` is the adapter's parse of the arguments. The command is
-    /// checked against the world, applied, committed (with a snapshot when due), then answered.
-    pub fn change(
-        &mut self,
-        tool: &str,
-        args: &Args,
-        decided: Result<Command, Refusal>,
-        limits: &Limits,
-        control: StepControl,
-    ) -> Result<Outcome, Refusal> {
-        self.change_observed(tool, args, decided, limits, control, &mut |_| {})
-    }
-
-    /// `change` with `observe` seeing the world after every step the command takes (step
-    /// samples, live viewer progress). It cannot change the state: the event, its recorded
-    /// result and its hash are exactly those of `change`.
-    pub fn change_observed(
-        &mut self,
-        tool: &str,
-        args: &Args,
-        decided: Result<Command, Refusal>,
-        limits: &Limits,
-        control: StepControl,
-        observe: StepObserver,
-    ) -> Result<Outcome, Refusal> {
-        self.ensure_live()?;
-        let cmd = match decided.and_then(|c| c.validate(&self.world, limits).map(|()| c)) {
-            Ok(c) => c,
-            Err(why) => return Err(self.refuse(tool, args, why)),
-        };
-        for b in cmd.blobs() {
-            if let Err(err) = self.log.put_blob(&b.hash, &b.bytes) {
-                return Err(self.refuse(tool, args, format!("The call's files could not be recorded: {err}")));
-            }
-        }
-        let result = self.world.apply_observed(&cmd, control, observe);
-        // Logged as carried out: a cancelled step records the steps it took, so every fold
-        // of the log repeats exactly what the world did.
-        let cmd = cmd.as_taken(result.steps_taken());
-        let command_json = serde_json::to_string(&cmd).map_err(|e| e.to_string())?;
-        self.work_since_snapshot += crate::fold::work(&cmd, &self.world);
-        self.changes_since_snapshot += 1;
-        let result_json = result.to_value().to_string();
-        let mut e = self.event(Kind::Change, tool, args);
-        e.parent = Some(self.log.head_seq());
-        e.command = Some(command_json);
-        e.result_hash = Some(crate::digest::result_hash(&result_json));
-        e.result = Some(result_json);
-        self.state_hash = self.world.state_hash();
-        e.state_hash = self.state_hash.clone();
-        let due = self.work_since_snapshot >= SNAPSHOT_EVERY_BODY_STEPS
-            || self.changes_since_snapshot >= SNAPSHOT_EVERY_CHANGES;
-        let started = std::time::Instant::now();
-        let snapshot = due.then(|| snapshot_with_hash(&self.world));
-        let head = e.seq;
-        let committed = self.log.append_durable(
-            e,
-            head,
-            snapshot.as_ref().map(|(b, h)| (b.as_slice(), h.as_str())),
-        );
-        if let Some((bytes, _)) = &snapshot {
-            let ms = started.elapsed().as_millis() as u64;
-            if ms >= stall_ms() {
-                self.stalls.push(format!("the snapshot at seq {head} ({} bytes) took {ms} ms to write", bytes.len()));
-            }
-        }
-        if let Err(err) = committed {
-            // The world moved but the log did not: fold the log again so they agree.
-            self.reload();
-            return Err(format!("The call could not be recorded and was undone: {err}"));
-        }
-        if due {
-            self.work_since_snapshot = 0;
-            self.changes_since_snapshot = 0;
-            self.thin_snapshots();
-        }
-        self.redo.clear();
-        Ok(result)
-    }
-
     /// The snapshot stalls since the last call, oldest first (taken: each is told once).
     pub fn take_stalls(&mut self) -> Vec<String> {
         std::mem::take(&mut self.stalls)
@@ -414,22 +344,41 @@ impl Sim {
         budget: usize,
         f: impl FnOnce(&Sim) -> Result<T, Refusal>,
     ) -> Result<T, Refusal> {
+        self.read_replying(tool, args, budget, f, |_, json| {
+            // Measured exactly only when anywhere near the budget: most reads are a few
+            // hundred bytes, and the text copy at most doubles them.
+            if json.len().saturating_mul(3).saturating_add(8192) <= budget {
+                return 0;
+            }
+            crate::budget::reply_bytes(tool, serde_json::from_str(json).unwrap_or_default())
+        })
+    }
+
+    /// A read whose reply is not simply its recorded result (a summary with a file's path, an
+    /// image beside it): `reply_bytes` measures the reply as it will be sent, and the read is
+    /// logged only once it is known to fit `budget` — so the logged outcome is what the
+    /// client gets. The recorded result hash is the answer's own (what replay recomputes).
+    pub fn read_replying<T: Serialize>(
+        &mut self,
+        tool: &str,
+        args: &Args,
+        budget: usize,
+        f: impl FnOnce(&Sim) -> Result<T, Refusal>,
+        reply_bytes: impl FnOnce(&T, &str) -> usize,
+    ) -> Result<T, Refusal> {
         self.ensure_live()?;
         match f(self) {
             Ok(out) => {
-                // Hashed as a JSON value (sorted keys), like every recorded result, so replay
-                // can recompute it from `reads.rs`.
-                let value = serde_json::to_value(&out).unwrap_or_default();
-                let json = value.to_string();
-                // The exact reply size (text copy or its summary included) only when the
-                // answer is anywhere near the budget: most reads are a few hundred bytes.
-                if json.len().saturating_mul(3).saturating_add(8192) > budget {
-                    let bytes = crate::mcp::reply::reply_bytes(tool, value);
+                let json = serde_json::to_value(&out).unwrap_or_default().to_string();
+                if budget != usize::MAX {
+                    let bytes = reply_bytes(&out, &json);
                     if bytes > budget {
-                        let why = crate::mcp::reply::over_budget(tool, bytes as u64, budget);
+                        let why = crate::budget::over_budget(tool, bytes as u64, budget);
                         return Err(self.refuse(tool, args, why));
                     }
                 }
+                // Hashed as a JSON value (sorted keys), like every recorded result, so replay
+                // can recompute it from `reads.rs`.
                 let mut e = self.event(Kind::Read, tool, args);
                 e.result_hash = Some(crate::digest::result_hash(&json));
                 e.state_hash = self.state_hash.clone();
@@ -472,7 +421,7 @@ impl Sim {
     /// mid-call), so the world never holds a change the log does not. Reads the open log and
     /// writes nothing (a full disk cannot stop it); if the log no longer folds, the
     /// simulation is marked damaged and refuses every call.
-    fn reload(&mut self) {
+    pub(crate) fn reload(&mut self) {
         if self.destroyed {
             return; // its files are gone on purpose
         }
@@ -620,27 +569,6 @@ pub fn lock_sim(sim: &SharedSim) -> MutexGuard<'_, Sim> {
     }
 }
 
-/// Deletes the partial logs a kill during create, fork or load left behind (start-up: no
-/// request is running, so none is being written).
-fn remove_partial_logs(data_dir: &Path) {
-    let Ok(entries) = std::fs::read_dir(data_dir) else { return };
-    for e in entries.flatten() {
-        if e.file_name().to_str().is_some_and(crate::store::is_partial) {
-            tracing::info!("removing the partial log {}", e.path().display());
-            let _ = std::fs::remove_file(e.path());
-        }
-    }
-}
-
-/// Deletes a log and its WAL/shared-memory companions.
-pub(crate) fn remove_log_files(path: &Path) {
-    for suffix in std::iter::once("").chain(crate::store::COMPANIONS) {
-        let mut p = path.to_path_buf().into_os_string();
-        p.push(suffix);
-        let _ = std::fs::remove_file(PathBuf::from(p));
-    }
-}
-
 /// Where a server keeps things and how much it allows.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -658,83 +586,38 @@ pub struct Config {
 pub type SharedSim = Arc<Mutex<Sim>>;
 
 /// All simulations of a data directory, which this process holds an exclusive lock on.
+///
+/// # Lock order
+/// Two kinds of lock, taken in one order: a simulation's lock (`SharedSim`, held for a whole
+/// call, commits included) may be held while the table lock is taken, never the reverse. The
+/// table lock ([`Table`]) guards map operations only: it is never held across I/O and nothing
+/// is locked under it, so it can never be part of a wait cycle. Creating, forking, loading and
+/// keeping a simulation reserve a slot under the table lock, do their I/O without it, then
+/// fill or release the slot ([`Slot`]); flush and shutdown copy the list of simulations out
+/// of the table before locking any of them.
 pub struct Registry {
-    sims: Mutex<BTreeMap<String, SharedSim>>,
+    table: Mutex<Table>,
+
     /// Simulations whose logs failed to open or fold at start: id (the file's name) → why.
     /// Never served; every call on them answers `Simulation {id} is damaged: {reason}`.
     damaged: BTreeMap<String, String>,
     config: Config,
     sandbox: Sandbox,
     mac_key: [u8; 32],
-    _lock: File,
-}
-
-/// Reads the data directory's MAC key, creating it on first start. Saved files carry a MAC
-/// of their snapshot under this key, so only files this server wrote load from a snapshot.
-fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
-    let path = data_dir.join("mac.key");
-    if let Ok(bytes) = std::fs::read(&path) {
-        if let Ok(key) = <[u8; 32]>::try_from(bytes.as_slice()) {
-            return Ok(key);
-        }
-        anyhow::bail!("{} is not a 32-byte key; remove it to make a new one", path.display());
-    }
-    // A secret key straight from the operating system's generator (not derived from ids
-    // made for uniqueness, whose randomness is not a promise about secrecy).
-    let mut key = [0u8; 32];
-    getrandom::fill(&mut key)
-        .map_err(|e| anyhow::anyhow!("cannot make {}: no system randomness ({e})", path.display()))?;
-    std::fs::write(&path, key)?;
-    Ok(key)
-}
-
-/// Refuses directories that are `/` or the home directory (MCP clients often start stdio
-/// servers with the working directory at `/`).
-fn prepare_dir(flag: &str, dir: &Path) -> anyhow::Result<PathBuf> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow::anyhow!("cannot create {flag} {}: {e}", dir.display()))?;
-    let canon = dir.canonicalize()?;
-    let home = std::env::var_os("HOME").map(PathBuf::from).and_then(|h| h.canonicalize().ok());
-    if canon == Path::new("/") || Some(&canon) == home.as_ref() {
-        anyhow::bail!(
-            "{flag} resolves to {}, which is / or the home directory; pass an absolute {flag} \
-             for physics-mcp's own files (MCP clients often start servers with the working \
-             directory at /)",
-            canon.display()
-        );
-    }
-    Ok(canon)
+    _lock: std::fs::File,
 }
 
 impl Registry {
     /// Locks the data directory and recovers every simulation in it. A corrupt log is
     /// reported on stderr and skipped (left on disk, not served).
     pub fn open(mut config: Config) -> anyhow::Result<Registry> {
-        config.data_dir = prepare_dir("--data", &config.data_dir)?;
-        config.workspace = prepare_dir("--workspace", &config.workspace)?;
-        let lock_path = config.data_dir.join(".lock");
-        let lock = File::options()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&lock_path)?;
-        if lock.try_lock().is_err() {
-            anyhow::bail!(
-                "another physics-mcp process is using the data directory {} (it holds {}); \
-                 stop it or pass a different --data",
-                config.data_dir.display(),
-                lock_path.display()
-            );
-        }
-        remove_partial_logs(&config.data_dir);
+        config.data_dir = data_dir::prepare_dir("--data", &config.data_dir, true)?;
+        config.workspace = data_dir::prepare_dir("--workspace", &config.workspace, false)?;
+        let lock = data_dir::lock(&config.data_dir)?;
+        data_dir::remove_partial_logs(&config.data_dir);
         let mut sims = BTreeMap::new();
         let mut damaged = BTreeMap::new();
-        let mut paths: Vec<PathBuf> = std::fs::read_dir(&config.data_dir)?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
-            .collect();
-        paths.sort();
-        for path in paths {
+        for path in data_dir::logs(&config.data_dir)? {
             let started = std::time::Instant::now();
             let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
             // A panic while folding a hostile file is damage too, not a failed start.
@@ -763,9 +646,9 @@ impl Registry {
             workspace: config.workspace.clone(),
             data_dir: config.data_dir.clone(),
         };
-        let mac_key = mac_key(&config.data_dir)?;
+        let mac_key = data_dir::mac_key(&config.data_dir)?;
         Ok(Registry {
-            sims: Mutex::new(sims),
+            table: Mutex::new(Table { sims, reserved: 0 }),
             damaged,
             config,
             sandbox,
@@ -800,43 +683,54 @@ impl Registry {
         &self.config.limits
     }
 
-    pub(crate) fn table(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, SharedSim>> {
-        self.sims.lock().unwrap_or_else(|p| p.into_inner())
+    /// The table, for a map operation (see the lock order on [`Registry`]).
+    fn table(&self) -> MutexGuard<'_, Table> {
+        self.table.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Every live simulation, copied out of the table (so none is locked under it).
+    pub(crate) fn all(&self) -> Vec<SharedSim> {
+        self.table().sims.values().cloned().collect()
+    }
+
+    /// Reserves room for one new simulation (create, fork, load, a kept sweep variant),
+    /// refused at --max-sims. The slot counts until it is filled or dropped.
+    pub(crate) fn reserve(&self) -> Result<Slot<'_>, Refusal> {
+        self.reserve_many(1).map(|mut slots| slots.pop().expect("one slot"))
+    }
+
+    /// Reserves room for `n` new simulations at once, all or none.
+    pub(crate) fn reserve_many(&self, n: usize) -> Result<Vec<Slot<'_>>, Refusal> {
+        let mut t = self.table();
+        let live = t.sims.len() + t.reserved;
+        let max = self.config.limits.max_sims;
+        if live + n > max {
+            return Err(if n == 1 {
+                format!("Simulation limit reached: {max} simulations (--max-sims)")
+            } else {
+                format!("{n} new simulations would be over --max-sims ({max}) beside the {live} there are")
+            });
+        }
+        t.reserved += n;
+        drop(t);
+        Ok((0..n).map(|_| Slot { reg: self, filled: false }).collect())
     }
 
     pub(crate) fn path_for(&self, id: &str) -> PathBuf {
         self.config.data_dir.join(format!("{id}.sqlite"))
     }
 
-    /// Refuses a new simulation when `live` simulations already reach --max-sims.
-    pub(crate) fn check_room_in(&self, live: usize) -> Result<(), Refusal> {
-        if live >= self.config.limits.max_sims {
-            Err(format!(
-                "Simulation limit reached: {} simulations (--max-sims)",
-                self.config.limits.max_sims
-            ))
-        } else {
-            Ok(())
-        }
-    }
-
-    /// `check_room_in` for the current count.
-    pub(crate) fn check_room(&self) -> Result<(), Refusal> {
-        let live = self.table().len();
-        self.check_room_in(live)
-    }
-
-    /// Creates a simulation from a root command whose id the caller generated.
+    /// Creates a simulation from a root command whose id the caller generated: a slot is
+    /// reserved, the log written and committed without the table lock, then listed.
     pub fn create(&self, root: Command, args: &Args) -> Result<Outcome, Refusal> {
         let Command::CreateSimulation { simulation_id, .. } = &root else {
             return Err("not a root command".into());
         };
         let id = simulation_id.clone();
-        let mut table = self.table();
-        self.check_room_in(table.len())?;
+        let slot = self.reserve()?;
         let (sim, result) =
             Sim::create(&self.path_for(&id), "create_simulation", root, args, self.config.sync)?;
-        table.insert(id, Arc::new(Mutex::new(sim)));
+        slot.fill(sim);
         Ok(result)
     }
 
@@ -845,7 +739,7 @@ impl Registry {
         if let Some(why) = self.damaged.get(id) {
             return Err(sim_damaged(id, why));
         }
-        self.table().get(id).cloned().ok_or_else(|| sim_not_found(id))
+        self.table().sims.get(id).cloned().ok_or_else(|| sim_not_found(id))
     }
 
     /// Removes a simulation and deletes its log.
@@ -853,7 +747,7 @@ impl Registry {
         if let Some(why) = self.damaged.get(id) {
             return Err(sim_damaged(id, why));
         }
-        let sim = self.table().remove(id).ok_or_else(|| sim_not_found(id))?;
+        let sim = self.table().sims.remove(id).ok_or_else(|| sim_not_found(id))?;
         // Wait for any call in flight; then, still under the lock, mark it destroyed and close
         // its log before deleting the files, so a request that took the handle earlier finds
         // it gone instead of writing to (or recreating) deleted files.
@@ -868,7 +762,7 @@ impl Registry {
 
     /// list_simulations.
     pub fn list(&self) -> SimulationList {
-        let sims: Vec<SharedSim> = self.table().values().cloned().collect();
+        let sims = self.all();
         let mut damaged: Vec<DamagedSimulation> = self
             .damaged
             .iter()
@@ -891,10 +785,68 @@ impl Registry {
         SimulationList { simulations, damaged }
     }
 
-    /// Commits every simulation's buffered events (graceful shutdown).
+    /// Commits every simulation's buffered events (graceful shutdown). The list is copied
+    /// out of the table first, so a call holding a simulation that waits for the table
+    /// (fork, keep) finishes instead of waiting for this.
     pub fn flush_all(&self) {
-        for sim in self.table().values() {
-            lock_sim(sim).flush();
+        for sim in self.all() {
+            lock_sim(&sim).flush();
+        }
+    }
+
+    /// `flush_all` for shutdown: a simulation still busy at `deadline` (a call that has not
+    /// stopped yet) is left to that call, which commits its own events; returns how many
+    /// were left so.
+    pub fn flush_all_until(&self, deadline: std::time::Instant) -> usize {
+        let mut busy = 0;
+        for sim in self.all() {
+            loop {
+                match sim.try_lock() {
+                    Ok(mut s) => break s.flush(),
+                    Err(std::sync::TryLockError::Poisoned(_)) => break lock_sim(&sim).flush(),
+                    Err(std::sync::TryLockError::WouldBlock) if std::time::Instant::now() >= deadline => {
+                        busy += 1;
+                        break;
+                    }
+                    Err(std::sync::TryLockError::WouldBlock) => std::thread::sleep(std::time::Duration::from_millis(5)),
+                }
+            }
+        }
+        busy
+    }
+}
+
+/// The simulations of a registry and the slots reserved for ones being made.
+struct Table {
+    sims: BTreeMap<String, SharedSim>,
+    /// Simulations being created, forked, loaded or kept: counted against --max-sims while
+    /// their files are written without the table lock.
+    reserved: usize,
+}
+
+/// Room for one new simulation, reserved by [`Registry::reserve`]: filled with the
+/// simulation once its log is complete, or released when dropped unfilled.
+pub(crate) struct Slot<'a> {
+    reg: &'a Registry,
+    filled: bool,
+}
+
+impl Slot<'_> {
+    /// Lists `sim` in the slot reserved for it.
+    pub(crate) fn fill(mut self, sim: Sim) {
+        let shared = Arc::new(Mutex::new(sim));
+        let id = lock_sim(&shared).id().to_string();
+        let mut t = self.reg.table();
+        t.reserved -= 1;
+        t.sims.insert(id, shared);
+        self.filled = true;
+    }
+}
+
+impl Drop for Slot<'_> {
+    fn drop(&mut self) {
+        if !self.filled {
+            self.reg.table().reserved -= 1;
         }
     }
 }

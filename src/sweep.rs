@@ -15,7 +15,7 @@ use serde_json::json;
 use crate::batch::Call;
 use crate::command::Command;
 use crate::outputs::{Swept, SweptObject, SweptVariant};
-use crate::sim::{lock_sim, remove_log_files, Registry, Sim};
+use crate::sim::{lock_sim, Registry, Sim};
 use crate::timeline::ForkSource;
 use crate::value::{Args, Refusal};
 use crate::world::StepControl;
@@ -73,11 +73,16 @@ impl Registry {
         let Request { variants, steps, observe, keep } = req;
         // What every fork copies, read once under the parent's lock; the forks themselves are
         // made by the workers, side by side, from the parent's file.
-        let source = {
+        let (source, slots) = {
             let p = lock_sim(&parent);
             p.ensure_live()?;
-            match self.check_sweep(variants.len(), steps, keep).and_then(|()| ForkSource::of(&p, None)) {
-                Ok(s) => s,
+            // Lock order: the parent, then the table (for the kept variants' slots).
+            let ready = self
+                .check_sweep(variants.len(), steps)
+                .and_then(|()| if keep { self.reserve_many(variants.len()).map_err(|why| format!("keep=true: {why}; keep fewer variants or set keep=false")) } else { Ok(Vec::new()) })
+                .and_then(|slots| Ok((ForkSource::of(&p, None)?, slots)));
+            match ready {
+                Ok(r) => r,
                 Err(why) => {
                     drop(p);
                     return Err(lock_sim(&parent).refuse("run_sweep", args, why));
@@ -93,7 +98,7 @@ impl Registry {
                 Err(why) => (None, Err(format!("variants[{index}] could not be forked: {why}"))),
             }
         });
-        let outcome = finish(done, budget);
+        let outcome = finish(done, keep, budget);
         let mut p = lock_sim(&parent);
         let (swept, sims) = match outcome {
             Ok(ok) => ok,
@@ -103,7 +108,7 @@ impl Registry {
             }
         };
         let swept = if keep {
-            self.keep_all(swept, sims)
+            self.keep_all(swept, sims, slots)
         } else {
             discard(sims);
             Ok(swept)
@@ -114,9 +119,8 @@ impl Registry {
         }
     }
 
-    /// The sweep's own bounds: 1–256 variants, steps within --max-steps, and room for the
-    /// forks it is to keep.
-    fn check_sweep(&self, variants: usize, steps: u64, keep: bool) -> Result<(), Refusal> {
+    /// The sweep's own bounds: 1–256 variants and steps within --max-steps.
+    fn check_sweep(&self, variants: usize, steps: u64) -> Result<(), Refusal> {
         if variants == 0 || variants > MAX_VARIANTS {
             return Err(format!("variants must hold 1 to {MAX_VARIANTS} variants; got {variants}"));
         }
@@ -124,32 +128,25 @@ impl Registry {
         if steps > max {
             return Err(format!("steps must be at most {max} (--max-steps); got {steps}"));
         }
-        if keep {
-            let live = self.table().len();
-            let max_sims = self.limits().max_sims;
-            if live + variants > max_sims {
-                return Err(format!(
-                    "keep=true would make {variants} simulations beside the {live} there are, over --max-sims ({max_sims}); keep fewer variants or set keep=false"
-                ));
-            }
-        }
         Ok(())
     }
 
-    /// Publishes every variant's fork and lists it, naming it in the result. Should one fail
-    /// (a full disk), the rest are deleted and the sweep says which were kept.
-    fn keep_all(&self, mut swept: Swept, sims: Vec<Sim>) -> Result<Swept, Refusal> {
+    /// Publishes every variant's fork into the slot reserved for it (the result already
+    /// names them). Should one fail (a full disk), the rest are deleted and the sweep says
+    /// which were kept.
+    fn keep_all(&self, swept: Swept, sims: Vec<Sim>, slots: Vec<crate::sim::Slot<'_>>) -> Result<Swept, Refusal> {
         let mut sims = sims.into_iter();
         let mut kept = Vec::new();
-        for (v, sim) in swept.variants.iter_mut().zip(sims.by_ref()) {
+        for ((v, sim), slot) in swept.variants.iter().zip(sims.by_ref()).zip(slots) {
             let id = sim.id().to_string();
-            let path = self.path_for(&id);
-            if let Err(why) = sim.publish(&path).and_then(|s| self.insert(s)) {
-                discard(sims);
-                return Err(format!("variants[{}] could not be kept ({why}); kept before it: {kept:?}", v.index));
+            match sim.publish(&self.path_for(&id)) {
+                Ok(sim) => slot.fill(sim),
+                Err(why) => {
+                    discard(sims);
+                    return Err(format!("variants[{}] could not be kept ({why}); kept before it: {kept:?}", v.index));
+                }
             }
-            kept.push(id.clone());
-            v.simulation_id = Some(id);
+            kept.push(id);
         }
         Ok(swept)
     }
@@ -214,7 +211,9 @@ fn variant_work(
 ) -> Result<Report, Refusal> {
     let id = sim.id().to_string();
     if !calls.is_empty() {
-        sim.batch(&sim_arguments(&id), calls, limits, usize::MAX, &mut *control)?;
+        // A variant's batch answers no client: its reply is not held to the budget.
+        let unbounded_reply = crate::limits::Limits { max_reply_bytes: usize::MAX, ..limits.clone() };
+        sim.batch(&sim_arguments(&id), calls, &unbounded_reply, &mut *control)?;
     }
     let mut trajectory = None;
     if steps > 0 {
@@ -259,7 +258,7 @@ fn variant_work(
 /// The variants' results in order with their forks, or the first refusal (by variant index)
 /// with every fork to delete; an answer over the reply budget is refused too.
 #[allow(clippy::type_complexity)]
-fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, budget: usize) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
+fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, keep: bool, budget: usize) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
     let mut sims = Vec::with_capacity(done.len());
     let mut variants = Vec::with_capacity(done.len());
     let mut first_refusal = None;
@@ -275,10 +274,16 @@ fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, budget: usize
     if let Some(why) = first_refusal {
         return Err((why, sims));
     }
+    if keep {
+        // Kept variants are named in the reply: measured with their ids, before any is kept.
+        for (v, sim) in variants.iter_mut().zip(&sims) {
+            v.simulation_id = Some(sim.id().to_string());
+        }
+    }
     let swept = Swept { variants };
-    let bytes = crate::mcp::reply::reply_bytes("run_sweep", serde_json::to_value(&swept).unwrap_or_default());
+    let bytes = crate::budget::reply_bytes("run_sweep", serde_json::to_value(&swept).unwrap_or_default());
     if bytes > budget {
-        return Err((crate::mcp::reply::over_budget("run_sweep", bytes as u64, budget), sims));
+        return Err((crate::budget::over_budget("run_sweep", bytes as u64, budget), sims));
     }
     Ok((swept, sims))
 }
@@ -286,9 +291,7 @@ fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, budget: usize
 /// Deletes variants' forks (never published: their partial files).
 fn discard(sims: impl IntoIterator<Item = Sim>) {
     for sim in sims {
-        let path = sim.log().path().to_path_buf();
-        drop(sim);
-        remove_log_files(&path);
+        sim.delete();
     }
 }
 

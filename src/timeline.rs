@@ -4,8 +4,6 @@
 //! hashes; a fork copies the chain into a new log. Every move is an event committed before
 //! the reply.
 
-use std::sync::{Arc, Mutex};
-
 use serde_json::Value;
 
 use crate::command::{BlobSource, Command, EVENT_VERSION};
@@ -297,27 +295,17 @@ impl Registry {
         let parent = self.get(parent_id)?;
         let mut p = lock_sim(&parent);
         p.ensure_live()?;
-        let result = self.fork_locked(&mut p, at_seq, new_id, args);
+        // Lock order: the parent, then the table (for the slot); no table lock across I/O.
+        let result = self.reserve().and_then(|slot| {
+            let (forked, sim) = self.fork_unpublished(&p, at_seq, new_id, args)?;
+            let path = self.path_for(sim.id());
+            slot.fill(sim.publish(&path)?);
+            Ok(forked)
+        });
         match result {
-            Ok((forked, sim)) => match self.insert(sim) {
-                Ok(()) => p.read("fork_simulation", args, |_| Ok(forked)),
-                Err(why) => Err(p.refuse("fork_simulation", args, why)),
-            },
+            Ok(forked) => p.read("fork_simulation", args, |_| Ok(forked)),
             Err(why) => Err(p.refuse("fork_simulation", args, why)),
         }
-    }
-
-    fn fork_locked(
-        &self,
-        p: &mut Sim,
-        at_seq: Option<u64>,
-        new_id: String,
-        args: &Args,
-    ) -> Result<(Forked, Sim), Refusal> {
-        self.check_room()?;
-        let (forked, sim) = self.fork_unpublished(p, at_seq, new_id, args)?;
-        let path = self.path_for(sim.id());
-        Ok((forked, sim.publish(&path)?))
     }
 
     /// A fork of `p` at `at_seq` (default: its head) under its partial name: a real,
@@ -447,19 +435,6 @@ impl Registry {
         built
     }
 
-    /// Adds a simulation built elsewhere (fork, load) to the table; if the limit was reached
-    /// meanwhile, its new log is deleted so a restart does not resurrect it.
-    pub(crate) fn insert(&self, sim: Sim) -> Result<(), Refusal> {
-        let mut table = self.table();
-        if let Err(why) = self.check_room_in(table.len()) {
-            let path = sim.log().path().to_path_buf();
-            drop(sim);
-            crate::sim::remove_log_files(&path);
-            return Err(why);
-        }
-        table.insert(sim.id().to_string(), Arc::new(Mutex::new(sim)));
-        Ok(())
-    }
 }
 
 #[cfg(test)]

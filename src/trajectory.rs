@@ -16,9 +16,6 @@ use crate::world::World;
 pub const MAX_CELLS: u64 = 1_000_000;
 /// Samples the default `every` aims at.
 pub const TARGET_SAMPLES: u64 = 100;
-/// Largest structuredContent JSON a trajectory reply may carry: the reply (1 MiB) also holds
-/// the text copy of it, so half the budget, less the envelope.
-pub const REPLY_JSON_MAX: usize = 500 * 1024;
 /// Upper bound of a sampled number's JSON bytes (an f32's shortest decimal, sign, exponent
 /// and separator), for refusing before stepping.
 const NUMBER_BYTES: u64 = 24;
@@ -55,20 +52,8 @@ pub fn check_cells(samples: u64, objects: u64, every_name: &str) -> Result<(), R
     Ok(())
 }
 
-/// Refuses, before stepping, samples whose documented upper size is over the reply budget
-/// (step_simulation cannot refuse after its steps are taken).
-pub fn check_reply_bound(samples: u64, numbers_per_sample: u64, every_name: &str) -> Result<(), Refusal> {
-    let bytes = samples.saturating_mul(numbers_per_sample.saturating_mul(NUMBER_BYTES) + 40);
-    if bytes > REPLY_JSON_MAX as u64 {
-        return Err(format!(
-            "the samples could take {bytes} bytes, over the reply budget of {REPLY_JSON_MAX} bytes; give a larger {every_name} or fewer objects"
-        ));
-    }
-    Ok(())
-}
-
 /// The documented upper size, in bytes, of `samples` samples of `numbers_per_sample` numbers
-/// (what `check_reply_bound` checks against its fixed share of the default budget).
+/// (checked against the reply budget before stepping: a step cannot be refused once taken).
 pub fn reply_bound(samples: u64, numbers_per_sample: u64) -> u64 {
     samples.saturating_mul(numbers_per_sample.saturating_mul(NUMBER_BYTES) + 40)
 }
@@ -332,13 +317,3 @@ pub fn summary(mut t: Trajectory, shown_path: String) -> Trajectory {
     t
 }
 
-/// Refuses a trajectory whose JSON is over the reply budget, saying what to change.
-pub fn check_reply(t: &Trajectory, every_name: &str) -> Result<(), Refusal> {
-    let bytes = serde_json::to_vec(t).map(|v| v.len()).unwrap_or(usize::MAX);
-    if bytes > REPLY_JSON_MAX {
-        return Err(format!(
-            "the trajectory is {bytes} bytes, over the reply budget of {REPLY_JSON_MAX} bytes; give output_path (a .csv or .jsonl file in the workspace), a larger {every_name} or fewer object_ids"
-        ));
-    }
-    Ok(())
-}

@@ -8,12 +8,14 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use crate::command::{Blob, Command};
 use crate::mcp::lenient::{NumList, Positive};
 use crate::mcp::params;
+use crate::files::write::{write_owned, Owned};
+use crate::files::{Reader, Sandbox};
 use crate::value::{self, Refusal};
-use crate::workspace::Sandbox;
 use crate::world::urdf::mesh_names;
 
 /// Largest URDF file read.
@@ -33,34 +35,26 @@ pub fn builtin(name: &str) -> Option<&'static str> {
     BUILTIN.iter().find(|(n, _)| *n == name).map(|(_, text)| *text)
 }
 
-/// The file's bytes, refused (naming it) when over `limit` or unreadable; MJCF meshes use it too.
-pub(crate) fn read_limited(path: &Path, shown: &str, limit: u64) -> Result<Vec<u8>, Refusal> {
-    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(u64::MAX);
-    if size > limit {
-        return Err(format!("{shown} is {size} bytes; the limit is {limit}"));
-    }
-    std::fs::read(path).map_err(|e| format!("could not read {shown}: {e}"))
-}
-
 /// Builds load_urdf's command from its arguments (as a loaded file's robot entry gives them).
-pub fn decide_load_urdf(sandbox: &Sandbox, a: &value::Args) -> Result<Command, Refusal> {
-    load_urdf_command(sandbox, &params::parse("load_urdf", a)?)
+pub fn decide_load_urdf(reader: &mut Reader, a: &value::Args) -> Result<Command, Refusal> {
+    load_urdf_command(reader, &params::parse("load_urdf", a)?)
 }
 
-/// Builds load_urdf's command: the URDF text and every mesh it names, read now, travel in it.
-pub fn load_urdf_command(sandbox: &Sandbox, p: &params::LoadUrdf) -> Result<Command, Refusal> {
+/// Builds load_urdf's command: the URDF text and every mesh it names, read now through
+/// `reader` (once per request), travel in it.
+pub fn load_urdf_command(reader: &mut Reader, p: &params::LoadUrdf) -> Result<Command, Refusal> {
     let user = p.file_path.0.clone();
     let position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
     let orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
     let fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
-    let (text, dir) = match sandbox.existing(&user) {
+    let (text, dir) = match reader.sandbox().existing(&user) {
         Ok(path) => {
-            let bytes = read_limited(&path, &format!("file_path {user}"), MAX_URDF_BYTES)?;
-            let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| sandbox.workspace.clone());
+            let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| reader.sandbox().workspace.clone());
+            let (_, bytes) = reader.read_resolved(path, &format!("file_path {user}"), MAX_URDF_BYTES)?;
             (bytes, dir)
         }
         Err(why) => match builtin(&user) {
-            Some(text) => (text.as_bytes().to_vec(), sandbox.workspace.clone()),
+            Some(text) => (Arc::new(text.as_bytes().to_vec()), reader.sandbox().workspace.clone()),
             None => return Err(why),
         },
     };
@@ -68,20 +62,21 @@ pub fn load_urdf_command(sandbox: &Sandbox, p: &params::LoadUrdf) -> Result<Comm
     let mut meshes = BTreeMap::new();
     let mut total = 0u64;
     for name in mesh_names(utf8)? {
-        let path = resolve_mesh(sandbox, &dir, &name, &user)?;
-        let bytes = read_limited(&path, &format!("mesh {name}"), MAX_MESH_BYTES.saturating_sub(total))?;
+        let path = resolve_mesh(reader.sandbox(), &dir, &name, &user)?;
+        let (_, bytes) = reader.read_resolved(path, &format!("mesh {name}"), MAX_MESH_BYTES.saturating_sub(total))?;
         total += bytes.len() as u64;
-        meshes.insert(name, Blob::new(bytes));
+        meshes.insert(name, Blob::from_shared(bytes));
     }
     Ok(Command::LoadUrdf {
         file_path: user,
-        urdf: Blob::new(text),
+        urdf: Blob::from_shared(text),
         meshes,
         position,
         orientation,
         fixed_base,
         continuous_limits_from_file: true,
         revolute_prismatic_limits_from_file: true,
+        parsed: Default::default(),
     })
 }
 
@@ -103,15 +98,24 @@ fn resolve_mesh(sandbox: &Sandbox, dir: &Path, name: &str, urdf: &str) -> Result
     };
     let mut refusal = None;
     for c in &candidates {
-        let shown = c.display().to_string();
-        match sandbox.existing(&shown) {
-            Ok(p) => return Ok(p),
-            Err(why) if c.exists() => refusal = refusal.or(Some(why)),
-            Err(_) => {}
+        match sandbox.probe(&c.display().to_string()) {
+            Ok(Some(p)) => return Ok(p),
+            Ok(None) => {}
+            Err(why) => refusal = refusal.or(Some(why)),
         }
     }
     Err(refusal.unwrap_or_else(|| format!("mesh {name} referenced by {urdf} was not found (looked in {})", dir.display())))
 }
+
+/// The comment every URDF generate_revolute_joint writes: how it recognises one of its own
+/// files, which it may replace without `overwrite`.
+const GENERATOR_COMMENT: &str = "<!-- Generated by physics-mcp generate_revolute_joint. -->";
+
+/// generate_revolute_joint's files: URDFs carrying its comment.
+const GENERATED_URDF: Owned = Owned {
+    ours: |head| String::from_utf8_lossy(head).contains(GENERATOR_COMMENT),
+    what: "a URDF written by generate_revolute_joint",
+};
 
 /// A primitive link shape of generate_revolute_joint.
 fn link_xml(name: &str, shape: &str, dims: &[f64], mass: f64, rgba: &str) -> Result<String, Refusal> {
@@ -184,9 +188,7 @@ pub fn generate_revolute_joint(sandbox: &Sandbox, p: &params::GenerateRevolute) 
     let target = match &p.output_path {
         Some(path) => sandbox.writable(&path.0)?,
         None => {
-            let free = (1..10_000)
-                .map(|n| format!("generated/revolute_{n}.urdf"))
-                .find(|p| !sandbox.workspace.join(p).exists())
+            let free = crate::files::write::free_name(sandbox, (1..10_000).map(|n| format!("generated/revolute_{n}.urdf")))
                 .ok_or("no free name under generated/ (10,000 files exist)")?;
             sandbox.writable(&free)?
         }
@@ -194,7 +196,7 @@ pub fn generate_revolute_joint(sandbox: &Sandbox, p: &params::GenerateRevolute) 
     let r = value::r32;
     let xml = format!(
         r#"<?xml version="1.0"?>
-<!-- Generated by physics-mcp generate_revolute_joint. -->
+{GENERATOR_COMMENT}
 <robot name="revolute_pair">
 {parent}{child}  <joint name="revolute_joint" type="revolute">
     <parent link="parent_link"/>
@@ -207,7 +209,9 @@ pub fn generate_revolute_joint(sandbox: &Sandbox, p: &params::GenerateRevolute) 
 "#,
         r(origin[0]), r(origin[1]), r(origin[2]), r(axis[0]), r(axis[1]), r(axis[2]), r(lower), r(upper), r(effort), r(velocity)
     );
-    sandbox.write_atomic(&target, xml.as_bytes())?;
+    let shown = p.output_path.as_ref().map_or_else(|| target.display().to_string(), |o| o.0.clone());
+    let overwrite = p.overwrite.as_ref().is_some_and(|b| b.0);
+    write_owned(&target, &shown, xml.as_bytes(), &GENERATED_URDF, overwrite)?;
     Ok(crate::outputs::GeneratedUrdf {
         urdf_path: target.display().to_string(),
         parent_shape,

@@ -307,7 +307,8 @@ async fn replay_trajectory_on_every_recorded_log_equals_get_trajectory() {
 #[tokio::test(flavor = "multi_thread")]
 async fn refusals_name_the_parameter_and_change_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let server = Server::start(dir.path(), &[]);
+    // A reply budget the full-velocity table of this scene does not fit.
+    let server = Server::start(dir.path(), &["--max-reply-bytes", "500000"]);
     let c = server.client().await;
     let sim = c.new_sim(json!({})).await;
     c.ground(&sim).await;

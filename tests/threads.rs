@@ -87,6 +87,7 @@ fn arms() -> World {
                     fixed_base: false,
                     continuous_limits_from_file: true,
                     revolute_prismatic_limits_from_file: true,
+                    parsed: Default::default(),
                 },
             );
             let id = out["object_id"].as_u64().unwrap() as u32;

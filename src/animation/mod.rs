@@ -19,9 +19,6 @@ use crate::sensing::camera::{self, Mat4};
 use crate::sensing::render;
 use crate::sensing::capture::Scene;
 use crate::world::Viewer;
-
-/// An inline GIF's limit: base64 grows it by 4/3, and the reply must stay within 1 MiB.
-pub const MAX_INLINE_GIF_BYTES: usize = 740 * 1024;
 /// At most this many frames in one animation (SPEC).
 pub const MAX_FRAMES: u64 = 600;
 /// At most this many pixels over all frames of one animation (RGB frames are kept until the

@@ -3,7 +3,6 @@
 //! re-simulated and rendered without it (`animation::animate`), and the call is then recorded
 //! as a read (or a refusal). The live simulation is never changed.
 
-use base64::Engine;
 use rmcp::handler::server::common::{schema_for_output, schema_for_type};
 use rmcp::model::{CallToolResult, ContentBlock, JsonObject, Resource};
 use rmcp::{tool, tool_router};
@@ -13,10 +12,11 @@ use serde::Serialize;
 use super::lenient::{int_or, Int, Text};
 use super::params::{self, RenderAnimation};
 use super::PhysicsServer;
-use crate::animation::{self, Camera, MAX_INLINE_GIF_BYTES};
+use crate::animation::{self, Camera};
+use crate::budget;
 use crate::fold::Lent;
 use crate::value::{Args, Refusal};
-use crate::workspace::Sandbox;
+use crate::files::{write, Sandbox};
 
 const TOOL: &str = "render_animation";
 
@@ -89,7 +89,7 @@ fn output(user: Option<Text>, sandbox: &Sandbox) -> Result<Option<(String, std::
     if !user.to_ascii_lowercase().ends_with(".gif") {
         return Err(format!("output_path must end in .gif; got {user}"));
     }
-    let path = super::time::new_output(sandbox, &user)?;
+    let path = write::new_output(sandbox, "output_path", &user)?;
     Ok(Some((user, path)))
 }
 
@@ -107,7 +107,7 @@ fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::time::Asked, Asked), Ref
 }
 
 /// Checks the size, renders the interval and writes or inlines the GIF (no lock held).
-fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
+fn run(asked: Asked, lent: &Lent, max_px: usize) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
     let every = asked.every.unwrap_or_else(|| animation::default_every(lent.interval_steps()));
     animation::check_size(animation::sample_count(lent, every), every, &asked.cam, max_px)?;
     let anim = animation::animate(lent, every, &asked.cam, asked.fps)?;
@@ -125,18 +125,27 @@ fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(A
         steps: lent.interval_steps(),
         output_path: asked.output.as_ref().map(|(user, _)| user.clone()),
     };
-    if let Some((_, path)) = &asked.output {
-        sandbox.write_atomic(path, &anim.gif)?;
+    if let Some((user, path)) = &asked.output {
+        write::create_new(path, "output_path", user, &anim.gif)?;
         return Ok((summary, None));
     }
-    if anim.gif.len() > MAX_INLINE_GIF_BYTES {
-        return Err(format!(
-            "The GIF is {} KiB, over the {} KiB an inline reply holds; give output_path (a .gif in the workspace), a smaller width and height, or a larger every",
-            anim.gif.len().div_ceil(1024),
-            MAX_INLINE_GIF_BYTES / 1024
-        ));
-    }
+    // Inline, the GIF is held to the reply budget (after base64) where the read is logged.
     Ok((summary, Some(anim.gif)))
+}
+
+/// The reply: the GIF inline, or a link to the file it went to; measured as sent.
+fn reply(summary: &AnimationSummary, gif: Option<&[u8]>, workspace: &std::path::Path) -> CallToolResult {
+    let structured = serde_json::to_value(summary).unwrap_or_default();
+    let images: Vec<budget::Image> = gif.into_iter().map(|bytes| budget::Image { bytes, mime: "image/gif" }).collect();
+    let mut result = budget::reply(TOOL, structured, &images);
+    if let (None, Some(user)) = (gif, &summary.output_path) {
+        let path = workspace.join(user);
+        let link = Resource::new(format!("file://{}", path.display()), user.clone())
+            .with_mime_type("image/gif")
+            .with_size(summary.bytes as u64);
+        result.content.push(ContentBlock::resource_link(link));
+    }
+    result
 }
 
 #[tool_router(router = animation_router, vis = "pub(crate)")]
@@ -150,23 +159,9 @@ impl PhysicsServer {
     async fn render_animation(&self, args: JsonObject) -> Result<CallToolResult, String> {
         let (max_px, sandbox) = (self.reg.limits().max_image_px, self.reg.sandbox().clone());
         let parsed = parse(&args, &sandbox);
-        let (summary, gif) = self.look_back_with(TOOL, args, parsed, move |asked, lent| run(asked, lent, max_px, &sandbox)).await?;
-        let structured = serde_json::to_value(&summary).map_err(|e| format!("Internal error: unexpected result shape: {e}"))?;
-        let mut result = CallToolResult::structured(structured);
-        match (gif, &summary.output_path) {
-            (Some(gif), _) => {
-                let b64 = base64::engine::general_purpose::STANDARD.encode(&gif);
-                result.content.insert(0, ContentBlock::image(b64, "image/gif"));
-            }
-            (None, Some(user)) => {
-                let path = self.reg.sandbox().workspace.join(user);
-                let link = Resource::new(format!("file://{}", path.display()), user.clone())
-                    .with_mime_type("image/gif")
-                    .with_size(summary.bytes as u64);
-                result.content.push(ContentBlock::resource_link(link));
-            }
-            (None, None) => {}
-        }
-        Ok(result)
+        let workspace = sandbox.workspace.clone();
+        let measure = move |s: &AnimationSummary, gif: &Option<Vec<u8>>| budget::bytes_of(&reply(s, gif.as_deref(), &workspace));
+        let (summary, gif) = self.look_back_with(TOOL, args, parsed, move |asked, lent| run(asked, lent, max_px), measure).await?;
+        Ok(reply(&summary, gif.as_deref(), &self.reg.sandbox().workspace))
     }
 }

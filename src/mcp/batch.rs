@@ -15,7 +15,8 @@ use crate::batch::{call_refused, Call, Planned, MAX_CALLS, READS};
 use crate::command::Command;
 use crate::outputs::Batched;
 use crate::reads::Read;
-use crate::sim::Registry;
+use crate::command::ParsedModels;
+use crate::files::{Reader, Sandbox};
 use crate::value::{Args, Refusal};
 
 /// A change tool's decision: its arguments parsed as `P`, then its `decide`.
@@ -28,8 +29,31 @@ fn read<P: Params>(tool: &str, a: &Args, wrap: fn(P) -> Read) -> Planned {
     Planned::Read(params::parse::<P>(tool, a).map(|p| Box::new(wrap(p))))
 }
 
+/// What one request reads and parses before its simulation is locked: each distinct file
+/// once (`Reader`), each distinct model once (`ParsedModels`).
+pub(crate) struct Ahead {
+    reader: Reader,
+    models: ParsedModels,
+}
+
+impl Ahead {
+    /// For one request in `sandbox`.
+    pub(crate) fn new(sandbox: &Sandbox) -> Ahead {
+        Ahead { reader: Reader::new(sandbox), models: ParsedModels::default() }
+    }
+}
+
 /// What `tool` with arguments `a` is inside a batch; None for a tool a batch cannot hold.
-fn decide(reg: &Registry, tool: &str, a: &Args) -> Option<Planned> {
+fn decide(ahead: &mut Ahead, tool: &str, a: &Args) -> Option<Planned> {
+    let planned = decide_call(&mut ahead.reader, tool, a)?;
+    Some(match planned {
+        Planned::Change(decided) => Planned::Change(decided.and_then(|c| c.ready_in(&mut ahead.models))),
+        read => read,
+    })
+}
+
+/// `decide` before the models are parsed.
+fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
     Some(match tool {
         "add_box" => change(tool, a, objects::decide_box),
         "add_sphere" => change(tool, a, objects::decide_sphere),
@@ -54,8 +78,8 @@ fn decide(reg: &Registry, tool: &str, a: &Args) -> Option<Planned> {
         "remove_constraint" => change(tool, a, constraints::decide_remove),
         "enable_debug_visualization" => change(tool, a, viewer::decide_debug),
         "set_camera" => change(tool, a, viewer::decide_camera),
-        "load_urdf" => change(tool, a, |p: params::LoadUrdf| crate::urdf_files::load_urdf_command(reg.sandbox(), &p)),
-        "load_mjcf" => change(tool, a, |p: params::LoadMjcf| crate::mjcf_files::load_mjcf_command(reg.sandbox(), &p)),
+        "load_urdf" => change(tool, a, |p: params::LoadUrdf| crate::urdf_files::load_urdf_command(reader, &p)),
+        "load_mjcf" => change(tool, a, |p: params::LoadMjcf| crate::mjcf_files::load_mjcf_command(reader, &p)),
         "get_object_state" => read(tool, a, Read::ObjectState),
         "get_joint_state" => read(tool, a, Read::JointState),
         "get_link_state" => read(tool, a, Read::LinkState),
@@ -67,7 +91,7 @@ fn decide(reg: &Registry, tool: &str, a: &Args) -> Option<Planned> {
 /// The calls of a batch or variant on simulation `sim_id`, decided in order; a call naming an
 /// unknown tool, a tool a batch cannot hold or another simulation refuses them all (`where_`
 /// names the list in the sentence: "calls" or "variants[i].calls").
-pub(crate) fn plan(reg: &Registry, sim_id: &str, specs: Vec<CallSpec>) -> Result<Vec<Call>, (usize, String, Refusal)> {
+pub(crate) fn plan(ahead: &mut Ahead, sim_id: &str, specs: Vec<CallSpec>) -> Result<Vec<Call>, (usize, String, Refusal)> {
     let mut calls = Vec::with_capacity(specs.len());
     for (i, spec) in specs.into_iter().enumerate() {
         let mut args = spec.arguments.unwrap_or_default();
@@ -81,7 +105,7 @@ pub(crate) fn plan(reg: &Registry, sim_id: &str, specs: Vec<CallSpec>) -> Result
                 return Err((i, spec.tool, why));
             }
         }
-        let Some(planned) = decide(reg, &spec.tool, &args) else {
+        let Some(planned) = decide(ahead, &spec.tool, &args) else {
             let why = if PhysicsServer::tool_names().any(|t| t == spec.tool) {
                 format!(
                     "{} cannot be inside a batch or sweep; they take the state-changing tools and {}",
@@ -108,14 +132,15 @@ fn steps_asked(a: &Args) -> u64 {
         .max(1)
 }
 
-/// The batch's calls, refused as a whole when there are none or too many.
-fn batch_calls(reg: &Registry, a: &Args) -> Result<Vec<Call>, Refusal> {
+/// The batch's calls, refused as a whole when there are none or too many; their files read
+/// and models parsed (before the simulation is locked).
+fn batch_calls(sandbox: &Sandbox, a: &Args) -> Result<Vec<Call>, Refusal> {
     let p: params::Batch = params::parse("batch", a)?;
     let n = p.calls.len();
     if n == 0 || n > MAX_CALLS {
         return Err(format!("calls must hold 1 to {MAX_CALLS} calls; got {n}"));
     }
-    plan(reg, &p.sim_id.0, p.calls).map_err(|(i, tool, why)| call_refused(i, &tool, &why))
+    plan(&mut Ahead::new(sandbox), &p.sim_id.0, p.calls).map_err(|(i, tool, why)| call_refused(i, &tool, &why))
 }
 
 #[tool_router(router = batch_router, vis = "pub(crate)")]
@@ -132,11 +157,10 @@ impl PhysicsServer {
     ) -> Result<Json<Batched>, String> {
         let watch = super::progress::Watch::new(&meta, peer, ct, steps_asked(&args));
         let mut control = watch.control();
-        let reg = self.reg.clone();
-        let budget = self.reg.limits().max_reply_bytes;
+        let sandbox = self.reg.sandbox().clone();
         let out = self
-            .with_sim(args, move |sim, a, limits| match batch_calls(&reg, a) {
-                Ok(calls) => sim.batch(a, calls, limits, budget, &mut control),
+            .with_sim_prepared(args, move |a| batch_calls(&sandbox, a), move |sim, a, limits, calls| match calls {
+                Ok(calls) => sim.batch(a, calls, limits, &mut control),
                 Err(why) => Err(sim.refuse("batch", a, why)),
             })
             .await;

@@ -35,8 +35,7 @@ impl PhysicsServer {
     /// simulated.
     #[tool(input_schema = schema_for_type::<params::LoadMjcf>())]
     async fn load_mjcf(&self, args: JsonObject) -> Result<Json<MjcfLoaded>, String> {
-        let reg = self.reg.clone();
-        self.change("load_mjcf", args, move |p: params::LoadMjcf| crate::mjcf_files::load_mjcf_command(reg.sandbox(), &p))
+        self.change_reading("load_mjcf", args, |p: params::LoadMjcf, reader| crate::mjcf_files::load_mjcf_command(reader, &p))
             .await
     }
 

@@ -47,7 +47,7 @@ use rmcp::handler::server::tool::ToolCallContext;
 #[allow(deprecated)]
 use rmcp::model::{LoggingLevel, SetLevelRequestParams, SubscribeRequestParams, UnsubscribeRequestParams};
 use rmcp::model::{
-    CallToolRequestParams, CallToolResponse, SubscriptionFilter,
+    CallToolRequestParams, CallToolResponse, CallToolResult, SubscriptionFilter,
     ErrorData, GetPromptRequestParams, GetPromptResponse, Implementation, ListPromptsResult,
     ListResourceTemplatesResult, ListResourcesResult, PaginatedRequestParams, ReadResourceRequestParams,
     ReadResourceResponse, ServerCapabilities, ServerConfig,
@@ -60,11 +60,19 @@ use serde::Serialize;
 use serde_json::json;
 
 use crate::command::Command;
+use crate::files::Reader;
 use crate::limits::Limits;
 use crate::outputs::Outcome;
 use crate::sim::{lock_sim, Registry, Sim};
 use crate::value::{self, Args, Refusal};
 use crate::world::StepControl;
+
+/// A read's answer whose reply is built from it rather than being its recorded result (a
+/// summary naming the file the answer went to, an image beside the structured content).
+pub(crate) trait Replied: Serialize + Send + 'static {
+    /// The reply as it is sent (and measured before the read is logged).
+    fn reply(&self, tool: &str) -> CallToolResult;
+}
 
 /// What a tool's parameter type must be: parsed from the arguments, described by its schema.
 pub(crate) trait Params: DeserializeOwned + JsonSchema + Send + 'static {}
@@ -174,13 +182,27 @@ impl PhysicsServer {
         args: Args,
         f: impl FnOnce(&mut Sim, &Args, &Limits) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<T, String> {
+        self.with_sim_prepared(args, |_| (), move |sim, a, limits, ()| f(sim, a, limits)).await
+    }
+
+    /// `with_sim` whose `prepare` runs first, on the blocking pool but *before* the
+    /// simulation is locked: parsing the arguments and reading the files they name (a call
+    /// waiting on a slow or large file holds no simulation), then `f` under the lock with what
+    /// `prepare` made.
+    async fn with_sim_prepared<X: Send + 'static, T: Send + 'static>(
+        &self,
+        args: Args,
+        prepare: impl FnOnce(&Args) -> X + Send + 'static,
+        f: impl FnOnce(&mut Sim, &Args, &Limits, X) -> Result<T, Refusal> + Send + 'static,
+    ) -> Result<T, String> {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
         let reg = self.reg.clone();
         let (out, moved) = tokio::task::spawn_blocking(move || {
+            let prepared = prepare(&args);
             let mut guard = lock_sim(&sim);
             let before = (guard.log().head_seq(), guard.state_hash().to_string());
-            let out = f(&mut guard, &args, reg.limits());
+            let out = f(&mut guard, &args, reg.limits(), prepared);
             let moved = guard.log().head_seq() != before.0 || guard.state_hash() != before.1;
             (out, moved)
         })
@@ -193,20 +215,25 @@ impl PhysicsServer {
     }
 
     /// A state-changing call whose steps may be watched (progress) or stopped (cancel): the
-    /// arguments are parsed as `P`, `decide` makes the command, and a refusal of either is
-    /// recorded like any other.
+    /// arguments are parsed as `P` and `decide` makes the command — reading through a
+    /// request's `Reader` the files it names — before the simulation is locked; a refusal
+    /// of either is recorded like any other.
     async fn change_with<P: Params, T: TryFrom<Outcome>>(
         &self,
         tool: &'static str,
         args: Args,
-        decide: impl FnOnce(P) -> Result<Command, Refusal> + Send + 'static,
+        decide: impl FnOnce(P, &mut Reader) -> Result<Command, Refusal> + Send + 'static,
         mut control: impl FnMut(u64) -> bool + Send + 'static,
     ) -> Result<Json<T>, String> {
+        let sandbox = self.reg.sandbox().clone();
+        let prepare = move |a: &Args| {
+            let mut reader = Reader::new(&sandbox);
+            params::parse::<P>(tool, a).and_then(|p| decide(p, &mut reader)).and_then(Command::ready)
+        };
         let out = self
-            .with_sim(args, move |sim, a, limits| {
+            .with_sim_prepared(args, prepare, move |sim, a, limits, decided| {
                 let ctl: StepControl = &mut control;
                 let started = std::time::Instant::now();
-                let decided = params::parse::<P>(tool, a).and_then(decide);
                 // A running step shows its progress in the viewer (read-only copies of the
                 // poses about every 100 ms; results and hashes are untouched).
                 let total = match &decided {
@@ -232,18 +259,17 @@ impl PhysicsServer {
         args: Args,
         decide: impl FnOnce(P) -> Result<Command, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
-        self.change_with(tool, args, decide, |_| true).await
+        self.change_with(tool, args, move |p, _| decide(p), |_| true).await
     }
 
-    /// The reply budget a read's answer is held to where it is computed (so a refusal is
-    /// logged as one): `--max-reply-bytes`, or none when the answer goes to `output_path`
-    /// and the reply is only its summary.
-    fn read_budget(&self, args: &Args) -> usize {
-        if args.get("output_path").is_some_and(|p| !p.is_null()) {
-            usize::MAX
-        } else {
-            self.reg.limits().max_reply_bytes
-        }
+    /// A state-changing call whose command is made from files the arguments name.
+    async fn change_reading<P: Params, T: TryFrom<Outcome>>(
+        &self,
+        tool: &'static str,
+        args: Args,
+        decide: impl FnOnce(P, &mut Reader) -> Result<Command, Refusal> + Send + 'static,
+    ) -> Result<Json<T>, String> {
+        self.change_with(tool, args, decide, |_| true).await
     }
 
     /// A read-only call that may take long (history pages, verification): always on the
@@ -254,10 +280,26 @@ impl PhysicsServer {
         args: Args,
         f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
-        let budget = self.read_budget(&args);
+        let budget = self.reg.limits().max_reply_bytes;
         self.with_sim(args, move |sim, a, _| sim.read_within(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?)))
             .await
             .map(Json)
+    }
+
+    /// `read_blocking` of a read whose reply is built from its answer (`Replied`): measured
+    /// as it will be sent before the read is logged, then sent as measured.
+    async fn read_blocking_replied<P: Params, T: Replied>(
+        &self,
+        tool: &'static str,
+        args: Args,
+        f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
+    ) -> Result<CallToolResult, String> {
+        let budget = self.reg.limits().max_reply_bytes;
+        let measure = move |t: &T, _: &str| crate::budget::bytes_of(&t.reply(tool));
+        let out = self
+            .with_sim(args, move |sim, a, _| sim.read_replying(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?), measure))
+            .await?;
+        Ok(out.reply(tool))
     }
 
     /// A read-only call on a simulation; recorded as a read event. Reads take microseconds,
@@ -272,7 +314,7 @@ impl PhysicsServer {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
         if let Ok(mut guard) = sim.try_lock() {
-            let budget = self.read_budget(&args);
+            let budget = self.reg.limits().max_reply_bytes;
             return guard.read_within(tool, &args, budget, |s| f(s, params::parse::<P>(tool, &args)?)).map(Json);
         }
         self.read_blocking(tool, args, f).await

@@ -361,6 +361,8 @@ pub struct Save {
     pub sim_id: Text,
     /// Workspace-relative .json path.
     pub file_path: Text,
+    /// Replace a non-save file (default false).
+    pub overwrite: Option<Bool>,
 }
 
 /// load_simulation parameters.
@@ -497,6 +499,8 @@ pub struct GenerateRevolute {
     pub max_velocity: Option<NonNegative>,
     /// Default generated/revolute_<n>.urdf.
     pub output_path: Option<Text>,
+    /// Replace a file it did not write (default false).
+    pub overwrite: Option<Bool>,
 }
 
 /// create_constraint parameters (PyBullet's createConstraint, plus revolute).

@@ -10,7 +10,7 @@ use crate::outputs::{Loaded, Saved};
 
 #[tool_router(router = persistence_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Save with full history to a workspace JSON file (exact on load).
+    /// Save with full history to a workspace JSON file.
     #[tool(input_schema = schema_for_type::<params::Save>())]
     async fn save_simulation(&self, args: JsonObject) -> Result<Json<Saved>, String> {
         let reg = self.reg.clone();

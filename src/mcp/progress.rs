@@ -38,7 +38,7 @@ impl Watch {
     }
 
     /// A step control for one runner: reports the steps it is given as done, and returns
-    /// false (stop) once the request is cancelled.
+    /// false (stop) once the request is cancelled or the server is shutting down.
     pub(crate) fn control(&self) -> impl FnMut(u64) -> bool + Send + 'static {
         let (tx, ct, every) = (self.tx.clone(), self.ct.clone(), self.every);
         let mut last_sent = 0;
@@ -49,7 +49,8 @@ impl Watch {
                     let _ = tx.send(done);
                 }
             }
-            !ct.is_cancelled()
+            // A shutdown stops a step exactly as a client's cancellation does.
+            !ct.is_cancelled() && !crate::shutdown::requested()
         }
     }
 

@@ -58,8 +58,7 @@ impl PhysicsServer {
     /// Load a URDF (workspace path or plane/cube/sphere.urdf); PyBullet joint numbering, no motors.
     #[tool(input_schema = schema_for_type::<params::LoadUrdf>())]
     async fn load_urdf(&self, args: JsonObject) -> Result<Json<UrdfLoaded>, String> {
-        let reg = self.reg.clone();
-        self.change("load_urdf", args, move |p: LoadUrdf| crate::urdf_files::load_urdf_command(reg.sandbox(), &p))
+        self.change_reading("load_urdf", args, |p: LoadUrdf, reader| crate::urdf_files::load_urdf_command(reader, &p))
             .await
     }
 
@@ -97,7 +96,7 @@ impl PhysicsServer {
         .await
     }
 
-    /// Write a two-link revolute URDF in the workspace, for load_urdf.
+    /// Write a two-link revolute URDF for load_urdf.
     #[tool(input_schema = schema_for_type::<params::GenerateRevolute>())]
     async fn generate_revolute_joint(&self, args: JsonObject) -> Result<Json<GeneratedUrdf>, String> {
         let reg = self.reg.clone();

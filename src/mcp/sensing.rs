@@ -1,24 +1,22 @@
 //! Sensing tools: rays, contacts, camera matrices and images; ray batches and images can go
 //! to files (`output_path`) when they would not fit the reply budget.
 
-use base64::Engine;
 use rmcp::handler::server::common::{schema_for_output, schema_for_type};
 use rmcp::handler::server::wrapper::Json;
-use rmcp::model::{CallToolResult, ContentBlock, JsonObject};
+use rmcp::model::{CallToolResult, JsonObject};
 use rmcp::{tool, tool_router};
 use serde::Serialize;
 
 use super::lenient::int_or;
 use super::params::{self, CollisionPair, ProjectionMatrix as ProjectionParams, RayTest, RayTestBatch, SimRef, ViewMatrix as ViewParams, ViewMatrixYawPitch};
-use super::reply;
-use super::time::new_output;
-use super::PhysicsServer;
+use crate::budget;
+use super::{PhysicsServer, Replied};
 use crate::npy;
 use crate::outputs::{CameraImage, Contacts, ProjectionMatrix, RayBatch, RayHit, ViewMatrix};
 use crate::reads;
 use crate::sensing::camera;
 use crate::value::Refusal;
-use crate::workspace::Sandbox;
+use crate::files::{write, Sandbox};
 
 fn view_matrix(p: ViewParams) -> Result<ViewMatrix, Refusal> {
     let (eye, target, up) = (p.camera_eye_position.0, p.camera_target_position.0, p.camera_up_vector.0);
@@ -69,16 +67,18 @@ impl PhysicsServer {
     }
 
     /// Cast many rays; results in order. Over ~4,000 rays, give output_path.
-    #[tool(input_schema = schema_for_type::<params::RayTestBatch>(), annotations(read_only_hint = true))]
-    async fn ray_test_batch(&self, args: JsonObject) -> Result<Json<RayBatch>, String> {
+    #[tool(
+        input_schema = schema_for_type::<params::RayTestBatch>(),
+        output_schema = schema_for_output::<RayBatch>(),
+        annotations(read_only_hint = true)
+    )]
+    async fn ray_test_batch(&self, args: JsonObject) -> Result<CallToolResult, String> {
         let (max, budget) = (self.reg.limits().max_rays, self.reg.limits().max_reply_bytes);
         let sandbox = self.reg.sandbox().clone();
-        let Json(out) = self
-            .read_blocking("ray_test_batch", args, move |sim, p: RayTestBatch| {
-                ray_batch_to(&sim.read_context(), &p, max, budget, &sandbox)
-            })
-            .await?;
-        Ok(Json(out.reply()))
+        self.read_blocking_replied("ray_test_batch", args, move |sim, p: RayTestBatch| {
+            ray_batch_to(&sim.read_context(), &p, max, budget, &sandbox)
+        })
+        .await
     }
 
     /// Contact points of the last step (normal B to A; distance < 0: penetration).
@@ -123,17 +123,8 @@ impl PhysicsServer {
     async fn get_camera_image(&self, args: JsonObject) -> Result<CallToolResult, String> {
         let (max, budget) = (self.reg.limits().max_image_px, self.reg.limits().max_reply_bytes);
         let sandbox = self.reg.sandbox().clone();
-        let Json(out) = self
-            .read_blocking("get_camera_image", args, move |sim, p| camera_image_to(&sim.read_context(), &p, max, budget, &sandbox))
-            .await?;
-        let inline_png = (out.files.is_none()).then(|| base64::engine::general_purpose::STANDARD.encode(&out.rendered.png));
-        let summary = serde_json::to_value(out.reply())
-            .map_err(|e| format!("Internal error: unexpected result shape: {e}"))?;
-        let mut result = CallToolResult::structured(summary);
-        if let Some(png) = inline_png {
-            result.content.insert(0, ContentBlock::image(png, "image/png"));
-        }
-        Ok(result)
+        self.read_blocking_replied("get_camera_image", args, move |sim, p| camera_image_to(&sim.read_context(), &p, max, budget, &sandbox))
+            .await
     }
 }
 
@@ -147,29 +138,35 @@ struct RaysOut {
     file: Option<String>,
 }
 
-impl RaysOut {
-    /// The reply: the full batch, or with output_path a summary naming the file.
-    fn reply(self) -> RayBatch {
-        let Some(path) = self.file else { return self.batch };
-        let hits = self.batch.results.iter().filter(|h| h.hit).count() as u64;
-        RayBatch { rays: Some(self.batch.results.len() as u64), hits: Some(hits), output_path: Some(path), results: Vec::new() }
+impl Replied for RaysOut {
+    /// The full batch, or with output_path a summary naming the file.
+    fn reply(&self, tool: &str) -> CallToolResult {
+        let structured = match &self.file {
+            None => serde_json::to_value(&self.batch),
+            Some(path) => {
+                let hits = self.batch.results.iter().filter(|h| h.hit).count() as u64;
+                let rays = Some(self.batch.results.len() as u64);
+                serde_json::to_value(RayBatch { rays, hits: Some(hits), output_path: Some(path.clone()), results: Vec::new() })
+            }
+        };
+        budget::reply(tool, structured.unwrap_or_default(), &[])
     }
 }
 
 /// ray_test_batch: refused before casting when the rays could not fit the reply budget
-/// (`reply::RAY_BYTES_MAX` each) and no output_path is given; with one, the full results
+/// (`budget::RAY_BYTES_MAX` each) and no output_path is given; with one, the full results
 /// are written there as JSON (never over an existing file).
 fn ray_batch_to(cx: &reads::ReadContext, p: &RayTestBatch, max: usize, budget: usize, sandbox: &Sandbox) -> Result<RaysOut, Refusal> {
     let target = p.output_path.as_ref().map(|t| output_target(sandbox, &t.0, ".json")).transpose()?;
     let n = p.rays_from.0.len();
     if target.is_none() && n <= max && n == p.rays_to.0.len() {
-        reply::check_bound("ray_test_batch", n as u64, reply::RAY_BYTES_MAX, budget)?;
+        budget::check_bound("ray_test_batch", n as u64, budget::RAY_BYTES_MAX, budget)?;
     }
     let batch = reads::ray_test_batch(cx, p, max)?;
     let file = match target {
         Some(target) => {
             let bytes = serde_json::to_vec(&batch).map_err(|e| format!("Internal error: {e}"))?;
-            sandbox.write_atomic(&target, &bytes)?;
+            write::create_new(&target, "output_path", &p.output_path.as_ref().map_or(String::new(), |t| t.0.clone()), &bytes)?;
             Some(target.display().to_string())
         }
         None => None,
@@ -190,16 +187,20 @@ struct CameraOut {
     files: Option<CameraFiles>,
 }
 
-impl CameraOut {
-    /// The structured reply: the full result, or with output_path the summary with the
-    /// files' paths instead of the arrays.
-    fn reply(self) -> CameraImage {
-        let mut s = self.rendered.summary;
-        if let Some((png, depth, seg)) = self.files {
-            (s.depth, s.segmentation) = (None, None);
-            (s.png_path, s.depth_path, s.segmentation_path) = (Some(png), depth, seg);
+impl Replied for CameraOut {
+    /// The PNG inline beside the full result, or with output_path the summary with the files'
+    /// paths instead of the arrays.
+    fn reply(&self, tool: &str) -> CallToolResult {
+        let mut s = self.rendered.summary.clone();
+        let mut images = Vec::new();
+        match &self.files {
+            Some((png, depth, seg)) => {
+                (s.depth, s.segmentation) = (None, None);
+                (s.png_path, s.depth_path, s.segmentation_path) = (Some(png.clone()), depth.clone(), seg.clone());
+            }
+            None => images.push(budget::Image { bytes: &self.rendered.png, mime: "image/png" }),
         }
-        s
+        budget::reply(tool, serde_json::to_value(s).unwrap_or_default(), &images)
     }
 }
 
@@ -219,9 +220,9 @@ fn camera_image_to(cx: &reads::ReadContext, p: &params::CameraImage, max_px: usi
         }
         None => {
             let px = (p.width.get().max(0) as u64).saturating_mul(p.height.get().max(0) as u64);
-            let per_px = usize::from(depth) * reply::DEPTH_BYTES_MAX + usize::from(seg) * reply::SEGMENT_BYTES_MAX;
+            let per_px = usize::from(depth) * budget::DEPTH_BYTES_MAX + usize::from(seg) * budget::SEGMENT_BYTES_MAX;
             if px <= max_px as u64 {
-                reply::check_bound("get_camera_image", px, per_px, budget)?;
+                budget::check_bound("get_camera_image", px, per_px, budget)?;
             }
             None
         }
@@ -236,7 +237,7 @@ fn camera_image_to(cx: &reads::ReadContext, p: &params::CameraImage, max_px: usi
     let depth_file = match (&depth_at, &rendered.summary.depth) {
         (Some(at), Some(d)) => {
             let values: Vec<f32> = d.iter().map(|v| *v as f32).collect();
-            sandbox.write_atomic(at, &npy::encode(h, w, &values))?;
+            write::create_new(at, "output_path", &show(at), &npy::encode(h, w, &values))?;
             Some(show(at))
         }
         _ => None,
@@ -244,12 +245,12 @@ fn camera_image_to(cx: &reads::ReadContext, p: &params::CameraImage, max_px: usi
     let seg_file = match (&seg_at, &rendered.summary.segmentation) {
         (Some(at), Some(s)) => {
             let values: Vec<i32> = s.iter().map(|v| i32::try_from(*v).unwrap_or(i32::MAX)).collect();
-            sandbox.write_atomic(at, &npy::encode(h, w, &values))?;
+            write::create_new(at, "output_path", &show(at), &npy::encode(h, w, &values))?;
             Some(show(at))
         }
         _ => None,
     };
-    sandbox.write_atomic(&png, &rendered.png)?;
+    write::create_new(&png, "output_path", &show(&png), &rendered.png)?;
     Ok(CameraOut { rendered, files: Some((show(&png), depth_file, seg_file)) })
 }
 
@@ -258,5 +259,5 @@ fn output_target(sandbox: &Sandbox, user: &str, ext: &str) -> Result<std::path::
     if !user.to_ascii_lowercase().ends_with(ext) || user.len() <= ext.len() {
         return Err(format!("output_path must name a {ext} file; got {user}"));
     }
-    new_output(sandbox, user)
+    write::new_output(sandbox, "output_path", user)
 }

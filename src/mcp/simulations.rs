@@ -96,7 +96,7 @@ impl PhysicsServer {
         let control = watch.control();
         let sampling = params::parse::<Step>("step_simulation", &args).map(|p| super::time::step_sampling(&p));
         let out = match sampling {
-            Ok(Ok(None)) => self.change_with("step_simulation", args, |p: Step| decide_step(&p), control).await,
+            Ok(Ok(None)) => self.change_with("step_simulation", args, |p: Step, _| decide_step(&p), control).await,
             _ => self.sampled_step(args, control).await,
         };
         watch.finish().await;

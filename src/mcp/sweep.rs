@@ -14,13 +14,13 @@ use super::params::{self, Sweep};
 use super::PhysicsServer;
 use crate::batch::call_refused;
 use crate::outputs::Swept;
-use crate::sim::{lock_sim, Registry};
+use crate::sim::lock_sim;
 use crate::sweep::{Control, Observe, Request, MAX_VARIANTS};
 use crate::value::{self, Args, Refusal};
 
 /// The sweep a call asks for, every variant's calls decided (a refusal names the variant
 /// and the call).
-fn sweep_request(reg: &Registry, a: &Args) -> Result<Request, Refusal> {
+fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, Refusal> {
     let p: Sweep = params::parse("run_sweep", a)?;
     let n = p.variants.len();
     if n == 0 || n > MAX_VARIANTS {
@@ -34,8 +34,9 @@ fn sweep_request(reg: &Registry, a: &Args) -> Result<Request, Refusal> {
         every: super::time::opt_every(o.every, "observe.every")?,
     };
     let mut variants = Vec::with_capacity(n);
+    let mut ahead = super::batch::Ahead::new(sandbox);
     for (v, calls) in p.variants.into_iter().enumerate() {
-        let planned = super::batch::plan(reg, &p.sim_id.0, calls)
+        let planned = super::batch::plan(&mut ahead, &p.sim_id.0, calls)
             .map_err(|(i, tool, why)| format!("variants[{v}]: {}", call_refused(i, &tool, &why)))?;
         variants.push(planned);
     }
@@ -56,15 +57,19 @@ impl PhysicsServer {
     ) -> Result<Json<Swept>, String> {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
-        let request = sweep_request(&self.reg, &args);
-        let (n, steps, keep) = request.as_ref().map_or((1, 1, false), |r| (r.variants.len(), r.steps, r.keep));
+        // Counted from the parameters alone, for progress; the files the variants name are
+        // read (and their models parsed) on the blocking pool, below.
+        let (n, steps, keep) = params::parse::<Sweep>("run_sweep", &args).map_or((1, 1, false), |p| {
+            (p.variants.len().max(1), u64::try_from(p.steps.get()).unwrap_or(1), p.keep.is_some_and(|b| b.0))
+        });
         let watch = super::progress::Watch::new(&meta, peer, ct, (n as u64).saturating_mul(steps).max(1));
         let done = Arc::new(AtomicU64::new(0));
         let mut controls: Vec<Control> = (0..n).map(|_| Box::new(watch.shared_control(done.clone())) as Control).collect();
         let reg = self.reg.clone();
         let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
         let budget = self.reg.limits().max_reply_bytes;
-        let out = tokio::task::spawn_blocking(move || match request {
+        let sandbox = self.reg.sandbox().clone();
+        let out = tokio::task::spawn_blocking(move || match sweep_request(&sandbox, &args) {
             Ok(req) => {
                 let next = move || controls.pop().unwrap_or_else(|| Box::new(|_| true));
                 reg.sweep(&id, &args, req, next, (workers, budget))

@@ -16,7 +16,7 @@ use crate::outputs::Trajectory;
 use crate::sim::lock_sim;
 use crate::trajectory::{self, Request};
 use crate::value::{self, Args, Refusal};
-use crate::workspace::Sandbox;
+use crate::files::{write, Sandbox};
 
 /// The interval a call asks for: (from_seq, to_seq), each None for its default.
 pub(crate) type Asked = (Option<u64>, Option<u64>);
@@ -59,24 +59,15 @@ fn trajectory_args(a: &Args) -> Result<(Asked, (Request, Option<String>)), Refus
     Ok((interval, (req, path)))
 }
 
-/// Where a new output file goes: inside the workspace, not existing yet (never overwritten).
-pub(crate) fn new_output(sandbox: &Sandbox, user: &str) -> Result<std::path::PathBuf, Refusal> {
-    let target = sandbox.writable(user).map_err(|e| format!("output_path: {}", e.replacen("file_path ", "", 1)))?;
-    if target.exists() {
-        return Err(format!("output_path {user} already exists; give a new file name (files are never overwritten)"));
-    }
-    Ok(target)
-}
-
 /// The reply of get_trajectory: the table inline (within the reply budget) or in the file.
 fn deliver(t: Trajectory, path: Option<String>, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
     let Some(user) = path else {
-        trajectory::check_reply(&t, "every")?;
+        // Inline: held to the reply budget where the read is logged (`look_back`).
         return Ok(t);
     };
     let bytes = trajectory::file_bytes(&t, &user, "output_path")?;
-    let target = new_output(sandbox, &user)?;
-    sandbox.write_atomic(&target, &bytes)?;
+    let target = write::new_output(sandbox, "output_path", &user)?;
+    write::create_new(&target, "output_path", &user, &bytes)?;
     Ok(trajectory::summary(t, target.display().to_string()))
 }
 
@@ -105,20 +96,24 @@ impl PhysicsServer {
         parsed: Result<(Asked, P), Refusal>,
         f: impl FnOnce(P, &Lent) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
-        self.look_back_with(tool, args, parsed, move |p, lent| f(p, lent).map(|t| (t, ()))).await.map(|(t, ())| Json(t))
+        let measure = move |t: &T, _: &()| crate::budget::reply_bytes(tool, serde_json::to_value(t).unwrap_or_default());
+        self.look_back_with(tool, args, parsed, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
     }
 
     /// `look_back` whose `f` also returns a payload `E` that goes to the client but not into
-    /// the log (render_animation's GIF bytes): the log records the result `T` only.
+    /// the log (render_animation's GIF bytes): the log records the result `T` only, once
+    /// `measure` (the reply's bytes as it will be sent) has found it within the budget.
     pub(crate) async fn look_back_with<P: Send + 'static, T: Serialize + Send + 'static, E: Send + 'static>(
         &self,
         tool: &'static str,
         args: Args,
         parsed: Result<(Asked, P), Refusal>,
         f: impl FnOnce(P, &Lent) -> Result<(T, E), Refusal> + Send + 'static,
+        measure: impl FnOnce(&T, &E) -> usize + Send + 'static,
     ) -> Result<(T, E), String> {
         let id = value::string(&args, "sim_id")?;
         let sim = self.reg.get(&id)?;
+        let budget = self.reg.limits().max_reply_bytes;
         tokio::task::spawn_blocking(move || {
             let lent = {
                 let mut s = lock_sim(&sim);
@@ -133,7 +128,7 @@ impl PhysicsServer {
             let out = f(p, &lent);
             let mut s = lock_sim(&sim);
             match out {
-                Ok((v, extra)) => s.read(tool, &args, |_| Ok(v)).map(|v| (v, extra)),
+                Ok((v, extra)) => s.read_replying(tool, &args, budget, |_| Ok(v), |t, _| measure(t, &extra)).map(|v| (v, extra)),
                 Err(why) => Err(s.refuse(tool, &args, why)),
             }
         })
@@ -204,10 +199,9 @@ pub(crate) fn sampled_step_with(
         let samples = trajectory::max_samples(steps, every);
         trajectory::check_cells(samples, listed.len() as u64, "sample_every")?;
         let numbers = listed.iter().map(|id| trajectory::numbers_per_object(w, *id, include_velocities)).sum();
-        trajectory::check_reply_bound(samples, numbers, "sample_every")?;
         // And against --max-reply-bytes, which may be lower than the default: the central
         // reply check could only refuse after the steps were taken.
-        super::reply::check_structured_bound("step_simulation", trajectory::reply_bound(samples, numbers), limits.max_reply_bytes)?;
+        crate::budget::check_structured_bound("step_simulation", trajectory::reply_bound(samples, numbers), limits.max_reply_bytes)?;
         Ok((cmd, every, ids))
     })();
     let (cmd, every, ids) = match checked {

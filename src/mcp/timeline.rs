@@ -7,7 +7,7 @@ use rmcp::{tool, tool_router};
 
 use super::lenient::{int_or, Int};
 use super::params::{self, Count, Fork, HistoryPage, SimRef};
-use super::{reply, PhysicsServer};
+use super::PhysicsServer;
 use crate::outputs::{Forked, History, Redone, Undone, Verified};
 use crate::timeline::HISTORY_MAX_LIMIT;
 use crate::value::Refusal;
@@ -32,7 +32,7 @@ fn within_budget(mut h: History, budget: usize) -> History {
         let mut page = serde_json::to_value(History { events: Vec::new(), head_seq: h.head_seq, last_seq: h.last_seq, truncated: k < n })
             .unwrap_or_default();
         page["events"] = serde_json::Value::Array(events[..k].to_vec());
-        reply::reply_bytes("get_history", page) <= budget
+        crate::budget::reply_bytes("get_history", page) <= budget
     };
     if n == 0 || fits(n) {
         return h;

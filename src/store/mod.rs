@@ -8,6 +8,8 @@
 //! allows that). `--sync normal` survives a killed process (WAL); `--sync full` also fsyncs
 //! every commit, for power loss.
 
+pub mod data_dir;
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;

@@ -119,6 +119,26 @@ impl Server {
         assert!(status.success(), "the server exited with {status} after SIGTERM");
     }
 
+    /// SIGTERM, then waits at most `limit` for the exit (killing the process past it):
+    /// returns how long the exit took, panicking if it did not come or was not clean.
+    pub fn terminate_within(mut self, limit: Duration) -> Duration {
+        let pid = self.child.id().to_string();
+        let sent = Command::new("kill").args(["-TERM", &pid]).status().expect("run kill");
+        assert!(sent.success(), "kill -TERM {pid} failed");
+        let started = std::time::Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                assert!(status.success(), "the server exited with {status} after SIGTERM");
+                return started.elapsed();
+            }
+            if started.elapsed() > limit {
+                let _ = self.child.kill();
+                panic!("the server was still running {limit:?} after SIGTERM");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     /// kill -9.
     pub fn kill(mut self) {
         let _ = self.child.kill();
@@ -291,8 +311,23 @@ pub fn load_fixture(
         fixed_base,
         continuous_limits_from_file: true,
         revolute_prismatic_limits_from_file: true,
+        parsed: Default::default(),
     };
     w.apply(&cmd, &mut |_| true).to_value()["object_id"].as_u64().unwrap() as u32
+}
+
+/// 1,000 boxes on a 10×10×10 grid over a static floor, as batch calls (`{tool, arguments}`).
+pub fn pile_calls() -> Vec<Value> {
+    let mut calls = vec![json!({"tool": "add_box", "arguments": {"dimensions": [20, 20, 0.5], "position": [0, 0, -0.5], "mass": 0}})];
+    for i in 0..10 {
+        for j in 0..10 {
+            for k in 0..10 {
+                let p = [i as f64 * 0.25 - 1.125, j as f64 * 0.25 - 1.125, 0.5 + k as f64 * 0.25];
+                calls.push(json!({"tool": "add_box", "arguments": {"dimensions": [0.1, 0.1, 0.1], "position": p, "orientation": [0, 0, 0.0998, 0.995]}}));
+            }
+        }
+    }
+    calls
 }
 
 /// An empty in-process world with PyBullet's gravity.

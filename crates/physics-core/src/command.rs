@@ -98,6 +98,12 @@ impl Blob {
         }
     }
 
+    /// A blob over bytes shared with others (one file read once for many commands of a
+    /// request holds its bytes once).
+    pub fn from_shared(bytes: Arc<Vec<u8>>) -> Blob {
+        Blob { hash: crate::digest::content_hash(&bytes), bytes }
+    }
+
     /// Whether the bytes are present and match the hash.
     pub fn is_loaded(&self) -> bool {
         blake3::hash(&self.bytes).to_hex().as_str() == self.hash
@@ -117,6 +123,55 @@ impl<'de> Deserialize<'de> for Blob {
             bytes: Arc::new(Vec::new()),
         })
     }
+}
+
+/// A model (a URDF robot, an MJCF model) parsed from a command's blobs ahead of its check and
+/// its apply, so a load parses once and can do so before its simulation is locked. It rides
+/// beside the command and is never recorded: a decoded event has none and parses its blobs,
+/// which give the same model. It is not part of the command's meaning (equal whatever it holds).
+#[derive(Clone)]
+pub struct Parsed<T>(Option<Arc<T>>);
+
+impl<T> Default for Parsed<T> {
+    fn default() -> Self {
+        Parsed(None)
+    }
+}
+
+impl<T> Parsed<T> {
+    /// The model, when it was parsed ahead.
+    pub fn get(&self) -> Option<&Arc<T>> {
+        self.0.as_ref()
+    }
+}
+
+impl<T> PartialEq for Parsed<T> {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl<T> std::fmt::Debug for Parsed<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.is_some() { "Parsed" } else { "NotParsed" })
+    }
+}
+
+/// Models parsed ahead within one request, by what they were parsed from, so a batch that
+/// loads one robot many times parses it once.
+#[derive(Default)]
+pub struct ParsedModels {
+    urdf: BTreeMap<String, Arc<crate::world::urdf::RobotModel>>,
+    mjcf: BTreeMap<String, Arc<crate::world::mjcf::Prepared>>,
+}
+
+/// A key naming a model's blobs and the options it is parsed with.
+fn model_key(main: &Blob, meshes: &BTreeMap<String, Blob>, options: &str) -> String {
+    let mut key = format!("{} {options}", main.hash);
+    for (name, b) in meshes {
+        key.push_str(&format!(" {name}={}", b.hash));
+    }
+    key
 }
 
 /// Where decoded events find their blobs' bytes: a log's `blobs` table, a saved file's map.
@@ -366,6 +421,9 @@ pub enum Command {
         /// Omitted when false, so such events re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         revolute_prismatic_limits_from_file: bool,
+        /// The robot parsed ahead (`Command::ready`), never recorded.
+        #[serde(skip)]
+        parsed: Parsed<crate::world::urdf::RobotModel>,
     },
     /// Set (or replace) a joint motor; it acts on every later step.
     SetJointMotor {
@@ -437,6 +495,9 @@ pub enum Command {
         /// The `<key name>` whose qpos the joints start at (None: qpos0).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         keyframe: Option<String>,
+        /// The model parsed ahead (`Command::ready`), never recorded.
+        #[serde(skip)]
+        parsed: Parsed<crate::world::mjcf::Prepared>,
     },
 }
 
@@ -581,6 +642,58 @@ impl Command {
     /// written before event version 2 recorded the steps asked; their result says the truth.
     pub fn as_done(self, result: &serde_json::Value) -> Command {
         self.as_taken(result.get("steps_taken").and_then(serde_json::Value::as_u64))
+    }
+
+    /// How a URDF load reads joint limits (its two recorded flags; default rules otherwise).
+    pub fn urdf_rules(&self) -> crate::world::urdf::LimitsFromFile {
+        match self {
+            Command::LoadUrdf { continuous_limits_from_file, revolute_prismatic_limits_from_file, .. } => {
+                crate::world::urdf::LimitsFromFile {
+                    continuous: *continuous_limits_from_file,
+                    revolute_prismatic: *revolute_prismatic_limits_from_file,
+                }
+            }
+            _ => crate::world::urdf::LimitsFromFile { continuous: true, revolute_prismatic: true },
+        }
+    }
+
+    /// The command with its model parsed ahead (a load; anything else as it is), refused as
+    /// the check would refuse it: what a single call does before its simulation is locked.
+    pub fn ready(self) -> Result<Command, Refusal> {
+        self.ready_in(&mut ParsedModels::default())
+    }
+
+    /// `ready`, parsing each distinct model once within `models` (one request's).
+    pub fn ready_in(mut self, models: &mut ParsedModels) -> Result<Command, Refusal> {
+        let rules = self.urdf_rules();
+        match &mut self {
+            Command::LoadUrdf { urdf, meshes, parsed, .. } => {
+                let key = model_key(urdf, meshes, &format!("{} {}", rules.continuous, rules.revolute_prismatic));
+                let model = match models.urdf.get(&key) {
+                    Some(m) => m.clone(),
+                    None => {
+                        let m = Arc::new(crate::world::urdf_model(urdf, meshes, rules)?);
+                        models.urdf.insert(key, m.clone());
+                        m
+                    }
+                };
+                *parsed = Parsed(Some(model));
+            }
+            Command::LoadMjcf { mjcf, meshes, keyframe, parsed, .. } => {
+                let key = model_key(mjcf, meshes, keyframe.as_deref().unwrap_or(""));
+                let model = match models.mjcf.get(&key) {
+                    Some(m) => m.clone(),
+                    None => {
+                        let m = Arc::new(crate::world::mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref())?);
+                        models.mjcf.insert(key, m.clone());
+                        m
+                    }
+                };
+                *parsed = Parsed(Some(model));
+            }
+            _ => {}
+        }
+        Ok(self)
     }
 
     /// `as_done` given the steps a step_simulation took (None: not a step result).
@@ -739,17 +852,19 @@ impl Command {
             Command::SetTimestep { .. }
             | Command::SetDebugVisualization { .. }
             | Command::SetCamera { .. } => Ok(()),
-            Command::LoadUrdf { urdf, meshes, continuous_limits_from_file, revolute_prismatic_limits_from_file, .. } => {
+            Command::LoadUrdf { urdf, meshes, parsed, .. } => {
                 room_for_object(world, limits)?;
-                let rules = crate::world::urdf::LimitsFromFile {
-                    continuous: *continuous_limits_from_file,
-                    revolute_prismatic: *revolute_prismatic_limits_from_file,
-                };
-                crate::world::urdf_model(urdf, meshes, rules).map(|_| ())
+                match parsed.get() {
+                    Some(_) => Ok(()),
+                    None => crate::world::urdf_model(urdf, meshes, self.urdf_rules()).map(|_| ()),
+                }
             }
-            Command::LoadMjcf { mjcf, meshes, keyframe, .. } => {
+            Command::LoadMjcf { mjcf, meshes, keyframe, parsed, .. } => {
                 room_for_object(world, limits)?;
-                crate::world::mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()).map(|_| ())
+                match parsed.get() {
+                    Some(_) => Ok(()),
+                    None => crate::world::mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()).map(|_| ()),
+                }
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 exists(*object_id)?;

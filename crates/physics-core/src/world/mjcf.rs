@@ -103,6 +103,7 @@ impl PhysicsHooks for ExcludedPairs {
 }
 
 /// A parsed and converted model, checked, ready to insert.
+#[derive(Clone)]
 pub struct Prepared {
     model: Model,
     robot: MjcfRobot,
@@ -227,16 +228,52 @@ pub fn prepare_blob(mjcf: &Blob, meshes: &BTreeMap<String, Blob>, keyframe: Opti
     prepare(text, meshes, keyframe)
 }
 
-/// Parses, checks and converts MJCF text (includes already spliced; meshes by `<mesh file>`).
-pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
-    let mut ignored = scan(xml)?;
-    // The base directory is never read: includes are spliced and meshes come from the blobs.
-    let base = Path::new("/nonexistent-physics-mcp-mjcf-base");
-    let model = Model::from_str(xml, base).map_err(|e| {
+/// The folder the parser is told the model is in. It is never read: [`parse_model`] refuses
+/// every element the parser would open a file for, and meshes come from the event's blobs.
+const NO_FOLDER: &str = "/nonexistent-physics-mcp-mjcf-base";
+
+/// An element of a model that names a file the parser would open itself.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FileReference {
+    /// The element's tag (`include`, `model`).
+    pub tag: String,
+    /// Its `file` attribute as written.
+    pub file: String,
+}
+
+/// The first element of `xml` that mjcf-rs would read a file for — `<include file>` (the
+/// server splices includes into the text before the event is made) or `<asset><model file>`
+/// (a sub-model, not supported) — matched by local name as the parser matches them. None when
+/// the model is self-contained; text that is not XML has none (the parser refuses it).
+pub fn file_reference(xml: &str) -> Option<FileReference> {
+    let doc = roxmltree::Document::parse(xml).ok()?;
+    doc.descendants()
+        .filter(|n| n.is_element() && matches!(n.tag_name().name(), "include" | "model"))
+        .find(|n| n.tag_name().name() == "include" || n.attribute("file").is_some())
+        .map(|n| FileReference { tag: n.tag_name().name().to_string(), file: n.attribute("file").unwrap_or("").to_string() })
+}
+
+/// The one place MJCF text reaches the parser: refused first if any element would make the
+/// parser open a file (`file_reference`), so parsing reads nothing but `xml`.
+pub fn parse_model(xml: &str) -> Result<Model, Refusal> {
+    if let Some(r) = file_reference(xml) {
+        return Err(match r.tag.as_str() {
+            "include" => format!("<include file=\"{}\"> must be resolved by the server before loading", r.file),
+            _ => format!("<asset><model file=\"{}\"> (a sub-model in another file) is not supported", r.file),
+        });
+    }
+    Model::from_str(xml, Path::new(NO_FOLDER)).map_err(|e| {
         let msg = e.to_string();
         let first = msg.lines().next().unwrap_or("").trim().to_string();
         format!("file_path is not a valid MJCF model: {first}")
-    })?;
+    })
+}
+
+/// Parses, checks and converts MJCF text (includes already spliced; meshes by `<mesh file>`).
+pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
+    let mut ignored = scan(xml)?;
+    let model = parse_model(xml)?;
+    let base = Path::new(NO_FOLDER);
     ignored.insert(
         0,
         format!(

@@ -41,9 +41,8 @@ pub struct MeshGeom {
 /// MuJoCo does. The adapter reads them into the event; unparseable text gives none (the load
 /// is refused later, naming the problem).
 pub fn mesh_files(xml: &str, dir: &Path) -> Vec<(String, PathBuf)> {
-    // Parsed against a folder that does not exist, as the world parses it: the parser itself
-    // must read nothing (an `<asset><model file>` would otherwise be read past the sandbox).
-    let Ok(model) = Model::from_str(xml, Path::new("/nonexistent-physics-mcp-mjcf-base")) else { return Vec::new() };
+    // Parsed as the world parses it: the parser itself reads nothing.
+    let Ok(model) = super::mjcf::parse_model(xml) else { return Vec::new() };
     let mut out: Vec<(String, PathBuf)> = Vec::new();
     for entry in &model.bodies {
         for g in entry.body.geoms.iter().filter(|g| g.type_ == GeomType::Mesh) {

@@ -463,21 +463,12 @@ impl World {
                     timestep: given,
                 })
             }
-            Command::LoadUrdf {
-                file_path,
-                urdf,
-                meshes,
-                position,
-                orientation,
-                fixed_base,
-                continuous_limits_from_file,
-                revolute_prismatic_limits_from_file,
-            } => {
-                let rules = urdf::LimitsFromFile {
-                    continuous: *continuous_limits_from_file,
-                    revolute_prismatic: *revolute_prismatic_limits_from_file,
+            Command::LoadUrdf { file_path, urdf, meshes, position, orientation, fixed_base, parsed, .. } => {
+                let model = match parsed.get() {
+                    Some(m) => Ok(urdf::RobotModel::clone(m)),
+                    None => urdf_model(urdf, meshes, cmd.urdf_rules()),
                 };
-                match urdf_model(urdf, meshes, rules) {
+                match model {
                     Ok(model) => {
                         let pose = Pose::from_parts(
                             Vector::from_array(*position),
@@ -488,8 +479,12 @@ impl World {
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
             }
-            Command::LoadMjcf { file_path, mjcf, meshes, position, orientation, fixed_base, keyframe } => {
-                match mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()) {
+            Command::LoadMjcf { file_path, mjcf, meshes, position, orientation, fixed_base, keyframe, parsed } => {
+                let prepared = match parsed.get() {
+                    Some(p) => Ok(mjcf::Prepared::clone(p)),
+                    None => mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()),
+                };
+                match prepared {
                     Ok(prepared) => {
                         let pose = Pose::from_parts(
                             Vector::from_array(*position),

@@ -1,10 +1,8 @@
-//! The path sandbox: every user-supplied file path (saves, loads, URDFs) resolves inside the
-//! workspace directory and never inside the data directory. Paths are resolved relative to
-//! the workspace, then canonicalised (symlinks followed); anything that ends up outside is
-//! refused with one sentence. Writes are atomic (temp file + rename in the same directory)
-//! and never follow a symlink out of the workspace.
+//! The path sandbox: every user-supplied file path resolves inside the workspace directory
+//! and never inside the data directory. Paths are resolved relative to the workspace, then
+//! canonicalised (symlinks followed); anything that ends up outside is refused with one
+//! sentence. This module only resolves paths; `read` and `write` open them.
 
-use std::io::Write;
 use std::path::{Component, Path, PathBuf};
 
 use crate::value::Refusal;
@@ -34,35 +32,38 @@ pub struct Sandbox {
 }
 
 impl Sandbox {
-    fn denied(&self, shown: &str) -> Refusal {
+    pub(super) fn denied(&self, shown: &str) -> Refusal {
         format!("Access denied: {shown} is outside the workspace {}", self.workspace.display())
     }
 
-    fn check_inside(&self, canon: &Path, shown: &str) -> Result<(), Refusal> {
-        if !canon.starts_with(&self.workspace) || canon.starts_with(&self.data_dir) {
-            return Err(self.denied(shown));
-        }
-        Ok(())
+    /// Whether a canonical path is one a user file may be: inside the workspace, not in the
+    /// data directory.
+    pub(super) fn contains(&self, canon: &Path) -> bool {
+        canon.starts_with(&self.workspace) && !canon.starts_with(&self.data_dir)
     }
 
-    /// The canonical path of an existing file to read.
-    pub fn existing(&self, user: &str) -> Result<PathBuf, Refusal> {
-        let joined = self.workspace.join(user);
-        let canon = match joined.canonicalize() {
-            Ok(c) => c,
-            Err(_) => {
-                self.check_inside(&lexical(&joined), user)?;
-                return Err(format!(
-                    "file_path {user} does not exist in the workspace {}",
-                    self.workspace.display()
-                ));
-            }
-        };
-        self.check_inside(&canon, user)?;
-        if !canon.is_file() {
-            return Err(format!("file_path {user} is not a file"));
+    fn check_inside(&self, canon: &Path, shown: &str) -> Result<(), Refusal> {
+        if self.contains(canon) {
+            Ok(())
+        } else {
+            Err(self.denied(shown))
         }
-        Ok(canon)
+    }
+
+    /// The canonical path of an existing entry to read (whether it is a regular file is
+    /// checked on the opened handle, by `read`).
+    pub fn existing(&self, user: &str) -> Result<PathBuf, Refusal> {
+        self.probe(user)?.ok_or_else(|| format!("file_path {user} does not exist in the workspace {}", self.workspace.display()))
+    }
+
+    /// Where `user` resolves: Some(canonical path) when it exists inside the workspace, None
+    /// when nothing is there (a candidate to try the next of), refused when it is outside.
+    pub fn probe(&self, user: &str) -> Result<Option<PathBuf>, Refusal> {
+        let joined = self.workspace.join(user);
+        match joined.canonicalize() {
+            Ok(canon) => self.check_inside(&canon, user).map(|()| Some(canon)),
+            Err(_) => self.check_inside(&lexical(&joined), user).map(|()| None),
+        }
     }
 
     /// The path to write `user` at: its parent directories are created inside the workspace;
@@ -108,19 +109,4 @@ impl Sandbox {
         Ok(target)
     }
 
-    /// Writes `bytes` to a path from `writable` atomically: a temp file in the same folder,
-    /// fsynced, then renamed over the target (a symlink at the target is replaced, not
-    /// followed).
-    pub fn write_atomic(&self, target: &Path, bytes: &[u8]) -> Result<(), Refusal> {
-        let dir = target.parent().ok_or("the target has no folder")?;
-        let mut tmp = tempfile::NamedTempFile::new_in(dir)
-            .map_err(|e| format!("could not write {}: {e}", target.display()))?;
-        tmp.write_all(bytes)
-            .and_then(|_| tmp.as_file().sync_all())
-            .map_err(|e| format!("could not write {}: {e}", target.display()))?;
-        crate::crash_point!("save_write");
-        tmp.persist(target)
-            .map_err(|e| format!("could not write {}: {e}", target.display()))?;
-        Ok(())
-    }
 }

@@ -1,0 +1,103 @@
+//! The data directory: the server's own files, not the user's — the simulations' logs, the
+//! exclusive lock and the saved-file MAC key. Private to the server: created 0700, the key
+//! 0600. (User files go through `crate::files`.)
+
+use std::path::{Path, PathBuf};
+
+/// Creates `dir` (the data directory privately, `private`) and refuses `/` or the home
+/// directory (MCP clients often start stdio servers with the working directory at `/`).
+pub fn prepare_dir(flag: &str, dir: &Path, private: bool) -> anyhow::Result<PathBuf> {
+    let mut builder = std::fs::DirBuilder::new();
+    builder.recursive(true);
+    #[cfg(unix)]
+    if private {
+        use std::os::unix::fs::DirBuilderExt;
+        builder.mode(0o700);
+    }
+    builder.create(dir).map_err(|e| anyhow::anyhow!("cannot create {flag} {}: {e}", dir.display()))?;
+    let canon = dir.canonicalize()?;
+    let home = std::env::var_os("HOME").map(PathBuf::from).and_then(|h| h.canonicalize().ok());
+    if canon == Path::new("/") || Some(&canon) == home.as_ref() {
+        anyhow::bail!(
+            "{flag} resolves to {}, which is / or the home directory; pass an absolute {flag} \
+             for physics-mcp's own files (MCP clients often start servers with the working \
+             directory at /)",
+            canon.display()
+        );
+    }
+    Ok(canon)
+}
+
+/// Takes the data directory's exclusive OS lock (released when the process dies, even by
+/// kill -9), refusing to start beside another live process on the same directory.
+pub fn lock(data_dir: &Path) -> anyhow::Result<std::fs::File> {
+    let lock_path = data_dir.join(".lock");
+    let lock = std::fs::File::options().create(true).truncate(false).write(true).open(&lock_path)?;
+    if lock.try_lock().is_err() {
+        anyhow::bail!(
+            "another physics-mcp process is using the data directory {} (it holds {}); \
+             stop it or pass a different --data",
+            data_dir.display(),
+            lock_path.display()
+        );
+    }
+    Ok(lock)
+}
+
+/// The simulation logs in the data directory, in name order.
+pub fn logs(data_dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(data_dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+        .collect();
+    paths.sort();
+    Ok(paths)
+}
+
+/// Deletes the partial logs a kill during create, fork or load left behind (start-up: no
+/// request is running, so none is being written).
+pub fn remove_partial_logs(data_dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(data_dir) else { return };
+    for e in entries.flatten() {
+        if e.file_name().to_str().is_some_and(super::is_partial) {
+            tracing::info!("removing the partial log {}", e.path().display());
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+/// Deletes a log and its WAL/shared-memory companions.
+pub fn remove_log_files(path: &Path) {
+    for suffix in std::iter::once("").chain(super::COMPANIONS) {
+        let mut p = path.to_path_buf().into_os_string();
+        p.push(suffix);
+        let _ = std::fs::remove_file(PathBuf::from(p));
+    }
+}
+
+/// Reads the data directory's MAC key, creating it (0600) on first start. Saved files carry a
+/// MAC of their snapshot under this key, so only files this server wrote load from a snapshot.
+pub fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
+    let path = data_dir.join("mac.key");
+    if let Ok(bytes) = std::fs::read(&path) {
+        if let Ok(key) = <[u8; 32]>::try_from(bytes.as_slice()) {
+            return Ok(key);
+        }
+        anyhow::bail!("{} is not a 32-byte key; remove it to make a new one", path.display());
+    }
+    // A secret key straight from the operating system's generator (not derived from ids
+    // made for uniqueness, whose randomness is not a promise about secrecy).
+    let mut key = [0u8; 32];
+    getrandom::fill(&mut key)
+        .map_err(|e| anyhow::anyhow!("cannot make {}: no system randomness ({e})", path.display()))?;
+    let mut options = std::fs::File::options();
+    options.write(true).create_new(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.mode(0o600);
+    }
+    use std::io::Write;
+    options.open(&path).and_then(|mut f| f.write_all(&key).and_then(|()| f.sync_all()))?;
+    Ok(key)
+}
