@@ -309,6 +309,10 @@ pub struct RootBuild {
     pub engine: String,
     /// Whether the root recorded it (false: read as the build of its time).
     pub recorded: bool,
+    /// The crates whose versions differ from this binary's build, compared as maps
+    /// (`engine::differences`); empty, and left out of the JSON, when this build made it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub differences: Vec<crate::engine::CrateDifference>,
 }
 
 /// Which engine builds made a log's roots (inherited ones included), against this binary's:
@@ -325,33 +329,40 @@ pub struct EngineBuilds {
 
 impl EngineBuilds {
     fn of(roots: impl Iterator<Item = (u64, Option<String>)>) -> EngineBuilds {
+        let this = crate::engine::ENGINE_BUILD;
         let roots: Vec<RootBuild> = roots
-            .map(|(seq, engine)| RootBuild {
-                seq,
-                recorded: engine.is_some(),
-                engine: crate::engine::engine_build_of(engine.as_deref()).into(),
+            .map(|(seq, recorded)| {
+                let engine = crate::engine::engine_build_of(recorded.as_deref()).to_owned();
+                let differences = crate::engine::differences(&engine, this);
+                RootBuild { seq, engine, recorded: recorded.is_some(), differences }
             })
             .collect();
-        let differs = roots.iter().any(|r| r.engine != crate::engine::ENGINE_BUILD);
-        EngineBuilds { this: crate::engine::ENGINE_BUILD.into(), roots, differs }
+        let differs = roots.iter().any(|r| !r.differences.is_empty());
+        EngineBuilds { this: this.into(), roots, differs }
     }
 
     /// The roots made by another build than this binary.
     pub fn foreign(&self) -> Vec<&RootBuild> {
-        self.roots.iter().filter(|r| r.engine != self.this).collect()
+        self.roots.iter().filter(|r| !r.differences.is_empty()).collect()
     }
 
-    /// One line saying which roots another build made, or `None` when this build made them all.
+    /// One line naming, for each root another build made, the crates that differ (`crate:
+    /// recorded → this binary`), or `None` when this build made them all.
     pub fn warning(&self) -> Option<String> {
         let foreign = self.foreign();
         if foreign.is_empty() {
             return None;
         }
-        let which: Vec<String> = foreign.iter().map(|r| format!("root event {} by {}", r.seq, r.engine)).collect();
+        let which: Vec<String> = foreign
+            .iter()
+            .map(|r| {
+                let crates: Vec<String> = r.differences.iter().map(ToString::to_string).collect();
+                format!("root event {} ({})", r.seq, crates.join("; "))
+            })
+            .collect();
         Some(format!(
-            "engine build differs: this log was made by another engine build ({}); this binary is {}, so its recorded hashes may not reproduce",
-            which.join(", "),
-            self.this
+            "engine build differs (crate: recorded → this binary): {}; this log was made by another engine build, so its recorded hashes may not reproduce",
+            which.join(", ")
         ))
     }
 }

@@ -12,7 +12,8 @@
 //!   `snapshot`/`restore`.
 //! - `outputs` — the structured results of the tools (with JSON schemas).
 //! - `digest`  — content hashes of snapshots and blobs (blake3, parallel when large).
-//! - `engine`  — the engine build (rapier version and features) every root event records.
+//! - `engine`  — the engine build every root event records: a crate → version map of the
+//!   result-affecting crates, taken from `Cargo.lock` by `build.rs` at compile time.
 //! - `limits`  — the limits every request is checked against (a plain struct; the CLI's flags
 //!   for them live in the server crate).
 #![warn(missing_docs)]
