@@ -35,28 +35,19 @@
 
 pub use physics_core::{command, digest, engine, limits, outputs, value, world};
 
-pub mod animation;
-pub mod batch;
-pub mod budget;
 pub mod cli;
 pub mod client;
 pub mod failpoints;
-pub mod fold;
-pub mod npy;
-pub mod persistence;
-pub mod reads;
-pub mod replay;
-pub mod report;
-pub mod save;
-pub mod sensing;
-pub mod shutdown;
 pub mod files;
-pub mod sim;
-pub mod store;
-pub mod sweep;
-pub mod timeline;
-pub mod trajectory;
-pub mod urdf_files;
-pub mod mjcf_files;
+pub mod log;
 pub mod mcp;
-pub mod viewer;
+pub mod params;
+pub mod seeing;
+pub mod shutdown;
+pub mod sim;
+
+// The modules' earlier paths, until their users are moved over.
+pub use files::{mjcf as mjcf_files, npy, save_format as save, urdf as urdf_files};
+pub use log::{fold, replay, sqlite as store};
+pub use seeing::{animation, report, sensing, trajectory, viewer};
+pub use sim::{apply as batch, budget, reads, save_load as persistence, sweep, timeline};

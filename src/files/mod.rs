@@ -13,8 +13,12 @@
 //! Third-party parsers (urdf-rs, mjcf-rs, mesh readers) are handed bytes read here, never a
 //! path: a fold reads nothing but the log.
 
+pub mod mjcf;
+pub mod npy;
 pub mod read;
 mod sandbox;
+pub mod save_format;
+pub mod urdf;
 pub mod write;
 
 pub use read::Reader;

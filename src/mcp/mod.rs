@@ -13,31 +13,20 @@
 //! JSON Schema 2020-12 by `schema::plain` (input schemas by `schema::input`, also leaner; see
 //! `tools`). Every reply passes the reply budget (`reply::fit`, in `call_tool`).
 
-mod animation;
-mod batch;
-mod constraints;
 mod instructions;
-pub mod lenient;
 mod logging;
-mod mjcf;
-mod objects;
-pub mod params;
-mod persistence;
-mod progress;
+pub(crate) mod progress;
 mod prompts;
 pub(crate) mod reply;
 mod resources;
-mod robots;
 mod schema;
 pub mod session_limit;
-mod sensing;
-mod simulations;
 mod subscriptions;
-mod sweep;
-mod time;
-mod timeline;
-mod viewer;
+mod tools;
 pub mod transport;
+
+pub use crate::params::{self, lenient};
+pub(crate) use tools::time;
 
 use std::sync::{Arc, LazyLock};
 

@@ -25,9 +25,9 @@ pub const MAX_MESH_BYTES: u64 = 64 << 20;
 
 /// Built into the binary, found by name when the workspace has no such file.
 const BUILTIN: [(&str, &str); 3] = [
-    ("plane.urdf", include_str!("../assets/plane.urdf")),
-    ("cube.urdf", include_str!("../assets/cube.urdf")),
-    ("sphere.urdf", include_str!("../assets/sphere.urdf")),
+    ("plane.urdf", include_str!("../../assets/plane.urdf")),
+    ("cube.urdf", include_str!("../../assets/cube.urdf")),
+    ("sphere.urdf", include_str!("../../assets/sphere.urdf")),
 ];
 
 /// A built-in asset's text by its name.

@@ -59,7 +59,7 @@ pub fn logs(data_dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 pub fn remove_partial_logs(data_dir: &Path) {
     let Ok(entries) = std::fs::read_dir(data_dir) else { return };
     for e in entries.flatten() {
-        if e.file_name().to_str().is_some_and(super::is_partial) {
+        if e.file_name().to_str().is_some_and(super::sqlite::is_partial) {
             tracing::info!("removing the partial log {}", e.path().display());
             let _ = std::fs::remove_file(e.path());
         }
@@ -68,7 +68,7 @@ pub fn remove_partial_logs(data_dir: &Path) {
 
 /// Deletes a log and its WAL/shared-memory companions.
 pub fn remove_log_files(path: &Path) {
-    for suffix in std::iter::once("").chain(super::COMPANIONS) {
+    for suffix in std::iter::once("").chain(super::sqlite::COMPANIONS) {
         let mut p = path.to_path_buf().into_os_string();
         p.push(suffix);
         let _ = std::fs::remove_file(PathBuf::from(p));

@@ -8,7 +8,7 @@
 //! allows that). `--sync normal` survives a killed process (WAL); `--sync full` also fsyncs
 //! every commit, for power loss.
 
-pub mod data_dir;
+pub use super::data_dir;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};

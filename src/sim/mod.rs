@@ -6,6 +6,13 @@
 //! simulation from its nearest snapshot on the head's chain plus the events after it, checking
 //! every recorded state hash.
 
+pub mod apply;
+pub mod budget;
+pub mod reads;
+pub mod save_load;
+pub mod sweep;
+pub mod timeline;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};

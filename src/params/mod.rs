@@ -7,6 +7,8 @@
 //! description, and a value is read by the lenient types of `lenient.rs`; every refusal is one
 //! sentence naming the parameter. The raw arguments are still what the log records.
 
+pub mod lenient;
+
 use std::any::TypeId;
 use std::collections::BTreeMap;
 use std::sync::{Arc, LazyLock, Mutex};
@@ -16,7 +18,7 @@ use serde::de::DeserializeOwned;
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::lenient::{
+use self::lenient::{
     Bool, Color, Gravity, Int, Matrix, NonNegative, Num, Num64, NumList, ObjectId, Positive,
     PositiveGiven, Quat, Text, Vec3, Vec3List, Vec3d, FIELD,
 };

@@ -1,0 +1,20 @@
+//! The tool adapters, one file per tool family: arguments (`crate::params`) → `Command` or
+//! read → `Sim` → MCP result.
+
+// The MCP layer's items, seen by the adapters as their parent's.
+pub(crate) use super::{lenient, params, progress, Params, PhysicsServer, Replied};
+pub(crate) use trajectory as time;
+
+pub(crate) mod animation;
+pub(crate) mod batch;
+pub(crate) mod constraints;
+pub(crate) mod mjcf;
+pub(crate) mod objects;
+pub(crate) mod persistence;
+pub(crate) mod robots;
+pub(crate) mod sensing;
+pub(crate) mod simulations;
+pub(crate) mod sweep;
+pub(crate) mod timeline;
+pub(crate) mod trajectory;
+pub(crate) mod viewer;

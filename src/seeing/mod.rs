@@ -1,0 +1,8 @@
+//! Seeing a simulation: sensing (rays, contacts, camera), trajectories, animations, the
+//! session report and the web viewer.
+
+pub mod animation;
+pub mod report;
+pub mod sensing;
+pub mod trajectory;
+pub mod viewer;
