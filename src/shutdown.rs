@@ -4,7 +4,8 @@
 //! buffered and exits — within [`DEADLINE`], whatever was running (docs/guarantees).
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
 
 /// How long shutdown may take from the signal to the exit.
 pub const DEADLINE: Duration = Duration::from_secs(10);
@@ -13,10 +14,18 @@ pub const DEADLINE: Duration = Duration::from_secs(10);
 pub const GRACE: Duration = Duration::from_secs(5);
 
 static REQUESTED: AtomicBool = AtomicBool::new(false);
+static BEGAN: OnceLock<Instant> = OnceLock::new();
 
-/// Begins shutdown: from now on running work stops at its next check.
+/// Begins shutdown (the first call fixes when): from now on running work stops at its next
+/// check.
 pub fn begin() {
+    BEGAN.get_or_init(Instant::now);
     REQUESTED.store(true, Ordering::Relaxed);
+}
+
+/// When shutdown began (now, if it has not): `DEADLINE` counts from here.
+pub fn began() -> Instant {
+    *BEGAN.get_or_init(Instant::now)
 }
 
 /// Whether shutdown has begun (checked by step controls and re-simulations).

@@ -16,6 +16,15 @@ fn mode(path: &std::path::Path) -> u32 {
     std::fs::metadata(path).unwrap().permissions().mode() & 0o777
 }
 
+/// The permissions a file made by this process (and the server it starts) gets: 0666 less
+/// the umask.
+fn usual() -> u32 {
+    let dir = tempfile::tempdir().unwrap();
+    let probe = dir.path().join("probe");
+    std::fs::write(&probe, b"").unwrap();
+    mode(&probe)
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn concurrent_outputs_to_one_path_leave_exactly_one_and_never_replace_a_file() {
     let dir = tempfile::tempdir().unwrap();
@@ -47,7 +56,7 @@ async fn concurrent_outputs_to_one_path_leave_exactly_one_and_never_replace_a_fi
         }
         let written = std::fs::read(server.workspace.join(path)).unwrap();
         assert!(!written.is_empty());
-        assert_eq!(mode(&server.workspace.join(path)) & 0o044, 0o044, "{tool}: an output is readable as any file the user makes");
+        assert_eq!(mode(&server.workspace.join(path)), usual(), "{tool}: an output gets the usual permissions");
     }
     // A file of the user's at an output path is never replaced.
     std::fs::write(server.workspace.join("mine.gif"), b"my own file").unwrap();
@@ -74,14 +83,14 @@ async fn saves_and_generated_urdfs_replace_only_their_own_files() {
     c.ground(&sim).await;
     // A user's URDF where a save or a generated URDF would go.
     std::fs::write(ws.join("robot.urdf"), "<robot name=\"mine\"/>").unwrap();
-    std::fs::set_permissions(ws.join("robot.urdf"), std::fs::Permissions::from_mode(0o644)).unwrap();
+    std::fs::set_permissions(ws.join("robot.urdf"), std::fs::Permissions::from_mode(0o640)).unwrap();
     let why = c.try_call("save_simulation", json!({"sim_id": sim, "file_path": "robot.urdf"})).await.unwrap_err();
     assert!(why.contains("not a physics-mcp save") && why.contains("overwrite"), "{why}");
     let gen = json!({"parent_shape": "box", "child_shape": "box", "parent_dimensions": [0.1, 0.1, 0.1], "child_dimensions": [0.1, 0.1, 0.1], "output_path": "robot.urdf"});
     let why = c.try_call("generate_revolute_joint", gen.clone()).await.unwrap_err();
     assert!(why.contains("not a URDF written by generate_revolute_joint") && why.contains("overwrite"), "{why}");
     assert_eq!(std::fs::read_to_string(ws.join("robot.urdf")).unwrap(), "<robot name=\"mine\"/>");
-    assert_eq!(mode(&ws.join("robot.urdf")), 0o644);
+    assert_eq!(mode(&ws.join("robot.urdf")), 0o640, "a refused write leaves the user's file as it was");
     // Their own files are replaced; anything else with overwrite: true.
     c.call("save_simulation", json!({"sim_id": sim, "file_path": "run.json"})).await;
     c.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]})).await;
@@ -96,7 +105,7 @@ async fn saves_and_generated_urdfs_replace_only_their_own_files() {
     c.call("generate_revolute_joint", forced).await;
     assert!(std::fs::read_to_string(ws.join("robot.urdf")).unwrap().contains("generate_revolute_joint"));
     for f in ["run.json", "gen.urdf", "robot.urdf"] {
-        assert_eq!(mode(&ws.join(f)), 0o644, "{f}: the usual permissions under umask 022");
+        assert_eq!(mode(&ws.join(f)), usual(), "{f}: the usual permissions (the umask's)");
     }
 }
 

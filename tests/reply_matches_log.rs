@@ -52,6 +52,8 @@ async fn a_load_whose_reply_is_too_big_is_shortened_and_committed_once() {
     assert_eq!(loads.len(), 1);
     assert_eq!(loads[0]["kind"], "change");
     common::assert_replays(&server.data, &sim);
+    // The shortened reply is the one measured before the commit, not a late rescue.
+    assert!(!server.stderr.lock().unwrap().iter().any(|l| l.contains("was not measured")), "a reply was rescued after its call was recorded");
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -21,30 +21,30 @@ const MAX_INCLUDE_DEPTH: usize = 16;
 
 /// The text of an MJCF file (or include), within what is left of the model's byte budget.
 fn read_text(reader: &mut Reader, path: PathBuf, shown: &str, budget: &mut u64) -> Result<String, Refusal> {
-    let (_, bytes) = reader
-        .read_resolved(path, shown, *budget)
-        .map_err(|why| format!("{why} (the MJCF limit is {MAX_URDF_BYTES} bytes with its includes)"))?;
+    // The limit is the model's with its includes: what is left of it.
+    let (_, bytes) = reader.read_resolved(path, shown, *budget)?;
     *budget -= bytes.len() as u64;
     String::from_utf8(bytes.to_vec()).map_err(|_| format!("{shown} is not an MJCF model: it is not UTF-8 text"))
 }
 
 /// Refuses what the server cannot resolve into the event: a sub-model in another file
-/// (`<asset><model file>`, which the parser would read itself), named by its element.
-fn refuse_unresolvable(doc: &roxmltree::Document, shown: &str) -> Result<(), Refusal> {
-    for n in doc.descendants().filter(|n| n.is_element() && n.tag_name().name() == "model") {
-        if let Some(file) = n.attribute("file") {
-            return Err(format!(
-                "{shown} uses <asset><model file=\"{file}\">: sub-models in other files are not supported; paste the sub-model's bodies into the model (or <include> them)"
-            ));
-        }
+/// (`<asset><model file>`, which the parser would read itself), named by its element. The
+/// elements that name files are the core's (`world::mjcf::file_reference`), which every fold
+/// checks too.
+fn refuse_unresolvable(text: &str, shown: &str) -> Result<(), Refusal> {
+    match crate::world::mjcf::file_references(text).into_iter().find(|r| r.tag != "include") {
+        Some(r) => Err(format!(
+            "{shown} uses <asset><model file=\"{}\">: sub-models in other files are not supported; paste the sub-model's bodies into the model (or <include> them)",
+            r.file
+        )),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// The text with every `<include>` replaced by the included file's content, recursively.
 fn splice(reader: &mut Reader, text: &str, shown: &str, dir: &Path, chain: &mut Vec<PathBuf>, budget: &mut u64) -> Result<String, Refusal> {
     let doc = roxmltree::Document::parse(text).map_err(|e| format!("{shown} is not well-formed XML: {e}"))?;
-    refuse_unresolvable(&doc, shown)?;
+    refuse_unresolvable(text, shown)?;
     let mut includes: Vec<(std::ops::Range<usize>, String)> = Vec::new();
     for n in doc.descendants().filter(|n| n.is_element() && n.tag_name().name() == "include") {
         if n.children().any(|c| c.is_element()) {

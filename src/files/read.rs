@@ -56,7 +56,7 @@ fn open(path: &Path, shown: &str, follow: bool) -> Result<File, Refusal> {
 
 /// Where the open handle really is (Linux: the kernel's name for it), to check it is still
 /// inside the sandbox after the open; None where the system cannot tell.
-fn opened_path(file: &File) -> Option<PathBuf> {
+pub(super) fn opened_path(file: &File) -> Option<PathBuf> {
     #[cfg(target_os = "linux")]
     {
         use std::os::fd::AsRawFd;
@@ -113,7 +113,14 @@ pub struct Reader {
 impl Reader {
     /// A reader for one request over `sandbox`.
     pub fn new(sandbox: &Sandbox) -> Reader {
-        Reader { sandbox: sandbox.clone(), read: BTreeMap::new(), left: REQUEST_FILE_BYTES }
+        Self::with_budget(sandbox, REQUEST_FILE_BYTES)
+    }
+
+    /// A reader for a request that reads one large file of its own kind besides the usual
+    /// (load_simulation: a saved file of up to `save_format::MAX_SAVE_BYTES`, then the robots
+    /// an old server's file names), within `budget` bytes in all.
+    pub fn with_budget(sandbox: &Sandbox, budget: u64) -> Reader {
+        Reader { sandbox: sandbox.clone(), read: BTreeMap::new(), left: budget }
     }
 
     /// The sandbox the reader resolves paths in.

@@ -32,7 +32,7 @@ pub struct Sandbox {
 }
 
 impl Sandbox {
-    pub(super) fn denied(&self, shown: &str) -> Refusal {
+    pub(crate) fn denied(&self, shown: &str) -> Refusal {
         format!("Access denied: {shown} is outside the workspace {}", self.workspace.display())
     }
 
@@ -109,4 +109,8 @@ impl Sandbox {
         Ok(target)
     }
 
+    /// `path` as the user would name it: relative to the workspace when inside it.
+    pub fn shown(&self, path: &Path) -> String {
+        path.strip_prefix(&self.workspace).unwrap_or(path).display().to_string()
+    }
 }

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use crate::command::{Blob, Command};
 use crate::mcp::lenient::{NumList, Positive};
 use crate::mcp::params;
-use crate::files::write::{write_owned, Owned};
+use crate::files::write::{self, write_owned, Owned};
 use crate::files::{Reader, Sandbox};
 use crate::value::{self, Refusal};
 use crate::world::urdf::mesh_names;
@@ -185,14 +185,6 @@ pub fn generate_revolute_joint(sandbox: &Sandbox, p: &params::GenerateRevolute) 
     }
     let effort = p.max_effort.as_ref().map_or(100.0, |v| v.0);
     let velocity = p.max_velocity.as_ref().map_or(10.0, |v| v.0);
-    let target = match &p.output_path {
-        Some(path) => sandbox.writable(&path.0)?,
-        None => {
-            let free = crate::files::write::free_name(sandbox, (1..10_000).map(|n| format!("generated/revolute_{n}.urdf")))
-                .ok_or("no free name under generated/ (10,000 files exist)")?;
-            sandbox.writable(&free)?
-        }
-    };
     let r = value::r32;
     let xml = format!(
         r#"<?xml version="1.0"?>
@@ -209,9 +201,17 @@ pub fn generate_revolute_joint(sandbox: &Sandbox, p: &params::GenerateRevolute) 
 "#,
         r(origin[0]), r(origin[1]), r(origin[2]), r(axis[0]), r(axis[1]), r(axis[2]), r(lower), r(upper), r(effort), r(velocity)
     );
-    let shown = p.output_path.as_ref().map_or_else(|| target.display().to_string(), |o| o.0.clone());
-    let overwrite = p.overwrite.as_ref().is_some_and(|b| b.0);
-    write_owned(&target, &shown, xml.as_bytes(), &GENERATED_URDF, overwrite)?;
+    let target = match &p.output_path {
+        Some(path) => {
+            let target = sandbox.writable(&path.0)?;
+            let overwrite = p.overwrite.as_ref().is_some_and(|b| b.0);
+            write_owned(sandbox, &target, &path.0, xml.as_bytes(), &GENERATED_URDF, overwrite)?;
+            target
+        }
+        // A name of its own: the first free one, never another call's.
+        None => write::create_first_free(sandbox, (1..10_000).map(|n| format!("generated/revolute_{n}.urdf")), xml.as_bytes())
+            .map_err(|why| format!("no free name under generated/: {why}"))?,
+    };
     Ok(crate::outputs::GeneratedUrdf {
         urdf_path: target.display().to_string(),
         parent_shape,

@@ -30,17 +30,31 @@ pub fn new_output(sandbox: &Sandbox, param: &str, user: &str) -> Result<std::pat
     Ok(target)
 }
 
-/// The first of `names` (workspace-relative) that nothing occupies yet.
-pub fn free_name(sandbox: &Sandbox, names: impl IntoIterator<Item = String>) -> Option<String> {
-    names.into_iter().find(|n| sandbox.workspace.join(n).symlink_metadata().is_err())
+/// Writes a new file under the first of `names` (workspace-relative) that is free, moving on
+/// to the next when another writer takes one first; returns the path written.
+pub fn create_first_free(sandbox: &Sandbox, names: impl IntoIterator<Item = String>, bytes: &[u8]) -> Result<std::path::PathBuf, Refusal> {
+    for name in names {
+        let target = sandbox.writable(&name)?;
+        if target.symlink_metadata().is_ok() {
+            continue;
+        }
+        match create_new(sandbox, &target, "file_path", &name, bytes) {
+            Ok(()) => return Ok(target),
+            Err(_) if target.symlink_metadata().is_ok() => continue,
+            Err(why) => return Err(why),
+        }
+    }
+    Err("no free file name is left".into())
 }
 
 fn exists(param: &str, user: &str) -> Refusal {
     format!("{param} {user} already exists; give a new file name (files are never overwritten)")
 }
 
-/// A temporary file beside `target` holding `bytes`, fsynced, with the usual permissions.
-fn staged(target: &Path, bytes: &[u8]) -> Result<tempfile::NamedTempFile, Refusal> {
+/// A temporary file beside `target` holding `bytes`, fsynced, with the usual permissions; with
+/// a sandbox, the folder it landed in must still be inside it (a folder swapped for a symlink
+/// after the path was resolved is caught here, before anything is linked into place).
+fn staged(target: &Path, bytes: &[u8], sandbox: Option<&Sandbox>) -> Result<tempfile::NamedTempFile, Refusal> {
     let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -54,6 +68,11 @@ fn staged(target: &Path, bytes: &[u8]) -> Result<tempfile::NamedTempFile, Refusa
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
     let mut tmp = builder.tempfile_in(dir).map_err(|e| format!("could not write {}: {e}", target.display()))?;
+    if let (Some(sandbox), Some(real)) = (sandbox, super::read::opened_path(tmp.as_file())) {
+        if !real.parent().is_some_and(|d| sandbox.contains(d)) {
+            return Err(sandbox.denied(&target.display().to_string()));
+        }
+    }
     tmp.write_all(bytes)
         .and_then(|_| tmp.as_file().sync_all())
         .map_err(|e| format!("could not write {}: {e}", target.display()))?;
@@ -62,14 +81,30 @@ fn staged(target: &Path, bytes: &[u8]) -> Result<tempfile::NamedTempFile, Refusa
 
 /// Writes a new output file at `target` (from `new_output`): refused, naming `param` and
 /// `user`, if anything exists there by the time it is linked into place.
-pub fn create_new(target: &Path, param: &str, user: &str, bytes: &[u8]) -> Result<(), Refusal> {
-    let tmp = staged(target, bytes)?;
+pub fn create_new(sandbox: &Sandbox, target: &Path, param: &str, user: &str, bytes: &[u8]) -> Result<(), Refusal> {
+    let tmp = staged(target, bytes, Some(sandbox))?;
     crate::crash_point!("save_write");
     match tmp.persist_noclobber(target) {
         Ok(_) => Ok(()),
         Err(e) if e.error.kind() == ErrorKind::AlreadyExists => Err(exists(param, user)),
         Err(e) => Err(format!("could not write {}: {}", target.display(), e.error)),
     }
+}
+
+/// Writes several new output files that belong together (a camera image's PNG and arrays),
+/// in order, all or none: should one be refused (its path taken meanwhile), those already
+/// written by this call are removed again.
+pub fn create_new_all(sandbox: &Sandbox, param: &str, files: &[(&Path, &[u8])]) -> Result<(), Refusal> {
+    for (i, (target, bytes)) in files.iter().enumerate() {
+        let user = sandbox.shown(target);
+        if let Err(why) = create_new(sandbox, target, param, &user, bytes) {
+            for (written, _) in &files[..i] {
+                let _ = std::fs::remove_file(written);
+            }
+            return Err(why);
+        }
+    }
+    Ok(())
 }
 
 /// What a tool that owns its files writes: how to recognise one of them from its first
@@ -84,14 +119,20 @@ pub struct Owned {
 /// How many leading bytes of an existing file `Owned::ours` is shown.
 pub const OWNED_PREFIX: u64 = 4096;
 
+/// The identity of whatever is at `path` now (device and inode), if anything is.
+fn identity(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    path.symlink_metadata().ok().map(|m| (m.dev(), m.ino()))
+}
+
 /// Writes `bytes` at `target` (from `Sandbox::writable`) for a tool that owns its files: a
 /// new file is created; an existing one is replaced only if it is one of `owned`'s, or with
-/// `overwrite`. Refusals name `user`.
-pub fn write_owned(target: &Path, user: &str, bytes: &[u8], owned: &Owned, overwrite: bool) -> Result<(), Refusal> {
-    // Twice at most: a file created between the look and the write is looked at again.
-    for _ in 0..2 {
-        let present = target.symlink_metadata().is_ok();
-        if present && !overwrite {
+/// `overwrite`. The file looked at is the file replaced: if another takes its place before
+/// the rename (checked by device and inode), it is looked at again. Refusals name `user`.
+pub fn write_owned(sandbox: &Sandbox, target: &Path, user: &str, bytes: &[u8], owned: &Owned, overwrite: bool) -> Result<(), Refusal> {
+    for _ in 0..3 {
+        let seen = identity(target);
+        if seen.is_some() && !overwrite {
             let head = prefix(target, user)?;
             if !(owned.ours)(&head) {
                 return Err(format!(
@@ -100,9 +141,12 @@ pub fn write_owned(target: &Path, user: &str, bytes: &[u8], owned: &Owned, overw
                 ));
             }
         }
-        let tmp = staged(target, bytes)?;
+        let tmp = staged(target, bytes, Some(sandbox))?;
         crate::crash_point!("save_write");
-        let done = if present { tmp.persist(target).map_err(|e| e.error) } else { tmp.persist_noclobber(target).map_err(|e| e.error) };
+        if identity(target) != seen {
+            continue;
+        }
+        let done = if seen.is_some() { tmp.persist(target).map_err(|e| e.error) } else { tmp.persist_noclobber(target).map_err(|e| e.error) };
         match done {
             Ok(_) => return Ok(()),
             Err(e) if e.kind() == ErrorKind::AlreadyExists => continue,
@@ -127,7 +171,7 @@ fn prefix(path: &Path, user: &str) -> Result<Vec<u8>, Refusal> {
 /// `force` (`--force`).
 pub fn write_operator_file(path: &Path, bytes: &[u8], force: bool) -> Result<(), Refusal> {
     let shown = path.display().to_string();
-    let tmp = staged(path, bytes)?;
+    let tmp = staged(path, bytes, None)?;
     let done = if force { tmp.persist(path).map_err(|e| e.error) } else { tmp.persist_noclobber(path).map_err(|e| e.error) };
     match done {
         Ok(_) => Ok(()),

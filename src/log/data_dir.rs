@@ -81,6 +81,7 @@ pub fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
     let path = data_dir.join("mac.key");
     if let Ok(bytes) = std::fs::read(&path) {
         if let Ok(key) = <[u8; 32]>::try_from(bytes.as_slice()) {
+            private(&path);
             return Ok(key);
         }
         anyhow::bail!("{} is not a 32-byte key; remove it to make a new one", path.display());
@@ -100,4 +101,20 @@ pub fn mac_key(data_dir: &Path) -> anyhow::Result<[u8; 32]> {
     use std::io::Write;
     options.open(&path).and_then(|mut f| f.write_all(&key).and_then(|()| f.sync_all()))?;
     Ok(key)
+}
+
+/// Makes a key written by an earlier release (with the umask's 0644) private again, saying so.
+fn private(path: &Path) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        if let Ok(meta) = std::fs::metadata(path) {
+            if meta.permissions().mode() & 0o077 != 0 {
+                match std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600)) {
+                    Ok(()) => tracing::warn!("{} was readable by others; it is 0600 now", path.display()),
+                    Err(e) => tracing::warn!("{} is readable by others and could not be made private: {e}", path.display()),
+                }
+            }
+        }
+    }
 }

@@ -346,8 +346,9 @@ impl ServerHandler for PhysicsServer {
         let peer = cx.peer.clone();
         let tool = request.name.clone();
         let sim_id = request.arguments.as_ref().and_then(|a| a.get("sim_id")).and_then(|v| v.as_str()).map(str::to_owned);
+        let read_only = self.tool_router.map.get(tool.as_ref()).and_then(|r| r.attr.annotations.as_ref()).and_then(|a| a.read_only_hint) == Some(true);
         let response = match self.tool_router.call(ToolCallContext::new(self, request, cx)).await? {
-            CallToolResponse::Complete(r) => CallToolResponse::Complete(reply::fit(&tool, r, self.reg.limits().max_reply_bytes)),
+            CallToolResponse::Complete(r) => CallToolResponse::Complete(reply::fit(&tool, r, self.reg.limits().max_reply_bytes, read_only)),
             other => other,
         };
         if let CallToolResponse::Complete(result) = &response {

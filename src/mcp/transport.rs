@@ -114,20 +114,18 @@ async fn signalled() {
 }
 
 /// After a signal: running work is told to stop (`shutdown::begin`) and the sessions are
-/// cancelled; returns when that was done, with the moment it began.
-async fn shutdown_signal(ct: CancellationToken) -> std::time::Instant {
+/// cancelled.
+async fn shutdown_signal(ct: CancellationToken) {
     signalled().await;
-    let began = std::time::Instant::now();
     crate::shutdown::begin();
     ct.cancel();
-    began
 }
 
-/// The end of every serving mode: buffered events flushed (a simulation whose call has not
-/// stopped by the deadline keeps its own commits), within `shutdown::DEADLINE` of `began`.
-async fn finish(reg: Arc<Registry>, began: std::time::Instant) {
+/// The end of every serving mode: buffered events flushed, within `shutdown::DEADLINE` of
+/// the moment shutdown began (`Registry::flush_all_until` says what a busy simulation keeps).
+async fn finish(reg: Arc<Registry>) {
     crate::shutdown::begin();
-    let deadline = began + crate::shutdown::DEADLINE - std::time::Duration::from_millis(500);
+    let deadline = crate::shutdown::began() + crate::shutdown::DEADLINE - std::time::Duration::from_millis(500);
     let busy = tokio::task::spawn_blocking(move || reg.flush_all_until(deadline)).await.unwrap_or(0);
     if busy > 0 {
         tracing::warn!("{busy} simulation(s) were still busy at shutdown; their calls commit their own events");
@@ -208,28 +206,19 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         .layer(middleware::from_fn_with_state(token, require_token));
     eprintln!("physics-mcp listening on http://{local}/mcp");
     // Graceful: no new connection, open ones finish their replies — for at most
-    // `shutdown::GRACE` (a client may hold a stream open for ever), then the flush.
-    let (began_tx, began_rx) = tokio::sync::oneshot::channel();
-    let signal = async move {
-        let _ = began_tx.send(shutdown_signal(ct).await);
-    };
-    let serving = axum::serve(listener, app).with_graceful_shutdown(signal);
-    let mut began_rx = began_rx;
-    let began = tokio::select! {
-        served = serving => {
-            served?;
-            began_rx.try_recv().unwrap_or_else(|_| std::time::Instant::now())
-        }
-        began = async {
-            let began = (&mut began_rx).await.unwrap_or_else(|_| std::time::Instant::now());
-            tokio::time::sleep_until((began + crate::shutdown::GRACE).into()).await;
-            began
+    // `shutdown::GRACE` after the signal (a client may hold a stream open for ever), then the
+    // flush.
+    let serving = axum::serve(listener, app).with_graceful_shutdown(shutdown_signal(ct.clone()));
+    tokio::select! {
+        served = serving => served?,
+        _ = async {
+            ct.cancelled().await;
+            tokio::time::sleep_until((crate::shutdown::began() + crate::shutdown::GRACE).into()).await;
         } => {
             tracing::warn!("connections were still open {:?} after the signal; closing them", crate::shutdown::GRACE);
-            began
         }
-    };
-    finish(reg, began).await;
+    }
+    finish(reg).await;
     Ok(())
 }
 
@@ -240,17 +229,15 @@ pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
         .await?;
     // Input ended (the client went away) or a signal: either way, stop and flush.
     let cancel = service.cancellation_token();
-    let began = tokio::select! {
+    tokio::select! {
         waited = service.waiting() => {
             waited?;
-            std::time::Instant::now()
         }
         _ = signalled() => {
-            let began = std::time::Instant::now();
+            crate::shutdown::begin();
             cancel.cancel();
-            began
         }
     };
-    finish(reg, began).await;
+    finish(reg).await;
     Ok(())
 }

@@ -171,11 +171,15 @@ impl Sim {
         self.ensure_live()?;
         let alone = matches!(mode, Mode::Alone(_));
         let (tool, args) = match &mode {
-            Mode::Alone(_) => (calls[0].tool.clone(), calls[0].args.clone()),
+            Mode::Alone(_) => calls.first().map(|c| (c.tool.clone(), c.args.clone())).unwrap_or_default(),
             Mode::AllOrNothing { args } => ("batch".to_string(), (*args).clone()),
         };
-        if let Err(why) = check_steps(&calls, limits) {
-            return Err(self.refuse(&tool, &args, why));
+        // A batch's steps together; a call alone is held to --max-steps by its own check,
+        // whose sentence names its own parameter.
+        if !alone {
+            if let Err(why) = check_steps(&calls, limits) {
+                return Err(self.refuse(&tool, &args, why));
+            }
         }
         let mut copy = (!alone).then(|| self.world.duplicate());
         let mut nothing = |_: &World| {};
@@ -191,7 +195,14 @@ impl Sim {
         let worked = work_out(from, &self.state_hash, world, calls, alone, limits, control, observe);
         let worked = match worked {
             Ok(w) => w,
-            Err(why) => return Err(self.refuse(&tool, &args, why)),
+            Err(why) => {
+                // Alone, a refusal comes before the world is touched; anything later (an event
+                // that would not encode) folds the log back, so memory never runs ahead of it.
+                if alone && self.world.state_hash() != self.state_hash {
+                    self.reload();
+                }
+                return Err(self.refuse(&tool, &args, why));
+            }
         };
         let changes = worked.events.iter().any(|e| e.kind == Kind::Change);
         let answer = match reply(&worked.carried) {
@@ -209,7 +220,7 @@ impl Sim {
             if alone {
                 // The world moved but the log did not: fold the log again so they agree.
                 self.reload();
-                return Err(format!("The call could not be recorded and was undone: {why}"));
+                return Err(self.refuse(&tool, &args, format!("The call could not be recorded and was undone: {why}")));
             }
             return Err(self.refuse(&tool, &args, format!("The batch could not be recorded and changed nothing: {why}")));
         }
@@ -231,7 +242,9 @@ impl Sim {
     /// Writes the calls' blobs, then their events, the new head and the snapshots in one
     /// transaction; a slow snapshot is noted as a stall.
     fn commit_worked(&mut self, events: Vec<Event>, carried: &Carried, snapshots: &[(u64, Vec<u8>, String)], blobs: &[Blob]) -> Result<(), String> {
-        for b in blobs {
+        // Each distinct file once (a batch may load one robot many times).
+        let mut stored = std::collections::BTreeSet::new();
+        for b in blobs.iter().filter(|b| stored.insert(b.hash.as_str())) {
             self.log.put_blob(&b.hash, &b.bytes).map_err(|e| format!("its files could not be recorded: {e}"))?;
         }
         let events: Vec<Event> = events

@@ -792,25 +792,22 @@ impl Registry {
         SimulationList { simulations, damaged }
     }
 
-    /// Commits every simulation's buffered events (graceful shutdown). The list is copied
-    /// out of the table first, so a call holding a simulation that waits for the table
-    /// (fork, keep) finishes instead of waiting for this.
-    pub fn flush_all(&self) {
-        for sim in self.all() {
-            lock_sim(&sim).flush();
-        }
-    }
-
-    /// `flush_all` for shutdown: a simulation still busy at `deadline` (a call that has not
-    /// stopped yet) is left to that call, which commits its own events; returns how many
-    /// were left so.
+    /// Commits every simulation's buffered events at shutdown. The list is copied out of the
+    /// table first, so a call holding a simulation that waits for the table (fork, keep)
+    /// finishes instead of waiting for this. A simulation still busy at `deadline` is left:
+    /// a change commits its own buffered events with its event, but a long read (verify,
+    /// history, save) does not, so its simulation's buffered reads may be lost (SPEC allows
+    /// losing reads to a kill; running steps and re-simulations stop at the signal, so in
+    /// practice only a read already past its last check is still busy). Returns how many
+    /// were left.
     pub fn flush_all_until(&self, deadline: std::time::Instant) -> usize {
         let mut busy = 0;
         for sim in self.all() {
             loop {
                 match sim.try_lock() {
                     Ok(mut s) => break s.flush(),
-                    Err(std::sync::TryLockError::Poisoned(_)) => break lock_sim(&sim).flush(),
+                    // A call panicked holding it: its buffered events are still whole.
+                    Err(std::sync::TryLockError::Poisoned(p)) => break p.into_inner().flush(),
                     Err(std::sync::TryLockError::WouldBlock) if std::time::Instant::now() >= deadline => {
                         busy += 1;
                         break;

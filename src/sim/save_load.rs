@@ -74,7 +74,7 @@ impl Sim {
             }),
         };
         let json = serde_json::to_vec(&file).map_err(|e| e.to_string())?;
-        write_owned(&target, &user, &json, &SAVED_FILE, overwrite)?;
+        write_owned(reg.sandbox(), &target, &user, &json, &SAVED_FILE, overwrite)?;
         Ok(Saved {
             message: format!("Simulation {} saved to {}", self.id(), target.display()),
             file_path: target.display().to_string(),
@@ -98,10 +98,8 @@ impl Registry {
         let slot = self.reserve()?;
         let p: params::Load = params::parse("load_simulation", args)?;
         let (user, gui) = (p.file_path.0, p.gui.is_some_and(|g| g.0));
-        let mut reader = Reader::new(self.sandbox());
-        let (_, bytes) = reader
-            .read(&user, &format!("file_path {user}"), MAX_SAVE_BYTES)
-            .map_err(|why| format!("{why} (saved files are limited to {MAX_SAVE_BYTES} bytes)"))?;
+        let mut reader = Reader::with_budget(self.sandbox(), MAX_SAVE_BYTES + crate::files::read::REQUEST_FILE_BYTES);
+        let (_, bytes) = reader.read(&user, &format!("file_path {user}"), MAX_SAVE_BYTES)?;
         let file: SaveFile = serde_json::from_slice(&bytes)
             .map_err(|e| format!("The file is not a valid saved simulation: {e}"))?;
         if file.format.as_deref().is_some_and(|f| f != SAVE_FORMAT) {

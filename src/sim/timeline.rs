@@ -67,7 +67,10 @@ impl Sim {
         chain.iter().rposition(|e| e.kind == Kind::Root).unwrap_or(0)
     }
 
-    /// Commits a move event and makes `world` (at `to`) current.
+    /// Commits a move event and makes `world` (at `to`) current — once its reply is known to
+    /// fit `budget`, shortened if need be (a long `undone` list), so a move is never answered
+    /// with an error after it commits.
+    #[allow(clippy::too_many_arguments)]
     fn commit_move(
         &mut self,
         tool: &str,
@@ -76,7 +79,11 @@ impl Sim {
         world: World,
         counters: (u64, u32),
         result: Value,
+        budget: usize,
     ) -> Result<(), Refusal> {
+        if let Err(why) = crate::sim::budget::shorten(tool, result.clone(), budget) {
+            return Err(self.refuse(tool, args, why));
+        }
         let state_hash = world.state_hash();
         let mut e = self.event(Kind::Move, tool, args);
         e.command = Some(serde_json::to_string(&record).map_err(|err| err.to_string())?);
@@ -95,6 +102,11 @@ impl Sim {
 
     /// Moves the head back over the last `count` state-changing events of this simulation.
     pub fn undo(&mut self, args: &Args, count: u64) -> Result<Undone, Refusal> {
+        self.undo_within(args, count, usize::MAX)
+    }
+
+    /// `undo` whose reply must fit `budget` bytes (`--max-reply-bytes`).
+    pub fn undo_within(&mut self, args: &Args, count: u64, budget: usize) -> Result<Undone, Refusal> {
         self.ensure_live()?;
         // Walk back only `count` events (plus the target): undo costs what it undoes.
         let mut walked = 0u64;
@@ -134,13 +146,18 @@ impl Sim {
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
         let counters = (rebuilt.work_since_snapshot, rebuilt.changes_since_snapshot);
-        self.commit_move("undo", args, record.clone(), rebuilt.world, counters, result)?;
+        self.commit_move("undo", args, record.clone(), rebuilt.world, counters, result, budget)?;
         self.redo.extend(record.seqs);
         Ok(out)
     }
 
     /// Re-applies the `count` most recently undone events (along the undone branch).
     pub fn redo(&mut self, args: &Args, count: u64) -> Result<Redone, Refusal> {
+        self.redo_within(args, count, usize::MAX)
+    }
+
+    /// `redo` whose reply must fit `budget` bytes (`--max-reply-bytes`).
+    pub fn redo_within(&mut self, args: &Args, count: u64, budget: usize) -> Result<Redone, Refusal> {
         self.ensure_live()?;
         let available = self.redo.len() as u64;
         if count == 0 || count > available {
@@ -151,8 +168,7 @@ impl Sim {
         }
         let seqs: Vec<u64> = self.redo.iter().rev().take(count as usize).copied().collect();
         // Fold forward on a copy of the world: the log is only changed once all checks pass.
-        let mut world = World::restore(self.id(), self.world.gui(), &self.world.snapshot())
-            .map_err(|e| format!("Internal error: {e}"))?;
+        let mut world = self.world.duplicate();
         let events = seqs
             .iter()
             .map(|seq| self.log.event(*seq).map_err(store_err)?.ok_or_else(|| "an undone event is missing".to_string()))
@@ -171,7 +187,7 @@ impl Sim {
         };
         let record = MoveRecord { op: "redo".into(), from: self.log.head_seq(), to, seqs };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-        self.commit_move("redo", args, record, world, (steps, changes), result)?;
+        self.commit_move("redo", args, record, world, (steps, changes), result, budget)?;
         self.redo.truncate(self.redo.len() - count as usize);
         Ok(out)
     }

@@ -107,7 +107,7 @@ fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::time::Asked, Asked), Ref
 }
 
 /// Checks the size, renders the interval and writes or inlines the GIF (no lock held).
-fn run(asked: Asked, lent: &Lent, max_px: usize) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
+fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
     let every = asked.every.unwrap_or_else(|| animation::default_every(lent.interval_steps()));
     animation::check_size(animation::sample_count(lent, every), every, &asked.cam, max_px)?;
     let anim = animation::animate(lent, every, &asked.cam, asked.fps)?;
@@ -126,7 +126,7 @@ fn run(asked: Asked, lent: &Lent, max_px: usize) -> Result<(AnimationSummary, Op
         output_path: asked.output.as_ref().map(|(user, _)| user.clone()),
     };
     if let Some((user, path)) = &asked.output {
-        write::create_new(path, "output_path", user, &anim.gif)?;
+        write::create_new(sandbox, path, "output_path", user, &anim.gif)?;
         return Ok((summary, None));
     }
     // Inline, the GIF is held to the reply budget (after base64) where the read is logged.
@@ -158,10 +158,11 @@ impl PhysicsServer {
     )]
     async fn render_animation(&self, args: JsonObject) -> Result<CallToolResult, String> {
         let (max_px, sandbox) = (self.reg.limits().max_image_px, self.reg.sandbox().clone());
-        let parsed = parse(&args, &sandbox);
         let workspace = sandbox.workspace.clone();
         let measure = move |s: &AnimationSummary, gif: &Option<Vec<u8>>| budget::bytes_of(&reply(s, gif.as_deref(), &workspace));
-        let (summary, gif) = self.look_back_with(TOOL, args, parsed, move |asked, lent| run(asked, lent, max_px), measure).await?;
+        let for_parse = sandbox.clone();
+        let parse = move |a: &Args| parse(a, &for_parse);
+        let (summary, gif) = self.look_back_with(TOOL, args, parse, move |asked, lent| run(asked, lent, max_px, &sandbox), measure).await?;
         Ok(reply(&summary, gif.as_deref(), &self.reg.sandbox().workspace))
     }
 }

@@ -166,7 +166,7 @@ fn ray_batch_to(cx: &reads::ReadContext, p: &RayTestBatch, max: usize, budget: u
     let file = match target {
         Some(target) => {
             let bytes = serde_json::to_vec(&batch).map_err(|e| format!("Internal error: {e}"))?;
-            write::create_new(&target, "output_path", &p.output_path.as_ref().map_or(String::new(), |t| t.0.clone()), &bytes)?;
+            write::create_new(sandbox, &target, "output_path", &sandbox.shown(&target), &bytes)?;
             Some(target.display().to_string())
         }
         None => None,
@@ -233,24 +233,21 @@ fn camera_image_to(cx: &reads::ReadContext, p: &params::CameraImage, max_px: usi
     };
     let (w, h) = (rendered.summary.width as usize, rendered.summary.height as usize);
     let show = |p: &std::path::Path| p.display().to_string();
-    // The arrays first and the PNG last: a PNG present means its arrays are too.
-    let depth_file = match (&depth_at, &rendered.summary.depth) {
-        (Some(at), Some(d)) => {
-            let values: Vec<f32> = d.iter().map(|v| *v as f32).collect();
-            write::create_new(at, "output_path", &show(at), &npy::encode(h, w, &values))?;
-            Some(show(at))
-        }
+    let depth = match (&depth_at, &rendered.summary.depth) {
+        (Some(at), Some(d)) => Some((at, npy::encode(h, w, &d.iter().map(|v| *v as f32).collect::<Vec<f32>>()))),
         _ => None,
     };
-    let seg_file = match (&seg_at, &rendered.summary.segmentation) {
-        (Some(at), Some(s)) => {
-            let values: Vec<i32> = s.iter().map(|v| i32::try_from(*v).unwrap_or(i32::MAX)).collect();
-            write::create_new(at, "output_path", &show(at), &npy::encode(h, w, &values))?;
-            Some(show(at))
-        }
+    let seg = match (&seg_at, &rendered.summary.segmentation) {
+        (Some(at), Some(s)) => Some((at, npy::encode(h, w, &s.iter().map(|v| i32::try_from(*v).unwrap_or(i32::MAX)).collect::<Vec<i32>>()))),
         _ => None,
     };
-    write::create_new(&png, "output_path", &show(&png), &rendered.png)?;
+    // The arrays first and the PNG last, all or none: a PNG present means its arrays are too.
+    let mut files: Vec<(&std::path::Path, &[u8])> = Vec::new();
+    files.extend(depth.iter().map(|(at, bytes)| (at.as_path(), bytes.as_slice())));
+    files.extend(seg.iter().map(|(at, bytes)| (at.as_path(), bytes.as_slice())));
+    files.push((png.as_path(), rendered.png.as_slice()));
+    write::create_new_all(sandbox, "output_path", &files)?;
+    let (depth_file, seg_file) = (depth.map(|(at, _)| show(at)), seg.map(|(at, _)| show(at)));
     Ok(CameraOut { rendered, files: Some((show(&png), depth_file, seg_file)) })
 }
 

@@ -63,8 +63,8 @@ impl PhysicsServer {
     /// Undo the last count state-changing calls exactly (ids too); reads are skipped.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn undo(&self, args: JsonObject) -> Result<Json<Undone>, String> {
-        self.with_sim(args, |sim, a, _| match params::parse("undo", a).and_then(count) {
-            Ok(n) => sim.undo(a, n),
+        self.with_sim(args, |sim, a, limits| match params::parse("undo", a).and_then(count) {
+            Ok(n) => sim.undo_within(a, n, limits.max_reply_bytes),
             Err(why) => Err(sim.refuse("undo", a, why)),
         })
         .await
@@ -74,8 +74,8 @@ impl PhysicsServer {
     /// Redo the count most recently undone calls.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn redo(&self, args: JsonObject) -> Result<Json<Redone>, String> {
-        self.with_sim(args, |sim, a, _| match params::parse("redo", a).and_then(count) {
-            Ok(n) => sim.redo(a, n),
+        self.with_sim(args, |sim, a, limits| match params::parse("redo", a).and_then(count) {
+            Ok(n) => sim.redo_within(a, n, limits.max_reply_bytes),
             Err(why) => Err(sim.refuse("redo", a, why)),
         })
         .await

@@ -67,7 +67,7 @@ fn deliver(t: Trajectory, path: Option<String>, sandbox: &Sandbox) -> Result<Tra
     };
     let bytes = trajectory::file_bytes(&t, &user, "output_path")?;
     let target = write::new_output(sandbox, "output_path", &user)?;
-    write::create_new(&target, "output_path", &user, &bytes)?;
+    write::create_new(sandbox, &target, "output_path", &user, &bytes)?;
     Ok(trajectory::summary(t, target.display().to_string()))
 }
 
@@ -93,21 +93,22 @@ impl PhysicsServer {
         &self,
         tool: &'static str,
         args: Args,
-        parsed: Result<(Asked, P), Refusal>,
+        parse: impl FnOnce(&Args) -> Result<(Asked, P), Refusal> + Send + 'static,
         f: impl FnOnce(P, &Lent) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         let measure = move |t: &T, _: &()| crate::budget::reply_bytes(tool, serde_json::to_value(t).unwrap_or_default());
-        self.look_back_with(tool, args, parsed, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
+        self.look_back_with(tool, args, parse, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
     }
 
     /// `look_back` whose `f` also returns a payload `E` that goes to the client but not into
     /// the log (render_animation's GIF bytes): the log records the result `T` only, once
-    /// `measure` (the reply's bytes as it will be sent) has found it within the budget.
+    /// `measure` (the reply's bytes as it will be sent) has found it within the budget. The
+    /// arguments are parsed by `parse` on the blocking pool (an output path is resolved there).
     pub(crate) async fn look_back_with<P: Send + 'static, T: Serialize + Send + 'static, E: Send + 'static>(
         &self,
         tool: &'static str,
         args: Args,
-        parsed: Result<(Asked, P), Refusal>,
+        parse: impl FnOnce(&Args) -> Result<(Asked, P), Refusal> + Send + 'static,
         f: impl FnOnce(P, &Lent) -> Result<(T, E), Refusal> + Send + 'static,
         measure: impl FnOnce(&T, &E) -> usize + Send + 'static,
     ) -> Result<(T, E), String> {
@@ -115,6 +116,7 @@ impl PhysicsServer {
         let sim = self.reg.get(&id)?;
         let budget = self.reg.limits().max_reply_bytes;
         tokio::task::spawn_blocking(move || {
+            let parsed = parse(&args);
             let lent = {
                 let mut s = lock_sim(&sim);
                 s.ensure_live()?;
@@ -142,9 +144,8 @@ impl PhysicsServer {
     /// Poses sampled over a past interval, re-simulated from the log (columnar).
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
     async fn get_trajectory(&self, args: JsonObject) -> Result<Json<Trajectory>, String> {
-        let parsed = trajectory_args(&args);
         let sandbox = self.reg.sandbox().clone();
-        self.look_back("get_trajectory", args, parsed, move |(req, path), lent| {
+        self.look_back("get_trajectory", args, trajectory_args, move |(req, path), lent| {
             let t = trajectory::sample_interval(lent, &req)?;
             deliver(t, path, &sandbox)
         })
