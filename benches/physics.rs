@@ -18,7 +18,8 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
 use physics_mcp::sim::Sim;
-use physics_mcp::store::{Log, SyncMode};
+use physics_mcp::log::sqlite::{Event, Kind, Log, SyncMode};
+use physics_mcp::log::EventLog;
 use physics_mcp::value::Args;
 use physics_mcp::world::World;
 use pile::{pile_commands, pile_world, raw_pile, root};
@@ -95,12 +96,8 @@ fn bench_snapshot_restore(c: &mut Criterion) {
     g.bench_function("commit", |b| {
         b.iter(|| {
             seq += 1;
-            let e = physics_mcp::store::Event {
-                seq, kind: physics_mcp::store::Kind::Change, parent: None, tool: "bench".into(),
-                arguments: "{}".into(), command: None, version: 1, ok: true, mutates: true,
-                inherited: false, result: None, result_hash: None, state_hash: String::new(), engine: None,
-            };
-            log.append_durable(e, seq, Some((&snap, &hash))).unwrap();
+            let e = Event::blank(seq, Kind::Change, "bench", "{}".into());
+            log.append(&[e], seq, &[(seq, &snap, &hash)]).unwrap();
         })
     });
     // As snapshots happen in use: one every few hundred events, so the background checkpoint
@@ -111,13 +108,9 @@ fn bench_snapshot_restore(c: &mut Criterion) {
             for _ in 0..iters {
                 std::thread::sleep(Duration::from_millis(60));
                 seq += 1;
-                let e = physics_mcp::store::Event {
-                    seq, kind: physics_mcp::store::Kind::Change, parent: None, tool: "bench".into(),
-                    arguments: "{}".into(), command: None, version: 1, ok: true, mutates: true,
-                    inherited: false, result: None, result_hash: None, state_hash: String::new(), engine: None,
-                };
+                let e = Event::blank(seq, Kind::Change, "bench", "{}".into());
                 let t = Instant::now();
-                log.append_durable(e, seq, Some((&snap, &hash))).unwrap();
+                log.append(&[e], seq, &[(seq, &snap, &hash)]).unwrap();
                 total += t.elapsed();
             }
             total
@@ -151,8 +144,8 @@ fn bench_log_and_sync(c: &mut Criterion) {
     // Log bytes per 1000 events: 500 state-changing (force, then 1 step) and 500 reads, small sim.
     let (mut sim, _) = Sim::create(&dir.path().join("size.sqlite"), "create_simulation", root("size"), &Args::new(), SyncMode::Normal).unwrap();
     sim.change("add_box", &Args::new(), Ok(pile_commands().remove(1)), &limits, &mut |_| true).unwrap();
-    sim.log().checkpoint().unwrap();
-    let before = sim.log().file_bytes();
+    sim.storage().checkpoint().unwrap();
+    let before = sim.storage().file_bytes();
     // Each event is logged under its own tool name with the arguments a client would send,
     // as the server logs it: the log's size depends on both.
     let force = args(json!({"sim_id": "size", "object_id": 0, "force": [1, 0, 0]}));
@@ -168,11 +161,11 @@ fn bench_log_and_sync(c: &mut Criterion) {
         sim.read("get_object_state", &state, |s| Ok(s.world().object_state(0))).unwrap();
     }
     sim.flush();
-    sim.log().checkpoint().unwrap();
+    sim.storage().checkpoint().unwrap();
     let snaps = sim.log().snapshot_seqs().unwrap().len();
     println!(
         "REPORT log bytes per 1000 events (250 apply_force + 250 step_simulation(1) + 500 get_object_state, {snaps} snapshots of a 1-body world included): {}",
-        sim.log().file_bytes().saturating_sub(before)
+        sim.storage().file_bytes().saturating_sub(before)
     );
 }
 

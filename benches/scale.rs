@@ -18,12 +18,12 @@ mod pile;
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use physics_mcp::batch::{Call, Planned};
+use physics_mcp::sim::apply::{Call, Planned};
 use physics_mcp::command::{Command, DynamicsChange, Shape};
 use physics_mcp::limits::Limits;
 use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::store::SyncMode;
-use physics_mcp::sweep::{Control, Observe, Request};
+use physics_mcp::log::sqlite::SyncMode;
+use physics_mcp::sim::sweep::{Control, Observe, Request};
 use physics_mcp::value::Args;
 use pile::raw_pile;
 use serde_json::{json, Value};

@@ -9,10 +9,10 @@ mod pile;
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use physics_mcp::animation::{self, Camera};
+use physics_mcp::seeing::animation::{self, Camera};
 use physics_mcp::command::{Command, Shape, EVENT_VERSION};
-use physics_mcp::fold::{self, Interval, Lent};
-use physics_mcp::store::{Event, Kind};
+use physics_mcp::log::fold::{self, Interval, Lent};
+use physics_mcp::log::sqlite::{Event, Kind};
 use physics_mcp::world::World;
 
 /// Steps of the interval: the start and a frame every 4 steps make 120 frames.
@@ -70,7 +70,7 @@ fn dropped_100() -> Lent {
 }
 
 fn camera() -> Camera {
-    let view = physics_mcp::sensing::camera::view_matrix([6.0, -6.0, 5.0], [0.0, 0.0, 0.3], [0.0, 0.0, 1.0]);
+    let view = physics_mcp::seeing::sensing::camera::view_matrix([6.0, -6.0, 5.0], [0.0, 0.0, 0.3], [0.0, 0.0, 1.0]);
     Camera { width: 320, height: 240, view: Some(view), projection: None }
 }
 
@@ -81,7 +81,7 @@ fn longest_replay() -> std::path::PathBuf {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
-        .map(|p| (physics_mcp::replay::events(&p).unwrap().len(), p))
+        .map(|p| (physics_mcp::log::replay::events(&p).unwrap().len(), p))
         .collect();
     logs.sort();
     logs.pop().unwrap().1
@@ -119,15 +119,15 @@ fn bench(c: &mut Criterion) {
     );
     let replay = longest_replay();
     let t = Instant::now();
-    let page = physics_mcp::report::html(&physics_mcp::report::gather(&replay, |_, _| {}).unwrap()).unwrap();
-    println!("REPORT report: {} ({} events): {:.0} ms, page {} bytes", replay.display(), physics_mcp::replay::events(&replay).unwrap().len(), t.elapsed().as_secs_f64() * 1e3, page.len());
+    let page = physics_mcp::seeing::report::html(&physics_mcp::seeing::report::gather(&replay, |_, _| {}).unwrap()).unwrap();
+    println!("REPORT report: {} ({} events): {:.0} ms, page {} bytes", replay.display(), physics_mcp::log::replay::events(&replay).unwrap().len(), t.elapsed().as_secs_f64() * 1e3, page.len());
 
     let mut g = c.benchmark_group("seeing_time");
     g.sample_size(10);
     g.bench_function("physics_of_the_interval", |b| b.iter(physics));
     g.bench_function("render_animation_120x320x240_100_objects", |b| b.iter(animate));
     g.bench_function("report_longest_replay", |b| {
-        b.iter(|| physics_mcp::report::html(&physics_mcp::report::gather(&replay, |_, _| {}).unwrap()).unwrap())
+        b.iter(|| physics_mcp::seeing::report::html(&physics_mcp::seeing::report::gather(&replay, |_, _| {}).unwrap()).unwrap())
     });
     g.finish();
 }

@@ -12,8 +12,8 @@ use std::time::Instant;
 use base64::Engine;
 use criterion::{criterion_group, criterion_main, Criterion};
 use physics_mcp::command::{Command, Shape};
-use physics_mcp::reads::{self, ReadContext};
-use physics_mcp::sensing::rays;
+use physics_mcp::sim::reads::{self, ReadContext};
+use physics_mcp::seeing::sensing::rays;
 use physics_mcp::world::scene::Scene;
 use physics_mcp::world::World;
 use rand::{Rng, SeedableRng};
@@ -58,8 +58,8 @@ fn scene_100() -> World {
 }
 
 fn camera_args(width: u32, height: u32) -> serde_json::Map<String, serde_json::Value> {
-    let view = physics_mcp::sensing::camera::view_matrix([5.0, -5.0, 4.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
-    let proj = physics_mcp::sensing::camera::projection_matrix(60.0, f64::from(width) / f64::from(height), 0.1, 100.0);
+    let view = physics_mcp::seeing::sensing::camera::view_matrix([5.0, -5.0, 4.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+    let proj = physics_mcp::seeing::sensing::camera::projection_matrix(60.0, f64::from(width) / f64::from(height), 0.1, 100.0);
     json!({"sim_id": "bench", "width": width, "height": height, "view_matrix": view.to_vec(), "projection_matrix": proj.to_vec()})
         .as_object()
         .cloned()
@@ -72,8 +72,8 @@ fn camera_matrix(args: &serde_json::Map<String, serde_json::Value>, name: &str) 
 }
 
 /// get_camera_image's parameters, parsed as the tool parses them.
-fn cam(args: &serde_json::Map<String, serde_json::Value>) -> physics_mcp::mcp::params::CameraImage {
-    physics_mcp::mcp::params::parse("get_camera_image", args).unwrap()
+fn cam(args: &serde_json::Map<String, serde_json::Value>) -> physics_mcp::params::CameraImage {
+    physics_mcp::params::parse("get_camera_image", args).unwrap()
 }
 
 fn cx(w: &World) -> ReadContext<'_> {
@@ -156,8 +156,8 @@ fn bench_camera(c: &mut Criterion) {
             camera_matrix(&args, "view_matrix"),
             camera_matrix(&args, "projection_matrix"),
         );
-        let render_ms = median_ms(|| drop(physics_mcp::sensing::render::render(&w, wd, ht, &view, &proj)), 30);
-        let frame = physics_mcp::sensing::render::render(&w, wd, ht, &view, &proj);
+        let render_ms = median_ms(|| drop(physics_mcp::seeing::sensing::render::render(&w, wd, ht, &view, &proj)), 30);
+        let frame = physics_mcp::seeing::sensing::render::render(&w, wd, ht, &view, &proj);
         let png_ms = median_ms(|| drop(frame.png().unwrap()), 30);
         println!("REPORT camera: {wd}x{ht} phases: rasterise {render_ms:.2} ms, PNG {png_ms:.2} ms");
         println!(

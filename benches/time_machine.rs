@@ -11,9 +11,9 @@ use std::time::Instant;
 
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
-use physics_mcp::save::{world_from_history, SaveFile};
+use physics_mcp::files::save_format::{world_from_history, SaveFile};
 use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::store::SyncMode;
+use physics_mcp::log::sqlite::SyncMode;
 use physics_mcp::value::Args;
 use rand::{Rng, SeedableRng};
 
@@ -109,11 +109,11 @@ fn measure(n: u64) -> Figures {
     save_args.insert("file_path".into(), serde_json::json!("bench.json"));
     sim.save(&save_args, &reg).unwrap();
     sim.flush();
-    sim.log().checkpoint().unwrap();
+    sim.storage().checkpoint().unwrap();
     let head = sim.log().head_seq();
     let events = sim.log().last_seq();
     let snapshots = sim.log().chain_snapshot_seqs(head).unwrap().len();
-    let log_bytes = sim.log().file_bytes();
+    let log_bytes = sim.storage().file_bytes();
     drop(sim);
     let path = reg.config().workspace.join("bench.json");
     let file: SaveFile = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();

@@ -19,11 +19,11 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use physics_mcp::command::Command;
-use physics_mcp::fold;
+use physics_mcp::log::fold;
 use physics_mcp::limits::Limits;
 use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::store::SyncMode;
-use physics_mcp::trajectory::{self, Request};
+use physics_mcp::log::sqlite::SyncMode;
+use physics_mcp::seeing::trajectory::{self, Request};
 use physics_mcp::value::Args;
 use physics_mcp::world::World;
 use pile::{pile_commands, root};

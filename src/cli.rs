@@ -37,7 +37,7 @@ pub struct LimitArgs {
 /// shortened, fits.
 fn reply_bytes(s: &str) -> Result<usize, String> {
     let n: usize = s.trim().parse().map_err(|_| format!("must be a number of bytes; got {s}"))?;
-    let min = crate::budget::MIN_REPLY_BYTES;
+    let min = crate::sim::budget::MIN_REPLY_BYTES;
     if n < min {
         return Err(format!("must be at least {min} bytes; got {n}"));
     }

@@ -45,9 +45,3 @@ pub mod params;
 pub mod seeing;
 pub mod shutdown;
 pub mod sim;
-
-// The modules' earlier paths, until their users are moved over.
-pub use files::{mjcf as mjcf_files, npy, save_format as save, urdf as urdf_files};
-pub use log::{fold, replay, sqlite as store};
-pub use seeing::{animation, report, sensing, trajectory, viewer};
-pub use sim::{apply as batch, budget, reads, save_load as persistence, sweep, timeline};

@@ -9,7 +9,7 @@ use clap::{Parser, Subcommand};
 use physics_mcp::cli::LimitArgs;
 use physics_mcp::mcp::transport::{serve_http, serve_stdio, HttpOptions};
 use physics_mcp::sim::{Config, Registry};
-use physics_mcp::store::SyncMode;
+use physics_mcp::log::sqlite::SyncMode;
 
 /// An MCP server for deterministic, replayable rigid-body physics (rapier3d).
 #[derive(Parser)]
@@ -149,10 +149,10 @@ fn progress_bar(what: &str) -> indicatif::ProgressBar {
 }
 
 /// `replay FILE --render OUT.gif`.
-fn run_render(file: &Path, out: &Path, span: physics_mcp::report::Span, every: Option<u64>, size: (u32, u32), force: bool) -> anyhow::Result<()> {
+fn run_render(file: &Path, out: &Path, span: physics_mcp::seeing::report::Span, every: Option<u64>, size: (u32, u32), force: bool) -> anyhow::Result<()> {
     let bar = progress_bar("rendering");
     let started = std::time::Instant::now();
-    let anim = physics_mcp::report::render_gif(file, span, every, size, |done, total| {
+    let anim = physics_mcp::seeing::report::render_gif(file, span, every, size, |done, total| {
         bar.set_length(total);
         bar.set_position(done);
     });
@@ -175,12 +175,12 @@ fn run_render(file: &Path, out: &Path, span: physics_mcp::report::Span, every: O
 fn run_report(file: &Path, out: &Path, force: bool) -> anyhow::Result<()> {
     let bar = progress_bar("re-simulating");
     let started = std::time::Instant::now();
-    let story = physics_mcp::report::gather(file, |done, total| {
+    let story = physics_mcp::seeing::report::gather(file, |done, total| {
         bar.set_length(total);
         bar.set_position(done);
     });
     bar.finish_and_clear();
-    let page = physics_mcp::report::html(&story.map_err(anyhow::Error::msg)?).map_err(anyhow::Error::msg)?;
+    let page = physics_mcp::seeing::report::html(&story.map_err(anyhow::Error::msg)?).map_err(anyhow::Error::msg)?;
     physics_mcp::files::write::write_operator_file(out, page.as_bytes(), force).map_err(anyhow::Error::msg)?;
     println!("wrote {}: {} bytes, {:.2} s", out.display(), page.len(), started.elapsed().as_secs_f64());
     Ok(())
@@ -189,7 +189,7 @@ fn run_report(file: &Path, out: &Path, force: bool) -> anyhow::Result<()> {
 fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<bool> {
     use std::io::IsTerminal;
     // Before anything else: a log made by another engine build may not reproduce its hashes.
-    let builds = physics_mcp::replay::engine_builds(file)?;
+    let builds = physics_mcp::log::replay::engine_builds(file)?;
     if let (false, Some(warning)) = (json, builds.warning()) {
         println!("{warning}");
     }
@@ -205,9 +205,9 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
     };
     let is_json = file.extension().is_some_and(|x| x == "json");
     let result = if is_json {
-        physics_mcp::replay::replay_saved(file, progress)
+        physics_mcp::log::replay::replay_saved(file, progress)
     } else {
-        physics_mcp::replay::replay(file, until, progress)
+        physics_mcp::log::replay::replay(file, until, progress)
     };
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
@@ -223,7 +223,7 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
             }
             Ok(true)
         }
-        Err(physics_mcp::replay::ReplayError::Diverged(d)) => {
+        Err(physics_mcp::log::replay::ReplayError::Diverged(d)) => {
             if json {
                 println!("{}", serde_json::json!({"ok": false, "engine_builds": builds, "divergence": d}));
             } else {
@@ -240,7 +240,7 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
 
 fn print_history(file: &Path) -> anyhow::Result<()> {
     println!("{:>6}  {:<8} {:>6}  {:<24} {:<3} {:<12}  summary", "seq", "kind", "parent", "tool", "ok", "state");
-    for e in physics_mcp::replay::events(file)? {
+    for e in physics_mcp::log::replay::events(file)? {
         let summary = e.result.as_deref().unwrap_or("");
         let summary: String = summary.chars().take(70).collect();
         println!(
@@ -322,7 +322,7 @@ fn main() {
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
                     Cmd::Replay { file, render: Some(out), interval, size, force, .. } => {
-                        let span = physics_mcp::report::Span { from: interval.from, to: interval.to };
+                        let span = physics_mcp::seeing::report::Span { from: interval.from, to: interval.to };
                         run_render(&file, &out, span, interval.every, size, force)
                     }
                     Cmd::Report { file, out, force } => run_report(&file, &out, force),
@@ -331,7 +331,7 @@ fn main() {
                             std::process::exit(1);
                         }
                         if let Some(out) = trajectory {
-                            let t = physics_mcp::replay::write_trajectory(&file, &out, &interval, force)
+                            let t = physics_mcp::log::replay::write_trajectory(&file, &out, &interval, force)
                                 .map_err(|e| anyhow::anyhow!("--trajectory: {e}"))?;
                             eprintln!(
                                 "trajectory: {} samples of {} objects (seq {} to {}, every {} steps) written to {}",
@@ -349,7 +349,7 @@ fn main() {
                         }
                         Ok(())
                     }
-                    Cmd::Diff { a, b } => match physics_mcp::replay::diff(&a, &b)? {
+                    Cmd::Diff { a, b } => match physics_mcp::log::replay::diff(&a, &b)? {
                         Some(d) => {
                             println!("{d}");
                             std::process::exit(1);

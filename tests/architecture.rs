@@ -98,3 +98,58 @@ fn the_mjcf_parser_is_reached_only_through_parse_model() {
     assert_eq!(found.len(), 1, "the parser is called in more than one place: {found:?}");
     assert!(found[0].starts_with("crates/physics-core/src/world/mjcf.rs"), "{found:?}");
 }
+
+/// Lines of shipped code under `src/` (outside `skip`) that contain any of `needles`.
+fn found_in_src(skip: &[&str], needles: &[&str]) -> Vec<String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let skip: Vec<PathBuf> = skip.iter().map(|s| root.join(s)).collect();
+    let mut found = Vec::new();
+    for path in sources(&root.join("src")) {
+        if skip.iter().any(|s| path.starts_with(s)) {
+            continue;
+        }
+        for (n, line) in shipped(&path).lines().enumerate() {
+            if needles.iter().any(|c| line.contains(c)) {
+                found.push(format!("{}:{}: {}", path.strip_prefix(root).unwrap().display(), n + 1, line.trim()));
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn nothing_below_the_mcp_layer_imports_it() {
+    // lib.rs declares the module; main.rs runs the transports.
+    let found = found_in_src(&["src/mcp", "src/main.rs", "src/lib.rs"], &["crate::mcp", "physics_mcp::mcp", "super::mcp"]);
+    assert!(found.is_empty(), "code below src/mcp imports it:\n{}", found.join("\n"));
+}
+
+#[test]
+fn one_path_applies_commands_to_a_live_world_and_one_folds_logged_events() {
+    let found = found_in_src(&[], &[".apply(", ".apply_observed("]);
+    let places: Vec<&str> = found.iter().map(|f| f.split(':').next().unwrap()).collect();
+    assert_eq!(places, ["src/log/fold.rs", "src/sim/apply.rs"], "World::apply is called from:\n{}", found.join("\n"));
+}
+
+#[test]
+fn the_log_is_used_through_its_trait() {
+    // Outside src/log, only the code that creates, opens, publishes and deletes a
+    // simulation's log names its SQLite backend.
+    let found: Vec<String> = found_in_src(&["src/log", "src/sim/mod.rs", "src/sim/timeline.rs"], &["Log"])
+        .into_iter()
+        .filter(|line| names_word(line.split_once(": ").map_or("", |(_, code)| code), "Log"))
+        .collect();
+    assert!(found.is_empty(), "the SQLite backend used directly:\n{}", found.join("\n"));
+    let lifecycle = found_in_src(&["src/log"], &["Log::open", "Log::create"]);
+    assert!(lifecycle.len() <= 5, "{}", lifecycle.join("\n"));
+}
+
+/// Whether `code` holds `word` as a whole identifier.
+fn names_word(code: &str, word: &str) -> bool {
+    let ident = |c: char| c.is_alphanumeric() || c == '_';
+    code.match_indices(word).any(|(i, _)| {
+        let before = code[..i].chars().next_back();
+        let after = code[i + word.len()..].chars().next();
+        !before.is_some_and(ident) && !after.is_some_and(ident)
+    })
+}

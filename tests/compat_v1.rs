@@ -11,7 +11,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::Server;
-use physics_mcp::store::Kind;
+use physics_mcp::log::sqlite::Kind;
 use serde_json::json;
 
 fn fixture() -> PathBuf {
@@ -41,7 +41,7 @@ fn logs(data: &Path) -> Vec<PathBuf> {
 
 /// The state hash the log's head reflects (the last root, change or move event's).
 fn head_hash(log: &Path) -> String {
-    let events = physics_mcp::replay::events(log).unwrap();
+    let events = physics_mcp::log::replay::events(log).unwrap();
     let last = events.iter().rev().find(|e| e.kind.is_state_changing() || e.kind == Kind::Move).unwrap();
     last.state_hash.clone()
 }
@@ -54,10 +54,10 @@ fn every_v1_log_replays_with_every_hash_checked() {
     assert_eq!(files.len(), 7);
     let mut cancelled = 0;
     for f in &files {
-        let summary = physics_mcp::replay::replay(f, None, |_, _| {})
+        let summary = physics_mcp::log::replay::replay(f, None, |_, _| {})
             .unwrap_or_else(|e| panic!("{} does not replay: {e}", f.display()));
         assert_eq!(summary.final_hash, head_hash(f), "{}", f.display());
-        let events = physics_mcp::replay::events(f).unwrap();
+        let events = physics_mcp::log::replay::events(f).unwrap();
         assert!(events.iter().all(|e| e.version == 1), "the fixture is all version 1");
         cancelled += events
             .iter()

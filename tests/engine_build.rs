@@ -14,7 +14,7 @@ use std::process::Command as Process;
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::engine::{build_map, differences, lock, ENGINE_BUILD, UNRECORDED_ENGINE_BUILD};
 use physics_mcp::limits::Limits;
-use physics_mcp::replay::engine_builds;
+use physics_mcp::log::replay::engine_builds;
 use physics_mcp::sim::{lock_sim, Registry};
 use physics_mcp::value::Args;
 use serde_json::{json, Value};

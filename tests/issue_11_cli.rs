@@ -47,7 +47,7 @@ fn every_recorded_session_renders_and_reports() {
         let (ok, _, stderr) = run(&["report".as_ref(), file.as_os_str(), "-o".as_ref(), html_path.as_os_str()]);
         assert!(ok, "{name}: report failed: {stderr}");
         let page = std::fs::read_to_string(&html_path).unwrap();
-        let events = physics_mcp::replay::events(&file).unwrap();
+        let events = physics_mcp::log::replay::events(&file).unwrap();
         let rows = page.matches("<tr class=\"event").count();
         assert_eq!(rows, events.len(), "{name}: one timeline row per event");
         for e in &events {

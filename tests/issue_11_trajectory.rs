@@ -5,6 +5,7 @@
 
 mod common;
 
+use physics_mcp::log::EventLog;
 use common::{Client, Server};
 use serde_json::{json, Value};
 
@@ -244,7 +245,7 @@ async fn replay_trajectory_on_every_recorded_log_equals_get_trajectory() {
         if p.extension().is_some_and(|x| x == "sqlite") {
             // A copy, named as the server names a simulation's log (`<id>.sqlite`; it skips
             // files named otherwise): the recorded logs are never touched.
-            let id = physics_mcp::store::Log::open_read_only(&p).unwrap().simulation_id().unwrap();
+            let id = physics_mcp::log::sqlite::Log::open_read_only(&p).unwrap().simulation_id().unwrap();
             let copy = data.join(format!("{id}.sqlite"));
             std::fs::copy(&p, &copy).unwrap();
             let out_csv = dir.path().join(format!("{}.csv", p.file_stem().unwrap().to_string_lossy()));

@@ -145,7 +145,7 @@ fn rays(n: usize) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
 /// and shape.
 fn npy_words(path: &str, descr: &str, shape: (usize, usize)) -> Vec<[u8; 4]> {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let (d, s, data) = physics_mcp::npy::decode(&bytes).expect("a .npy v1.0 file");
+    let (d, s, data) = physics_mcp::files::npy::decode(&bytes).expect("a .npy v1.0 file");
     assert_eq!((d.as_str(), s), (descr, shape), "{path}");
     assert_eq!(data.len(), shape.0 * shape.1 * 4, "{path}: data length");
     data.chunks(4).map(|c| c.try_into().unwrap()).collect()

@@ -14,7 +14,7 @@ use common::Server;
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
 use physics_mcp::sim::{lock_sim, Registry, SharedSim};
-use physics_mcp::sweep::{Control, Observe, Request};
+use physics_mcp::sim::sweep::{Control, Observe, Request};
 use physics_mcp::value::Args;
 use serde_json::{json, Value};
 

@@ -84,7 +84,7 @@ fn an_unknown_event_kind_is_corruption_and_the_file_is_skipped() {
     let n = conn.execute("UPDATE events SET kind = 'bogus' WHERE kind = 'read'", []).unwrap();
     assert_eq!(n, 1);
     drop(conn);
-    let err = physics_mcp::replay::events(&path).unwrap_err().to_string();
+    let err = physics_mcp::log::replay::events(&path).unwrap_err().to_string();
     assert!(err.contains("bogus"), "the error names the bad kind: {err}");
     let reg = Registry::open(config(dir.path())).unwrap();
     let e = reg.get("kind").err().expect("a log with an unknown event kind must not be served");

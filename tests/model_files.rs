@@ -210,7 +210,7 @@ async fn every_model_and_every_recorded_log_folds_with_the_workspace_gone() {
     for e in std::fs::read_dir(replays).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "sqlite") {
-            physics_mcp::replay::replay(&p, None, |_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            physics_mcp::log::replay::replay(&p, None, |_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
         }
     }
 }

@@ -13,7 +13,7 @@ use std::path::Path;
 use physics_mcp::command::{Command, DynamicsChange, Shape};
 use physics_mcp::limits::Limits;
 use physics_mcp::sim::{lock_sim, Config, Registry, SharedSim};
-use physics_mcp::store::SyncMode;
+use physics_mcp::log::sqlite::SyncMode;
 use physics_mcp::value::Args;
 use proptest::prelude::*;
 use proptest::test_runner::{Config as RunnerConfig, RngAlgorithm, TestRng, TestRunner};

@@ -31,16 +31,16 @@ fn every_recorded_session_replays_to_its_recorded_hashes() {
     assert!(files.len() >= 6, "replays/ holds {} logs", files.len());
     let (mut moves, mut forks, mut refusals, mut loads, mut robots) = (0, 0, 0, 0, 0);
     for f in &files {
-        let summary = physics_mcp::replay::replay(f, None, |_, _| {})
+        let summary = physics_mcp::log::replay::replay(f, None, |_, _| {})
             .unwrap_or_else(|e| panic!("{} does not replay: {e}", f.display()));
-        let events = physics_mcp::replay::events(f).unwrap();
-        let last = events.iter().rev().find(|e| e.kind.is_state_changing() || e.kind == physics_mcp::store::Kind::Move).unwrap();
+        let events = physics_mcp::log::replay::events(f).unwrap();
+        let last = events.iter().rev().find(|e| e.kind.is_state_changing() || e.kind == physics_mcp::log::sqlite::Kind::Move).unwrap();
         assert_eq!(summary.final_hash, events.last().unwrap().state_hash, "{}", f.display());
         assert!(summary.state_events >= 4 && summary.snapshots_checked >= 1, "{}: {summary:?}", f.display());
         // The world the refold ends with is the one the last state-changing (or undo/redo)
         // event recorded: the head did not move after it.
         assert_eq!(summary.final_hash, last.state_hash, "{}", f.display());
-        moves += events.iter().filter(|e| e.kind == physics_mcp::store::Kind::Move).count();
+        moves += events.iter().filter(|e| e.kind == physics_mcp::log::sqlite::Kind::Move).count();
         forks += events.iter().filter(|e| e.inherited).count().min(1);
         refusals += events.iter().filter(|e| !e.ok).count();
         loads += events.iter().filter(|e| e.tool == "load_simulation" && !e.inherited).count();

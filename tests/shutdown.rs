@@ -155,9 +155,9 @@ fn stdio_ends_within_the_bound_when_its_input_ends_during_a_long_step() {
     eprintln!("stdio exited {:?} after its input ended", started.elapsed());
     // The step was logged as the steps it took.
     let log = dir.path().join("data").join(format!("{sim}.sqlite"));
-    let events = physics_mcp::replay::events(&log).unwrap();
+    let events = physics_mcp::log::replay::events(&log).unwrap();
     let step = events.iter().rev().find(|e| e.tool == "step_simulation").expect("the step was logged");
     let taken = serde_json::from_str::<Value>(step.result.as_deref().unwrap()).unwrap()["steps_taken"].as_u64().unwrap();
     assert!(taken > 0 && taken < 1_000_000, "{taken}");
-    physics_mcp::replay::replay(&log, None, |_, _| {}).unwrap();
+    physics_mcp::log::replay::replay(&log, None, |_, _| {}).unwrap();
 }

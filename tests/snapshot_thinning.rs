@@ -4,7 +4,7 @@
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
 use physics_mcp::sim::{lock_sim, Config, Registry, SNAPSHOT_EVERY_CHANGES};
-use physics_mcp::store::SyncMode;
+use physics_mcp::log::sqlite::SyncMode;
 use physics_mcp::value::Args;
 
 #[test]

@@ -297,7 +297,7 @@ fn every_replay_log_refolds_on_1_2_and_4_threads() {
     for threads in [1usize, 2, 4] {
         physics_mcp::world::set_step_threads(threads);
         for log in &logs {
-            let summary = physics_mcp::replay::replay(log, None, |_, _| {})
+            let summary = physics_mcp::log::replay::replay(log, None, |_, _| {})
                 .unwrap_or_else(|e| panic!("{} does not refold on {threads} threads: {e}", log.display()));
             assert!(summary.events > 0, "{}: {summary:?}", log.display());
         }

@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 
 use crate::command::{Blob, Command};
 use crate::files::Reader;
-use crate::mcp::params;
-use crate::urdf_files::{MAX_MESH_BYTES, MAX_URDF_BYTES};
+use crate::params;
+use crate::files::urdf::{MAX_MESH_BYTES, MAX_URDF_BYTES};
 use crate::value::{self, Refusal};
 
 /// Most nested include levels followed (a cycle is refused before this).

@@ -13,8 +13,8 @@ use serde_json::{json, Value};
 
 use crate::command::{BlobSource, Command, Shape, EVENT_VERSION};
 use crate::limits::Limits;
-use crate::store::{Event, Kind};
-use crate::urdf_files::decide_load_urdf;
+use crate::log::sqlite::{Event, Kind};
+use crate::files::urdf::decide_load_urdf;
 use crate::value::{self, r32, r32s, Refusal};
 use crate::files::Reader;
 use crate::world::{ObjectKind, World};
@@ -259,18 +259,12 @@ impl BlobSource for SavedBlobs<'_> {
     }
 }
 
-/// The blobs the commands of `chain` refer to, base64 by hash, read from `src` (for saving).
+/// The blobs the commands of `chain` refer to, base64 by hash (a saved file's `blobs`).
 pub fn chain_blobs(chain: &[Event], src: &dyn BlobSource) -> std::collections::BTreeMap<String, String> {
-    let mut out = std::collections::BTreeMap::new();
-    for e in chain {
-        let Some(cmd) = e.command.as_deref().and_then(|c| serde_json::from_str::<Command>(c).ok()) else { continue };
-        for b in cmd.blobs() {
-            if let Some(bytes) = src.blob(&b.hash) {
-                out.insert(b.hash.clone(), base64::engine::general_purpose::STANDARD.encode(bytes));
-            }
-        }
-    }
-    out
+    crate::log::fold::chain_blobs(chain, src)
+        .into_iter()
+        .map(|(hash, bytes)| (hash, base64::engine::general_purpose::STANDARD.encode(bytes)))
+        .collect()
 }
 
 /// The saved form of a chain event.
@@ -296,7 +290,7 @@ fn command_as_done(e: &Event) -> String {
     let text = e.command.clone().unwrap_or_default();
     match serde_json::from_str::<Command>(&text) {
         Ok(cmd @ Command::StepSimulation { .. }) => {
-            let done = crate::fold::upcast(cmd.clone(), e);
+            let done = crate::log::fold::upcast(cmd.clone(), e);
             if done == cmd { text } else { serde_json::to_string(&done).unwrap_or(text) }
         }
         _ => text,
@@ -378,16 +372,16 @@ pub fn world_from_events(
             let w = World::restore(id, gui, &bytes).map_err(bad)?;
             (at, w)
         }
-        None => (0, crate::fold::create_root(first, blobs).map_err(bad)?.0),
+        None => (0, crate::log::fold::create_root(first, blobs).map_err(bad)?.0),
     };
     let total = (events.len() - start) as u64;
-    crate::fold::check_hash(&world, &events[start])
+    crate::log::fold::check_hash(&world, &events[start])
         .and_then(|()| {
             let mut report = |_: &World, _: &Event, i: usize| {
                 progress(i as u64 + 1, total);
                 Ok(())
             };
-            crate::fold::fold(&mut world, &events[start + 1..], blobs, limits, crate::fold::Verify::Each, &mut report)
+            crate::log::fold::fold(&mut world, &events[start + 1..], blobs, limits, crate::log::fold::Verify::Each, &mut report)
         })
         .map_err(bad)?;
     Ok(world)
@@ -544,7 +538,7 @@ fn mjcf_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: Pose, 
     if let Some(Value::String(k)) = value::arg(o, "keyframe") {
         args.insert("keyframe".to_string(), json!(k));
     }
-    crate::mjcf_files::decide_load_mjcf(reader, &args).map_err(|why| format!("{} cannot be loaded: {why}", name("mjcf_path")))
+    crate::files::mjcf::decide_load_mjcf(reader, &args).map_err(|why| format!("{} cannot be loaded: {why}", name("mjcf_path")))
 }
 
 /// One readable constraint as the command that re-creates it (object ids mapped to the

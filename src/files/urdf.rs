@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::command::{Blob, Command};
-use crate::mcp::lenient::{NumList, Positive};
-use crate::mcp::params;
+use crate::params::lenient::{NumList, Positive};
+use crate::params;
 use crate::files::write::{self, write_owned, Owned};
 use crate::files::{Reader, Sandbox};
 use crate::value::{self, Refusal};

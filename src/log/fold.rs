@@ -3,6 +3,7 @@
 //! foreign saved file and `replay` all fold through here, so they cannot disagree about what an
 //! event means (a cancelled step, #16) or let an unchecked command into `World::apply`.
 
+use crate::log::EventLog;
 use std::sync::atomic::Ordering::Relaxed;
 use std::collections::BTreeSet;
 
@@ -11,7 +12,7 @@ use serde_json::Value;
 use crate::command::{BlobSource, Command};
 use crate::limits::Limits;
 use crate::outputs::Outcome;
-use crate::store::{Event, Kind, Log, StoreError};
+use crate::log::sqlite::{Event, Kind, StoreError};
 use crate::world::World;
 
 /// Why a fold stopped at an event.
@@ -119,6 +120,23 @@ pub fn decode(e: &Event, blobs: &dyn BlobSource) -> Result<Option<Command>, Fold
     let mut cmd: Command = serde_json::from_str(text).map_err(|err| undecodable(err.to_string()))?;
     cmd.hydrate(blobs).map_err(undecodable)?;
     Ok(Some(upcast(cmd, e)))
+}
+
+/// The blobs the commands of `chain` refer to, by hash, read from `src`: what a fork or a
+/// saved file must carry so its chain folds without the log it came from.
+pub fn chain_blobs(chain: &[Event], src: &dyn BlobSource) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    for e in chain {
+        let Some(cmd) = e.command.as_deref().and_then(|c| serde_json::from_str::<Command>(c).ok()) else { continue };
+        for b in cmd.blobs() {
+            if !out.contains_key(&b.hash) {
+                if let Some(bytes) = src.blob(&b.hash) {
+                    out.insert(b.hash.clone(), bytes);
+                }
+            }
+        }
+    }
+    out
 }
 
 /// `cmd` (recorded by `e`) as it was carried out: events older than `STEPS_AS_TAKEN_SINCE`
@@ -264,12 +282,12 @@ pub fn root_gui(cmd: &Command) -> Option<bool> {
 /// at create_simulation — a loaded file's inherited chain, or a log from before snapshot
 /// version 3). Walks back only as far as it must; undo, fork, recovery and re-simulation
 /// all start here.
-pub fn chain_from_snapshot(log: &Log, target: u64, before: u64) -> Result<(Vec<Event>, Option<Vec<u8>>), StoreError> {
+pub fn chain_from_snapshot(log: &dyn EventLog, target: u64, before: u64) -> Result<(Vec<Event>, Option<Vec<u8>>), StoreError> {
     let snapshots: BTreeSet<u64> = log.snapshot_seqs()?.into_iter().collect();
     let mut chain = Vec::new();
     let mut from = Some(target);
     while let Some(seq) = from {
-        let part = log.chain_back(seq, |e| e.seq <= before && snapshots.contains(&e.seq))?;
+        let part = log.chain_back(seq, &mut |e| e.seq <= before && snapshots.contains(&e.seq))?;
         let oldest = part.last().ok_or_else(|| StoreError::Corrupt(format!("event {seq} is missing")))?;
         let (at, parent) = (oldest.seq, oldest.parent);
         from = parent;
@@ -341,8 +359,8 @@ fn is_step(e: &Event) -> bool {
 
 /// SPEC's default `from_seq` for an interval ending at `to`: the state just before the most
 /// recent step_simulation on the chain (the root's when there is none).
-pub fn default_from(log: &Log, to: u64) -> Result<u64, StoreError> {
-    let back = log.chain_back(to, |e| e.kind == Kind::Root || is_step(e))?;
+pub fn default_from(log: &dyn EventLog, to: u64) -> Result<u64, StoreError> {
+    let back = log.chain_back(to, &mut |e| e.kind == Kind::Root || is_step(e))?;
     let last = back.last().ok_or_else(|| StoreError::Corrupt(format!("event {to} is missing")))?;
     Ok(match (last.kind, last.parent) {
         (Kind::Root, _) | (_, None) => last.seq,
@@ -353,7 +371,7 @@ pub fn default_from(log: &Log, to: u64) -> Result<u64, StoreError> {
 /// Copies what re-simulating `from..to` of simulation `id` needs out of `log` (defaults:
 /// `to` = the head, `from` = `default_from`). Refuses, naming the parameter, an end that
 /// is not a state-changing event on the chain or a start after the end.
-pub fn lend(log: &Log, id: &str, from: Option<u64>, to: Option<u64>) -> Result<Lent, String> {
+pub fn lend(log: &dyn EventLog, id: &str, from: Option<u64>, to: Option<u64>) -> Result<Lent, String> {
     let read = |e: StoreError| format!("The simulation's log could not be read: {e}");
     let to = to.unwrap_or(log.head_seq());
     if !log.event(to).map_err(read)?.is_some_and(|e| e.kind.is_state_changing()) {
@@ -524,7 +542,7 @@ mod tests {
     use super::*;
     use crate::command::Shape;
     use crate::sim::{lock_sim, Config, Registry};
-    use crate::store::SyncMode;
+    use crate::log::sqlite::SyncMode;
     use crate::value::Args;
 
     fn body(z: f32, mass: f32) -> Command {

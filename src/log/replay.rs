@@ -8,6 +8,7 @@
 //! pages of the log or fresh ids). Refused events are not re-executed; their recorded hash
 //! must equal the state they were refused in.
 
+use crate::log::EventLog;
 use std::path::Path;
 
 use serde::Serialize;
@@ -15,11 +16,11 @@ use serde_json::Value;
 
 use crate::command::Command;
 use crate::outputs::{EventRef, Redone, Undone};
-use crate::reads::{Read, ReadContext};
-use crate::fold::{self, FoldError};
+use crate::sim::reads::{Read, ReadContext};
+use crate::log::fold::{self, FoldError};
 use crate::limits::Limits;
 use crate::sim::{rebuild_at, MoveRecord};
-use crate::store::{Event, Kind, Log, StoreError};
+use crate::log::sqlite::{Event, Kind, Log, StoreError};
 use crate::value::Args;
 use crate::world::World;
 
@@ -258,8 +259,8 @@ pub fn replay(path: &Path, until: Option<u64>, mut progress: impl FnMut(u64, u64
 }
 
 /// A saved JSON file, parsed (not verified).
-fn read_saved(path: &Path) -> Result<crate::save::SaveFile, StoreError> {
-    let bytes = crate::files::read::read_operator_file(path, crate::save::MAX_SAVE_BYTES).map_err(StoreError::Corrupt)?;
+fn read_saved(path: &Path) -> Result<crate::files::save_format::SaveFile, StoreError> {
+    let bytes = crate::files::read::read_operator_file(path, crate::files::save_format::MAX_SAVE_BYTES).map_err(StoreError::Corrupt)?;
     serde_json::from_slice(&bytes).map_err(|e| StoreError::Corrupt(format!("not a saved simulation: {e}")))
 }
 
@@ -271,7 +272,7 @@ pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<S
         .ok_or_else(|| StoreError::Corrupt("the file has no history to replay".into()))?;
     let untrusted = [0u8; 32];
     let limits = crate::limits::Limits { max_steps: u64::MAX, ..Default::default() };
-    let (world, chain) = crate::save::world_from_history(&h, "replay", &untrusted, &limits, &mut progress)
+    let (world, chain) = crate::files::save_format::world_from_history(&h, "replay", &untrusted, &limits, &mut progress)
         .map_err(|why| {
             ReplayError::Diverged(Box::new(Divergence {
                 seq: 0,
@@ -419,17 +420,27 @@ pub fn diff(a: &Path, b: &Path) -> Result<Option<String>, StoreError> {
     Ok(None)
 }
 
-/// The interval `replay --trajectory/--render` looks at, lent from the log at `path`: the
-/// whole chain of the head (from its first event) unless `from`/`to` say otherwise.
-pub fn lend_interval(path: &Path, from: Option<u64>, to: Option<u64>) -> Result<fold::Lent, String> {
-    let log = Log::open_read_only(path).map_err(|e| e.to_string())?;
+/// The interval `replay --trajectory/--render` and `report` look at, lent from the log at
+/// `path` (opened read-only and handed back): the whole chain of the head (from its first
+/// event) unless `from`/`to` say otherwise.
+pub fn open_interval(path: &Path, from: Option<u64>, to: Option<u64>) -> Result<(Log, fold::Lent), String> {
+    if path.extension().is_some_and(|x| x == "json") {
+        return Err(format!("{}: pictures and trajectories need a simulation log (.sqlite), not a saved file", path.display()));
+    }
+    let log = Log::open_read_only(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let id = log.simulation_id().map_err(|e| e.to_string())?;
     let to = to.unwrap_or(log.head_seq());
     let from = match from {
         Some(f) => f,
-        None => log.chain_back(to, |_| false).map_err(|e| e.to_string())?.last().map_or(to, |e| e.seq),
+        None => log.chain_back(to, &mut |_| false).map_err(|e| e.to_string())?.last().map_or(to, |e| e.seq),
     };
-    fold::lend(&log, &id, Some(from), Some(to))
+    let lent = fold::lend(&log, &id, Some(from), Some(to))?;
+    Ok((log, lent))
+}
+
+/// `open_interval`'s lent interval alone.
+pub fn lend_interval(path: &Path, from: Option<u64>, to: Option<u64>) -> Result<fold::Lent, String> {
+    open_interval(path, from, to).map(|(_, lent)| lent)
 }
 
 /// `replay FILE --trajectory OUT`: every object's poses and velocities over the interval,
@@ -437,14 +448,14 @@ pub fn lend_interval(path: &Path, from: Option<u64>, to: Option<u64>) -> Result<
 /// An existing `out` is replaced only with `force` (`--force`).
 pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs, force: bool) -> Result<crate::outputs::Trajectory, String> {
     let shown = out.display().to_string();
-    crate::trajectory::is_jsonl(&shown, "--trajectory")?;
+    crate::seeing::trajectory::is_jsonl(&shown, "--trajectory")?;
     let lent = lend_interval(path, args.from, args.to)?;
-    let req = crate::trajectory::Request { every: args.every.filter(|e| *e > 0), object_ids: None, include_velocities: true };
+    let req = crate::seeing::trajectory::Request { every: args.every.filter(|e| *e > 0), object_ids: None, include_velocities: true };
     if args.every == Some(0) {
         return Err("--every must be at least 1".into());
     }
-    let t = crate::trajectory::sample_interval(&lent, &req)?;
-    let bytes = crate::trajectory::file_bytes(&t, &shown, "--trajectory")?;
+    let t = crate::seeing::trajectory::sample_interval(&lent, &req)?;
+    let bytes = crate::seeing::trajectory::file_bytes(&t, &shown, "--trajectory")?;
     crate::files::write::write_operator_file(out, &bytes, force)?;
     Ok(t)
 }
@@ -452,7 +463,7 @@ pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs
 /// A read's recorded arguments: inline, or — over 64 KB, as a large ray batch's are — the
 /// blob `{"blob": hash, "bytes": n}` points to (`Log::store_arguments`). Every read takes a
 /// sim_id, so real arguments are never that two-field object.
-fn read_arguments(log: &Log, stored: &str) -> Args {
+fn read_arguments(log: &dyn EventLog, stored: &str) -> Args {
     let args: Args = serde_json::from_str(stored).unwrap_or_default();
     let blob = match (args.len(), args.get("blob").and_then(Value::as_str), args.get("bytes")) {
         (2, Some(hash), Some(_)) => log.get_blob(hash),

@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
+use super::EventLog;
+
 use rusqlite::{params, Connection, OptionalExtension};
 
 /// Schema migrations, applied in order; `PRAGMA user_version` counts those applied.
@@ -118,6 +120,42 @@ pub struct Event {
     /// Root events: the engine build that made them (`physics_core::engine::ENGINE_BUILD`
     /// of that binary); `None` on other events and on roots recorded before builds were.
     pub engine: Option<String>,
+}
+
+impl Event {
+    /// An event of `kind` at `seq` with nothing decided yet (no parent, command, result or
+    /// hash): what every call's event starts as, alone or in a batch.
+    pub fn blank(seq: u64, kind: Kind, tool: &str, arguments: String) -> Event {
+        Event {
+            seq,
+            kind,
+            parent: None,
+            tool: tool.into(),
+            arguments,
+            command: None,
+            version: crate::command::EVENT_VERSION,
+            ok: kind != Kind::Refused,
+            mutates: kind.is_state_changing(),
+            inherited: false,
+            result: None,
+            result_hash: None,
+            state_hash: String::new(),
+            engine: None,
+        }
+    }
+
+    /// A root event (create, fork, load): its command, result and state, and the engine build
+    /// that made it (SPEC "Compatibility": every root records it).
+    pub fn root(seq: u64, parent: Option<u64>, tool: &str, arguments: String, command: &crate::command::Command, result_json: String, state_hash: &str) -> Result<Event, String> {
+        let mut e = Event::blank(seq, Kind::Root, tool, arguments);
+        e.parent = parent;
+        e.command = Some(serde_json::to_string(command).map_err(|err| err.to_string())?);
+        e.result_hash = Some(crate::digest::result_hash(&result_json));
+        e.result = Some(result_json);
+        e.state_hash = state_hash.to_string();
+        e.engine = Some(crate::engine::ENGINE_BUILD.into());
+        Ok(e)
+    }
 }
 
 /// Errors of the log layer (I/O and SQLite), reported to clients as one sentence.
@@ -470,86 +508,14 @@ impl Log {
         &self.path
     }
 
-    /// The simulation id recorded in the file.
-    pub fn simulation_id(&self) -> Result<String, StoreError> {
-        Ok(self.conn.query_row(
-            "SELECT value FROM meta WHERE key = 'simulation_id'",
-            [],
-            |r| r.get(0),
-        )?)
-    }
 
-    /// The seq of the last event appended (committed or buffered).
-    pub fn last_seq(&self) -> u64 {
-        self.last_seq
-    }
 
-    /// The state-changing event the world reflects.
-    pub fn head_seq(&self) -> u64 {
-        self.head_seq
-    }
 
-    /// The seq the next event will get.
-    pub fn next_seq(&self) -> u64 {
-        self.last_seq + 1
-    }
 
-    /// Stores a command's blob (URDF text, mesh) under its hash; storing it twice is a no-op.
-    /// Written before the event that refers to it, so a committed event always finds it.
-    pub fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError> {
-        self.conn.execute(
-            "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
-            params![hash, bytes],
-        )?;
-        Ok(())
-    }
 
-    /// The bytes stored under `hash`.
-    pub fn get_blob(&self, hash: &str) -> Option<Vec<u8>> {
-        self.conn
-            .query_row("SELECT bytes FROM blobs WHERE hash = ?1", params![hash], |r| r.get(0))
-            .ok()
-    }
 
-    /// Stores arguments inline, or as a blob when they are over 64 KB (returns the reference).
-    /// If the blob cannot be written the arguments stay inline: the event is still recorded.
-    pub fn store_arguments(&mut self, args_json: String) -> String {
-        if args_json.len() <= INLINE_ARGS_MAX {
-            return args_json;
-        }
-        let hash = blake3::hash(args_json.as_bytes()).to_hex().to_string();
-        match self.conn.execute(
-            "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
-            params![hash, args_json.as_bytes()],
-        ) {
-            Ok(_) => serde_json::json!({"blob": hash, "bytes": args_json.len()}).to_string(),
-            Err(e) => {
-                tracing::warn!("could not store large arguments as a blob: {e}");
-                args_json
-            }
-        }
-    }
 
-    /// Commits a root, change or move event — with the buffered events, `head` as the new
-    /// head and an optional snapshot at this event — in one transaction. Returns only once
-    /// it is durable per the sync mode.
-    pub fn append_durable(
-        &mut self,
-        event: Event,
-        head: u64,
-        snapshot: Option<(&[u8], &str)>,
-    ) -> Result<(), StoreError> {
-        let seq = event.seq;
-        let snapshots: Vec<Snap> = snapshot.into_iter().map(|(b, h)| (seq, b, h)).collect();
-        self.commit((&[], None), std::slice::from_ref(&event), head, &snapshots)
-    }
 
-    /// Commits a batch's events (its changes and reads, in seq order) with the buffered
-    /// events, `head` as the new head and the snapshots taken along the way, all in one
-    /// transaction: either every call of the batch is recorded or none is.
-    pub fn append_batch(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError> {
-        self.commit((&[], None), events, head, snapshots)
-    }
 
     /// Starts a forked log: the inherited chain (flagged `inherited`, original seqs), every
     /// snapshot `parent` holds on that chain (so any inherited point costs what it costs in the
@@ -558,7 +524,7 @@ impl Log {
     pub fn append_root_with_ancestry(
         &mut self,
         inherited: &[Event],
-        parent: Option<&Log>,
+        parent: Option<&dyn EventLog>,
         root: Event,
         snapshot: (&[u8], &str),
     ) -> Result<(), StoreError> {
@@ -568,7 +534,7 @@ impl Log {
 
     fn commit(
         &mut self,
-        (inherited, parent): (&[Event], Option<&Log>),
+        (inherited, parent): (&[Event], Option<&dyn EventLog>),
         events: &[Event],
         head: u64,
         snapshots: &[Snap],
@@ -624,188 +590,18 @@ impl Log {
         Ok(())
     }
 
-    /// Every event in seq order (committed and buffered): for verification and redo stacks.
-    pub fn all_events(&self) -> Result<Vec<Event>, StoreError> {
-        self.events_since(0, usize::MAX / 2)
-    }
 
-    /// Buffers a read or refused event; committed with the next write or when many wait.
-    pub fn append_lazy(&mut self, event: Event) -> Result<(), StoreError> {
-        self.last_seq = event.seq;
-        self.pending.push(event);
-        if self.pending.len() >= LAZY_FLUSH_AT {
-            self.flush()?;
-        }
-        Ok(())
-    }
 
-    /// Commits buffered events.
-    pub fn flush(&mut self) -> Result<(), StoreError> {
-        if self.pending.is_empty() {
-            return Ok(());
-        }
-        let tx = self.conn.transaction()?;
-        for e in &self.pending {
-            insert_event(&tx, e)?;
-        }
-        tx.commit()?;
-        self.pending.clear();
-        Ok(())
-    }
 
-    /// All events with seq > `since`, ascending, at most `limit`, buffered ones included.
-    pub fn events_since(&self, since: u64, limit: usize) -> Result<Vec<Event>, StoreError> {
-        let mut stmt = self.conn.prepare_cached(&format!(
-            "SELECT {} FROM events WHERE seq > ?1 ORDER BY seq LIMIT ?2",
-            self.select_columns
-        ))?;
-        let mut out: Vec<Event> = stmt
-            .query_map(params![since as i64, limit as i64], row_to_event)?
-            .collect::<Result<_, _>>()?;
-        out.extend(self.pending.iter().filter(|e| e.seq > since).cloned());
-        out.truncate(limit);
-        Ok(out)
-    }
 
-    /// One event by seq (committed or buffered).
-    pub fn event(&self, seq: u64) -> Result<Option<Event>, StoreError> {
-        if let Some(e) = self.pending.iter().find(|e| e.seq == seq) {
-            return Ok(Some(e.clone()));
-        }
-        Ok(self
-            .conn
-            .prepare_cached(&format!("SELECT {} FROM events WHERE seq = ?1", self.select_columns))?
-            .query_row(params![seq as i64], row_to_event)
-            .optional()?)
-    }
 
-    /// The chain of state-changing events from the root to `head` (inclusive), root first.
-    pub fn chain_to(&self, head: u64) -> Result<Vec<Event>, StoreError> {
-        let mut chain = Vec::new();
-        let mut cur = Some(head);
-        while let Some(seq) = cur {
-            let e = self
-                .event(seq)?
-                .ok_or_else(|| StoreError::Corrupt(format!("event {seq} on the chain is missing")))?;
-            if !e.kind.is_state_changing() {
-                return Err(StoreError::Corrupt(format!(
-                    "event {seq} on the chain is not state-changing"
-                )));
-            }
-            if chain.len() as u64 > self.last_seq {
-                return Err(StoreError::Corrupt("the chain has a cycle".into()));
-            }
-            cur = e.parent;
-            chain.push(e);
-        }
-        chain.reverse();
-        Ok(chain)
-    }
 
-    /// The chain from `head` back to (and including) the first event `stop` accepts, or to
-    /// the root; newest first. Costs what it walks, not the whole history.
-    pub fn chain_back(&self, head: u64, mut stop: impl FnMut(&Event) -> bool) -> Result<Vec<Event>, StoreError> {
-        let mut out = Vec::new();
-        let mut cur = Some(head);
-        while let Some(seq) = cur {
-            let e = self
-                .event(seq)?
-                .ok_or_else(|| StoreError::Corrupt(format!("event {seq} on the chain is missing")))?;
-            if !e.kind.is_state_changing() || out.len() as u64 > self.last_seq {
-                return Err(StoreError::Corrupt(format!("the chain is broken at event {seq}")));
-            }
-            cur = e.parent;
-            let done = stop(&e);
-            out.push(e);
-            if done {
-                break;
-            }
-        }
-        Ok(out)
-    }
 
-    /// The head the log's last own root, change or move event left (a move's `to`): the
-    /// stored head must equal it, since both are written in one transaction.
-    pub fn head_by_events(&self) -> Result<Option<u64>, StoreError> {
-        let last: Option<(i64, String, Option<String>)> = self
-            .conn
-            .prepare_cached(
-                "SELECT seq, kind, command FROM events WHERE kind IN ('root', 'change', 'move') \
-                 AND inherited = 0 ORDER BY seq DESC LIMIT 1",
-            )?
-            .query_row([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
-            .optional()?;
-        let Some((seq, kind, command)) = last else { return Ok(None) };
-        if kind != "move" {
-            return Ok(Some(seq as u64));
-        }
-        let to = command
-            .as_deref()
-            .and_then(|c| serde_json::from_str::<serde_json::Value>(c).ok())
-            .and_then(|v| v["to"].as_u64())
-            .ok_or_else(|| StoreError::Corrupt(format!("move {seq} does not decode")))?;
-        Ok(Some(to))
-    }
 
-    /// This log's own root command (not an inherited one): it holds the gui flag.
-    pub fn own_root_command(&self) -> Result<Option<String>, StoreError> {
-        Ok(self
-            .conn
-            .prepare_cached("SELECT command FROM events WHERE kind = 'root' AND inherited = 0 ORDER BY seq DESC LIMIT 1")?
-            .query_row([], |r| r.get(0))
-            .optional()?
-            .flatten())
-    }
 
-    /// The snapshot at `seq`, if one was taken: (bytes, recorded blake3).
-    pub fn snapshot_at(&self, seq: u64) -> Result<Option<(Vec<u8>, String)>, StoreError> {
-        Ok(self
-            .conn
-            .prepare_cached("SELECT bytes, hash FROM snapshots WHERE seq = ?1")?
-            .query_row(params![seq as i64], |r| Ok((r.get(0)?, r.get(1)?)))
-            .optional()?)
-    }
 
-    /// Seqs of the snapshots on the chain ending at `head`, newest first (one recursive query,
-    /// not one per event).
-    pub fn chain_snapshot_seqs(&self, head: u64) -> Result<Vec<u64>, StoreError> {
-        let mut stmt = self.conn.prepare_cached(
-            "WITH RECURSIVE chain(seq, parent) AS (
-                 SELECT seq, parent FROM events WHERE seq = ?1
-                 UNION ALL
-                 SELECT e.seq, e.parent FROM events e JOIN chain c ON e.seq = c.parent
-             )
-             SELECT s.seq FROM snapshots s JOIN chain c ON s.seq = c.seq ORDER BY s.seq DESC",
-        )?;
-        let seqs = stmt
-            .query_map(params![head as i64], |r| r.get::<_, i64>(0))?
-            .map(|r| r.map(|s| s as u64))
-            .collect::<Result<_, _>>()?;
-        Ok(seqs)
-    }
 
-    /// Deletes snapshots (thinning); the events stay, so nothing is lost but re-simulation.
-    pub fn delete_snapshots(&mut self, seqs: &[u64]) -> Result<(), StoreError> {
-        if seqs.is_empty() {
-            return Ok(());
-        }
-        let tx = self.conn.transaction()?;
-        for s in seqs {
-            tx.execute("DELETE FROM snapshots WHERE seq = ?1", params![*s as i64])?;
-        }
-        tx.commit()?;
-        Ok(())
-    }
 
-    /// Seqs that have snapshots, ascending.
-    pub fn snapshot_seqs(&self) -> Result<Vec<u64>, StoreError> {
-        let mut stmt = self.conn.prepare_cached("SELECT seq FROM snapshots ORDER BY seq")?;
-        let seqs = stmt
-            .query_map([], |r| r.get::<_, i64>(0))?
-            .map(|r| r.map(|s| s as u64))
-            .collect::<Result<_, _>>()?;
-        Ok(seqs)
-    }
 
     /// Moves the WAL's contents into the main file (so `file_bytes` measures the log itself).
     pub fn checkpoint(&self) -> Result<(), StoreError> {
@@ -840,6 +636,257 @@ impl Log {
         let wal = self.path.with_extension("sqlite-wal");
         std::fs::metadata(&self.path).map(|m| m.len()).unwrap_or(0)
             + std::fs::metadata(wal).map(|m| m.len()).unwrap_or(0)
+    }
+}
+
+impl super::EventLog for Log {
+    fn append(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), super::AppendError> {
+        // One process owns this file (the data directory's lock): a conflict is a caller that
+        // lost track of the log's end, never another writer.
+        if let Some(first) = events.first() {
+            if first.seq != self.last_seq + 1 {
+                return Err(super::AppendError::Conflict { expected: first.seq - 1, actual: self.last_seq });
+            }
+        }
+        self.commit((&[], None), events, head, snapshots).map_err(super::AppendError::Store)
+    }
+
+    /// The simulation id recorded in the file.
+    fn simulation_id(&self) -> Result<String, StoreError> {
+        Ok(self.conn.query_row(
+            "SELECT value FROM meta WHERE key = 'simulation_id'",
+            [],
+            |r| r.get(0),
+        )?)
+    }
+
+    /// The seq of the last event appended (committed or buffered).
+    fn last_seq(&self) -> u64 {
+        self.last_seq
+    }
+
+    /// The state-changing event the world reflects.
+    fn head_seq(&self) -> u64 {
+        self.head_seq
+    }
+
+    /// Stores a command's blob (URDF text, mesh) under its hash; storing it twice is a no-op.
+    /// Written before the event that refers to it, so a committed event always finds it.
+    fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError> {
+        self.conn.execute(
+            "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
+            params![hash, bytes],
+        )?;
+        Ok(())
+    }
+
+    /// The bytes stored under `hash`.
+    fn get_blob(&self, hash: &str) -> Option<Vec<u8>> {
+        self.conn
+            .query_row("SELECT bytes FROM blobs WHERE hash = ?1", params![hash], |r| r.get(0))
+            .ok()
+    }
+
+    /// Stores arguments inline, or as a blob when they are over 64 KB (returns the reference).
+    /// If the blob cannot be written the arguments stay inline: the event is still recorded.
+    fn store_arguments(&mut self, args_json: String) -> String {
+        if args_json.len() <= INLINE_ARGS_MAX {
+            return args_json;
+        }
+        let hash = blake3::hash(args_json.as_bytes()).to_hex().to_string();
+        match self.conn.execute(
+            "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
+            params![hash, args_json.as_bytes()],
+        ) {
+            Ok(_) => serde_json::json!({"blob": hash, "bytes": args_json.len()}).to_string(),
+            Err(e) => {
+                tracing::warn!("could not store large arguments as a blob: {e}");
+                args_json
+            }
+        }
+    }
+
+    /// Every event in seq order (committed and buffered): for verification and redo stacks.
+    fn all_events(&self) -> Result<Vec<Event>, StoreError> {
+        self.events_since(0, usize::MAX / 2)
+    }
+
+    /// Buffers a read or refused event; committed with the next write or when many wait.
+    fn append_lazy(&mut self, event: Event) -> Result<(), StoreError> {
+        self.last_seq = event.seq;
+        self.pending.push(event);
+        if self.pending.len() >= LAZY_FLUSH_AT {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Commits buffered events.
+    fn flush(&mut self) -> Result<(), StoreError> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let tx = self.conn.transaction()?;
+        for e in &self.pending {
+            insert_event(&tx, e)?;
+        }
+        tx.commit()?;
+        self.pending.clear();
+        Ok(())
+    }
+
+    /// All events with seq > `since`, ascending, at most `limit`, buffered ones included.
+    fn events_since(&self, since: u64, limit: usize) -> Result<Vec<Event>, StoreError> {
+        let mut stmt = self.conn.prepare_cached(&format!(
+            "SELECT {} FROM events WHERE seq > ?1 ORDER BY seq LIMIT ?2",
+            self.select_columns
+        ))?;
+        let mut out: Vec<Event> = stmt
+            .query_map(params![since as i64, limit as i64], row_to_event)?
+            .collect::<Result<_, _>>()?;
+        out.extend(self.pending.iter().filter(|e| e.seq > since).cloned());
+        out.truncate(limit);
+        Ok(out)
+    }
+
+    /// One event by seq (committed or buffered).
+    fn event(&self, seq: u64) -> Result<Option<Event>, StoreError> {
+        if let Some(e) = self.pending.iter().find(|e| e.seq == seq) {
+            return Ok(Some(e.clone()));
+        }
+        Ok(self
+            .conn
+            .prepare_cached(&format!("SELECT {} FROM events WHERE seq = ?1", self.select_columns))?
+            .query_row(params![seq as i64], row_to_event)
+            .optional()?)
+    }
+
+    /// The chain of state-changing events from the root to `head` (inclusive), root first.
+    fn chain_to(&self, head: u64) -> Result<Vec<Event>, StoreError> {
+        let mut chain = Vec::new();
+        let mut cur = Some(head);
+        while let Some(seq) = cur {
+            let e = self
+                .event(seq)?
+                .ok_or_else(|| StoreError::Corrupt(format!("event {seq} on the chain is missing")))?;
+            if !e.kind.is_state_changing() {
+                return Err(StoreError::Corrupt(format!(
+                    "event {seq} on the chain is not state-changing"
+                )));
+            }
+            if chain.len() as u64 > self.last_seq {
+                return Err(StoreError::Corrupt("the chain has a cycle".into()));
+            }
+            cur = e.parent;
+            chain.push(e);
+        }
+        chain.reverse();
+        Ok(chain)
+    }
+
+    /// The chain from `head` back to (and including) the first event `stop` accepts, or to
+    /// the root; newest first. Costs what it walks, not the whole history.
+    fn chain_back(&self, head: u64, stop: &mut dyn FnMut(&Event) -> bool) -> Result<Vec<Event>, StoreError> {
+        let mut out = Vec::new();
+        let mut cur = Some(head);
+        while let Some(seq) = cur {
+            let e = self
+                .event(seq)?
+                .ok_or_else(|| StoreError::Corrupt(format!("event {seq} on the chain is missing")))?;
+            if !e.kind.is_state_changing() || out.len() as u64 > self.last_seq {
+                return Err(StoreError::Corrupt(format!("the chain is broken at event {seq}")));
+            }
+            cur = e.parent;
+            let done = stop(&e);
+            out.push(e);
+            if done {
+                break;
+            }
+        }
+        Ok(out)
+    }
+
+    /// The head the log's last own root, change or move event left (a move's `to`): the
+    /// stored head must equal it, since both are written in one transaction.
+    fn head_by_events(&self) -> Result<Option<u64>, StoreError> {
+        let last: Option<(i64, String, Option<String>)> = self
+            .conn
+            .prepare_cached(
+                "SELECT seq, kind, command FROM events WHERE kind IN ('root', 'change', 'move') \
+                 AND inherited = 0 ORDER BY seq DESC LIMIT 1",
+            )?
+            .query_row([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+            .optional()?;
+        let Some((seq, kind, command)) = last else { return Ok(None) };
+        if kind != "move" {
+            return Ok(Some(seq as u64));
+        }
+        let to = command
+            .as_deref()
+            .and_then(|c| serde_json::from_str::<serde_json::Value>(c).ok())
+            .and_then(|v| v["to"].as_u64())
+            .ok_or_else(|| StoreError::Corrupt(format!("move {seq} does not decode")))?;
+        Ok(Some(to))
+    }
+
+    /// This log's own root command (not an inherited one): it holds the gui flag.
+    fn own_root_command(&self) -> Result<Option<String>, StoreError> {
+        Ok(self
+            .conn
+            .prepare_cached("SELECT command FROM events WHERE kind = 'root' AND inherited = 0 ORDER BY seq DESC LIMIT 1")?
+            .query_row([], |r| r.get(0))
+            .optional()?
+            .flatten())
+    }
+
+    /// The snapshot at `seq`, if one was taken: (bytes, recorded blake3).
+    fn snapshot_at(&self, seq: u64) -> Result<Option<(Vec<u8>, String)>, StoreError> {
+        Ok(self
+            .conn
+            .prepare_cached("SELECT bytes, hash FROM snapshots WHERE seq = ?1")?
+            .query_row(params![seq as i64], |r| Ok((r.get(0)?, r.get(1)?)))
+            .optional()?)
+    }
+
+    /// Seqs of the snapshots on the chain ending at `head`, newest first (one recursive query,
+    /// not one per event).
+    fn chain_snapshot_seqs(&self, head: u64) -> Result<Vec<u64>, StoreError> {
+        let mut stmt = self.conn.prepare_cached(
+            "WITH RECURSIVE chain(seq, parent) AS (
+                 SELECT seq, parent FROM events WHERE seq = ?1
+                 UNION ALL
+                 SELECT e.seq, e.parent FROM events e JOIN chain c ON e.seq = c.parent
+             )
+             SELECT s.seq FROM snapshots s JOIN chain c ON s.seq = c.seq ORDER BY s.seq DESC",
+        )?;
+        let seqs = stmt
+            .query_map(params![head as i64], |r| r.get::<_, i64>(0))?
+            .map(|r| r.map(|s| s as u64))
+            .collect::<Result<_, _>>()?;
+        Ok(seqs)
+    }
+
+    /// Deletes snapshots (thinning); the events stay, so nothing is lost but re-simulation.
+    fn delete_snapshots(&mut self, seqs: &[u64]) -> Result<(), StoreError> {
+        if seqs.is_empty() {
+            return Ok(());
+        }
+        let tx = self.conn.transaction()?;
+        for s in seqs {
+            tx.execute("DELETE FROM snapshots WHERE seq = ?1", params![*s as i64])?;
+        }
+        tx.commit()?;
+        Ok(())
+    }
+
+    /// Seqs that have snapshots, ascending.
+    fn snapshot_seqs(&self) -> Result<Vec<u64>, StoreError> {
+        let mut stmt = self.conn.prepare_cached("SELECT seq FROM snapshots ORDER BY seq")?;
+        let seqs = stmt
+            .query_map([], |r| r.get::<_, i64>(0))?
+            .map(|r| r.map(|s| s as u64))
+            .collect::<Result<_, _>>()?;
+        Ok(seqs)
     }
 }
 

@@ -25,8 +25,6 @@ mod subscriptions;
 mod tools;
 pub mod transport;
 
-pub use crate::params::{self, lenient};
-pub(crate) use tools::time;
 
 use std::sync::{Arc, LazyLock};
 
@@ -50,6 +48,7 @@ use serde_json::json;
 
 use crate::command::Command;
 use crate::files::Reader;
+use crate::params;
 use crate::limits::Limits;
 use crate::outputs::Outcome;
 use crate::sim::{lock_sim, Registry, Sim};
@@ -68,7 +67,6 @@ pub(crate) trait Params: DeserializeOwned + JsonSchema + Send + 'static {}
 impl<P: DeserializeOwned + JsonSchema + Send + 'static> Params for P {}
 
 pub use resources::Sessions;
-pub(crate) use time::sampled_step_with;
 
 /// The MCP server: one instance per session, all sharing the registry.
 #[derive(Clone)]
@@ -229,7 +227,7 @@ impl PhysicsServer {
                     Ok(Command::StepSimulation { steps }) => *steps,
                     _ => 0,
                 };
-                let mut live = crate::viewer::live::Publisher::new(sim.id(), total);
+                let mut live = crate::seeing::viewer::live::Publisher::new(sim.id(), total);
                 let out = sim.change_observed(tool, a, decided, limits, ctl, &mut |w| live.observe(w));
                 // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).
                 tracing::debug!(target: "physics_mcp::timing", tool, sim_change_ms = started.elapsed().as_secs_f64() * 1e3);
@@ -284,7 +282,7 @@ impl PhysicsServer {
         f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<CallToolResult, String> {
         let budget = self.reg.limits().max_reply_bytes;
-        let measure = move |t: &T, _: &str| crate::budget::bytes_of(&t.reply(tool));
+        let measure = move |t: &T, _: &str| crate::sim::budget::bytes_of(&t.reply(tool));
         let out = self
             .with_sim(args, move |sim, a, _| sim.read_replying(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?), measure))
             .await?;

@@ -1,12 +1,12 @@
 //! The last guard of the reply budget: one place that sees every tools/call result as it goes
-//! out. The simulation layer has already measured every reply with `crate::budget` before it
+//! out. The simulation layer has already measured every reply with `crate::sim::budget` before it
 //! committed or logged the call, so here a reply is only given its text summary (large
 //! results) and, should it still not fit, shortened the same way (`budget::shorten`) or —
 //! a measurement missed somewhere, logged as an error — refused.
 
 use rmcp::model::{CallToolResult, ContentBlock};
 
-use crate::budget::{self, bytes_of};
+use crate::sim::budget::{self, bytes_of};
 
 /// The reply `result` of `tool` as it may go out within `budget` bytes. A state-changing
 /// tool's reply over the budget is shortened exactly as the simulation measured it before

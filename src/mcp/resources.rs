@@ -17,9 +17,9 @@ use serde_json::{json, Value};
 
 use super::subscriptions::Subscriptions;
 use super::PhysicsServer;
-use crate::reads;
+use crate::sim::reads;
 use crate::sim::{lock_sim, Sim};
-use crate::timeline::HISTORY_MAX_LIMIT;
+use crate::sim::timeline::HISTORY_MAX_LIMIT;
 use crate::value::Refusal;
 
 /// Newest events `sim://{id}/history` lists (older ones: get_history with `since_seq`, or the
@@ -129,7 +129,7 @@ fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize, budget: usize) -> R
         Part::Image => {
             let (w, h) = IMAGE_SIZE;
             let args = json!({"sim_id": cx.world.simulation_id(), "width": w, "height": h});
-            let p = super::params::parse("sim://image", args.as_object().unwrap_or(&Default::default()))?;
+            let p = crate::params::parse("sim://image", args.as_object().unwrap_or(&Default::default()))?;
             let rendered = reads::camera_image(&cx, &p, max_px)?;
             let png = base64::engine::general_purpose::STANDARD.encode(&rendered.png);
             Ok(ResourceContents::blob(png, uri).with_mime_type(part.mime()))

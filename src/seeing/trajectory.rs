@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use crate::fold::{self, FoldError, Interval, Lent, Moment};
+use crate::log::fold::{self, FoldError, Interval, Lent, Moment};
 use crate::outputs::{ObjectTrack, Trajectory};
 use crate::value::Refusal;
 use crate::world::World;

@@ -14,14 +14,15 @@
 //!   is logged and the world, its hash, head and undo chain are as before. Accepted, every
 //!   call is its own event (undo granularity unchanged) and replay needs nothing new.
 
+use crate::log::EventLog;
 use serde_json::Value;
 
 use crate::command::{Blob, Command};
 use crate::limits::Limits;
 use crate::outputs::{Batched, Outcome};
-use crate::reads::{Read, ReadContext};
+use crate::sim::reads::{Read, ReadContext};
 use crate::sim::{Sim, SNAPSHOT_EVERY_BODY_STEPS, SNAPSHOT_EVERY_CHANGES};
-use crate::store::{Event, Kind};
+use crate::log::sqlite::{Event, Kind};
 use crate::value::{Args, Refusal};
 use crate::world::{StepControl, StepObserver, World};
 
@@ -137,7 +138,7 @@ impl Sim {
         let call = Call { tool: tool.to_string(), args: args.clone(), planned: Planned::Change(decided) };
         let budget = limits.max_reply_bytes;
         // The reply the MCP layer will send (`budget::shorten` again, the same way) must fit.
-        let measure = |c: &Carried| c.results.first().map_or(Ok(()), |v| crate::budget::shorten(tool, v.clone(), budget).map(|_| ()));
+        let measure = |c: &Carried| c.results.first().map_or(Ok(()), |v| crate::sim::budget::shorten(tool, v.clone(), budget).map(|_| ()));
         let (carried, ()) = self.carry_out(vec![call], Mode::Alone(observe), limits, control, measure)?;
         carried.outcome.ok_or_else(|| "Internal error: the call gave no result".to_string())
     }
@@ -148,9 +149,9 @@ impl Sim {
         let budget = limits.max_reply_bytes;
         let (_, out) = self.carry_out(calls, Mode::AllOrNothing { args }, limits, control, |c| {
             let out = Batched { results: c.results.clone(), head_seq: c.head_seq, state_hash: c.state_hash.clone() };
-            let bytes = crate::budget::reply_bytes("batch", serde_json::to_value(&out).unwrap_or_default());
+            let bytes = crate::sim::budget::reply_bytes("batch", serde_json::to_value(&out).unwrap_or_default());
             if bytes > budget {
-                return Err(crate::budget::over_budget("batch", bytes as u64, budget));
+                return Err(crate::sim::budget::over_budget("batch", bytes as u64, budget));
             }
             Ok(out)
         })?;
@@ -254,9 +255,9 @@ impl Sim {
                 e
             })
             .collect();
-        let snaps: Vec<crate::store::Snap> = snapshots.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
+        let snaps: Vec<crate::log::sqlite::Snap> = snapshots.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
         let started = std::time::Instant::now();
-        self.log.append_batch(&events, carried.head_seq, &snaps).map_err(|e| e.to_string())?;
+        self.log.append(&events, carried.head_seq, &snaps).map_err(|e| e.to_string())?;
         let ms = started.elapsed().as_millis() as u64;
         if let Some((seq, bytes, _)) = snapshots.last() {
             if ms >= crate::sim::stall_ms() {
@@ -293,7 +294,7 @@ fn work_out(
         let seq = next_seq + i as u64;
         let refused = |why: Refusal| if alone { why } else { call_refused(i, &call.tool, &why) };
         // Arguments stay raw JSON until the calls commit (`store_arguments` may write a blob).
-        let mut e = crate::sim::blank_event(seq, Kind::Read, &call.tool, serde_json::to_string(&call.args).unwrap_or_default());
+        let mut e = Event::blank(seq, Kind::Read, &call.tool, serde_json::to_string(&call.args).unwrap_or_default());
         match call.planned {
             Planned::Change(decided) => {
                 let cmd = decided.and_then(|c| c.validate(world, limits).map(|()| c)).map_err(refused)?;
@@ -310,7 +311,7 @@ fn work_out(
                 // Logged as carried out: a cancelled step records the steps it took, so every
                 // fold of the log repeats exactly what the world did.
                 let cmd = cmd.as_taken(result.steps_taken());
-                work_since += crate::fold::work(&cmd, world);
+                work_since += crate::log::fold::work(&cmd, world);
                 changes_since += 1;
                 let value = result.to_value();
                 let json = value.to_string();

@@ -9,23 +9,25 @@
 pub mod apply;
 pub mod budget;
 pub mod reads;
+pub mod sampled_step;
 pub mod save_load;
 pub mod sweep;
 pub mod timeline;
 
+use crate::log::EventLog;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use serde::Serialize;
 
-use crate::command::{Command, NoBlobs, EVENT_VERSION};
-use crate::fold::{self, Verify};
+use crate::command::{Command, NoBlobs};
+use crate::log::fold::{self, Verify};
 use crate::limits::Limits;
 use crate::outputs::{DamagedSimulation, Message, Outcome, SimulationList, SimulationSummary};
-use crate::reads::ReadContext;
-use crate::store::{data_dir, Event, Kind, Log, StoreError, SyncMode};
-pub(crate) use crate::store::data_dir::remove_log_files;
+use crate::sim::reads::ReadContext;
+use crate::log::sqlite::{data_dir, Event, Kind, Log, StoreError, SyncMode};
+pub(crate) use crate::log::sqlite::data_dir::remove_log_files;
 use crate::value::{Args, Refusal};
 use crate::files::Sandbox;
 use crate::world::World;
@@ -137,7 +139,7 @@ impl Sim {
         args: &Args,
         sync: SyncMode,
     ) -> Result<(Sim, Outcome), String> {
-        let (sim, result) = Sim::create_unpublished(&crate::store::partial_path(path), tool, root, args, sync)?;
+        let (sim, result) = Sim::create_unpublished(&crate::log::sqlite::partial_path(path), tool, root, args, sync)?;
         crate::crash_point!("create_before_publish");
         Ok((sim.publish(path)?, result))
     }
@@ -182,25 +184,10 @@ impl Sim {
         let result_json = result.to_value().to_string();
         let snapshot = world.snapshot();
         let snap_hash = crate::digest::content_hash(&snapshot);
-        let event = Event {
-            seq: log.next_seq(),
-            kind: Kind::Root,
-            parent: None,
-            tool: tool.into(),
-            arguments: args_json,
-            command: Some(serde_json::to_string(&root).map_err(|e| e.to_string())?),
-            version: EVENT_VERSION,
-            ok: true,
-            mutates: true,
-            inherited: false,
-            result_hash: Some(crate::digest::result_hash(&result_json)),
-            result: Some(result_json),
-            state_hash: world.state_hash(),
-            engine: Some(crate::engine::ENGINE_BUILD.into()),
-        };
+        let event = Event::root(log.next_seq(), None, tool, args_json, &root, result_json, &world.state_hash())?;
         let state_hash = event.state_hash.clone();
         let head = event.seq;
-        if let Err(e) = log.append_durable(event, head, Some((&snapshot, &snap_hash))) {
+        if let Err(e) = log.append(std::slice::from_ref(&event), head, &[(head, &snapshot, &snap_hash)]) {
             drop(log);
             remove_log_files(path);
             return Err(format!("The simulation could not be recorded: {e}"));
@@ -302,14 +289,20 @@ impl Sim {
     }
 
     /// The log (read-only).
-    pub fn log(&self) -> &Log {
+    pub fn log(&self) -> &dyn EventLog {
+        &self.log
+    }
+
+    /// The log's SQLite backend itself, for what only it has (file sizes, checkpoints):
+    /// benchmarks and storage tests. Everything else uses `log`.
+    pub fn storage(&self) -> &Log {
         &self.log
     }
 
     pub(crate) fn event(&mut self, kind: Kind, tool: &str, args: &Args) -> Event {
         let raw = serde_json::to_string(args).unwrap_or_default();
         let arguments = self.log.store_arguments(raw);
-        blank_event(self.log.next_seq(), kind, tool, arguments)
+        Event::blank(self.log.next_seq(), kind, tool, arguments)
     }
 
     /// Records a refusal (nothing changes) and hands the sentence back.
@@ -357,7 +350,7 @@ impl Sim {
             if json.len().saturating_mul(3).saturating_add(8192) <= budget {
                 return 0;
             }
-            crate::budget::reply_bytes(tool, serde_json::from_str(json).unwrap_or_default())
+            crate::sim::budget::reply_bytes(tool, serde_json::from_str(json).unwrap_or_default())
         })
     }
 
@@ -380,7 +373,7 @@ impl Sim {
                 if budget != usize::MAX {
                     let bytes = reply_bytes(&out, &json);
                     if bytes > budget {
-                        let why = crate::budget::over_budget(tool, bytes as u64, budget);
+                        let why = crate::sim::budget::over_budget(tool, bytes as u64, budget);
                         return Err(self.refuse(tool, args, why));
                     }
                 }
@@ -458,27 +451,6 @@ impl Sim {
     }
 }
 
-/// An event of `kind` at `seq` with nothing decided yet (no parent, command, result or
-/// hash): what a call's event starts as, alone or in a batch.
-pub(crate) fn blank_event(seq: u64, kind: Kind, tool: &str, arguments: String) -> Event {
-    Event {
-        seq,
-        kind,
-        parent: None,
-        tool: tool.into(),
-        arguments,
-        command: None,
-        version: EVENT_VERSION,
-        ok: kind != Kind::Refused,
-        mutates: kind.is_state_changing(),
-        inherited: false,
-        result: None,
-        result_hash: None,
-        state_hash: String::new(),
-        engine: None,
-    }
-}
-
 /// The world's snapshot bytes and their content hash, as a log stores them.
 pub(crate) fn snapshot_with_hash(world: &World) -> (Vec<u8>, String) {
     let bytes = world.snapshot();
@@ -499,7 +471,7 @@ pub(crate) struct Rebuilt {
 /// With `verify_each`, every event's recorded hash is checked (recovery); otherwise only the
 /// target's (undo: the fold is deterministic, and the target's hash proves it).
 pub(crate) fn rebuild_at(
-    log: &Log,
+    log: &dyn EventLog,
     id: &str,
     target: u64,
     verify_each: bool,
@@ -540,7 +512,7 @@ pub(crate) struct MoveRecord {
 }
 
 /// Replays the log's own (non-inherited) changes and moves to rebuild the redo stack.
-fn redo_stack(log: &Log) -> Result<Vec<u64>, StoreError> {
+fn redo_stack(log: &dyn EventLog) -> Result<Vec<u64>, StoreError> {
     let mut stack = Vec::new();
     for e in log.all_events()?.iter().filter(|e| !e.inherited) {
         match e.kind {
@@ -761,7 +733,7 @@ impl Registry {
         let path = {
             let mut guard = lock_sim(&sim);
             guard.mark_destroyed();
-            guard.log().path().to_path_buf()
+            guard.log.path().to_path_buf()
         };
         remove_log_files(&path);
         Ok(Message::new(format!("Simulation {id} destroyed")))

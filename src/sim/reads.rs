@@ -10,10 +10,10 @@ use crate::outputs::{
     CameraImage, Contacts, DynamicsInfo, IkSolution, JointInfo, JointState, LinkState, NumJoints,
     ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
-use crate::sensing::camera::{self, Mat4};
-use crate::sensing::{contacts, rays, render};
-use crate::mcp::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
-use crate::mcp::params::{Fork, GetTrajectory, HistoryPage, LinkRef, RenderAnimation, Save};
+use crate::seeing::sensing::camera::{self, Mat4};
+use crate::seeing::sensing::{contacts, rays, render};
+use crate::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
+use crate::params::{Fork, GetTrajectory, HistoryPage, LinkRef, RenderAnimation, Save};
 use crate::value::{r32, r32s, Args, Refusal};
 use crate::world::World;
 
@@ -44,7 +44,7 @@ pub fn dynamics_info(cx: &ReadContext, p: &DynamicsRef) -> Result<DynamicsInfo, 
     if !w.has_object(id) {
         return Err(object_not_found(id, w.simulation_id()));
     }
-    let link = crate::mcp::lenient::link_index(p.link_index)?;
+    let link = crate::params::lenient::link_index(p.link_index)?;
     w.check_link(id, link)?;
     w.dynamics_info(id, link).ok_or_else(|| object_not_found(id, w.simulation_id()))
 }
@@ -83,7 +83,7 @@ pub fn joint_state(cx: &ReadContext, p: &JointRef) -> Result<JointState, Refusal
 }
 
 /// A list given per movable joint must have one value per movable joint.
-fn per_joint(name: &str, list: &Option<crate::mcp::lenient::NumList>, n: usize) -> Result<Option<Vec<f64>>, Refusal> {
+fn per_joint(name: &str, list: &Option<crate::params::lenient::NumList>, n: usize) -> Result<Option<Vec<f64>>, Refusal> {
     match list {
         Some(l) if l.0.len() != n => {
             Err(format!("{name} must have one value per movable joint ({n}); got {}", l.0.len()))

@@ -1,10 +1,11 @@
 //! save_simulation and load_simulation: files in the workspace, format in `save.rs`.
 
+use crate::log::EventLog;
 use base64::Engine;
 
 use crate::command::Command;
 use crate::outputs::{Loaded, Saved};
-use crate::save::{
+use crate::files::save_format::{
     chain_blobs, commands_from_readable, disagreeing_fields, readable, saved_event, snapshot_mac,
     world_from_history, SaveFile, SavedHistory, SavedSnapshot, MAX_SAVE_BYTES, SAVE_FORMAT,
     SAVE_FORMAT_VERSION,
@@ -12,8 +13,8 @@ use crate::save::{
 use crate::files::write::{write_owned, Owned};
 use crate::files::Reader;
 use crate::sim::{remove_log_files, Registry, Sim};
-use crate::timeline::store_err;
-use crate::mcp::params;
+use crate::sim::timeline::store_err;
+use crate::params;
 use crate::value::{Args, Refusal};
 
 /// save_simulation's files: saves this server wrote (their `format` field, first in the file).
@@ -116,7 +117,7 @@ impl Registry {
                 let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui };
                 let out = Loaded { simulation_id: new_id.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None };
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
-                self.adopt((&chain, &crate::save::SavedBlobs(&h.blobs), None), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
+                self.adopt((&chain, &crate::files::save_format::SavedBlobs(&h.blobs), None), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
             }
             None => self.load_readable(&file, &new_id, gui, args, &mut reader)?,
         };
@@ -128,7 +129,7 @@ impl Registry {
     fn load_readable(&self, file: &SaveFile, id: &str, gui: bool, args: &Args, reader: &mut Reader) -> Result<Sim, Refusal> {
         let path = self.path_for(id);
         // Built under a partial name and renamed when complete: a kill mid-load leaves nothing.
-        let partial = crate::store::partial_path(&path);
+        let partial = crate::log::sqlite::partial_path(&path);
         let mut sim: Option<Sim> = None;
         let emitted = commands_from_readable(&file.readable, id, reader, &mut |tool, cmd| {
             match &mut sim {

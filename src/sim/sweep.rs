@@ -12,11 +12,11 @@ use std::sync::Mutex;
 
 use serde_json::json;
 
-use crate::batch::Call;
+use crate::sim::apply::Call;
 use crate::command::Command;
 use crate::outputs::{Swept, SweptObject, SweptVariant};
 use crate::sim::{lock_sim, Registry, Sim};
-use crate::timeline::ForkSource;
+use crate::sim::timeline::ForkSource;
 use crate::value::{Args, Refusal};
 use crate::world::StepControl;
 
@@ -225,7 +225,12 @@ fn variant_work(
                 if let Some(ids) = &observe.object_ids {
                     a.insert("sample_objects".into(), json!(ids));
                 }
-                let s = crate::mcp::sampled_step_with(sim, &a, limits, &mut *control, observe.include_velocities)?;
+                let sampling = crate::sim::sampled_step::Sampling {
+                    every: Some(every),
+                    object_ids: observe.object_ids.clone(),
+                    include_velocities: observe.include_velocities,
+                };
+                let s = sim.step_sampled(&a, steps, &sampling, limits, &mut *control)?;
                 trajectory = s.trajectory.clone();
                 s.steps_taken
             }
@@ -281,9 +286,9 @@ fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, keep: bool, b
         }
     }
     let swept = Swept { variants };
-    let bytes = crate::budget::reply_bytes("run_sweep", serde_json::to_value(&swept).unwrap_or_default());
+    let bytes = crate::sim::budget::reply_bytes("run_sweep", serde_json::to_value(&swept).unwrap_or_default());
     if bytes > budget {
-        return Err((crate::budget::over_budget("run_sweep", bytes as u64, budget), sims));
+        return Err((crate::sim::budget::over_budget("run_sweep", bytes as u64, budget), sims));
     }
     Ok((swept, sims))
 }

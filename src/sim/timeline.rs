@@ -4,16 +4,17 @@
 //! hashes; a fork copies the chain into a new log. Every move is an event committed before
 //! the reply.
 
+use crate::log::EventLog;
 use serde_json::Value;
 
-use crate::command::{BlobSource, Command, EVENT_VERSION};
+use crate::command::{BlobSource, Command};
 use crate::outputs::{
     Divergence, EventRef, Forked, History, HistoryEvent, Redone, Undone, Verified,
 };
-use crate::fold::{self, FoldError, Verify};
+use crate::log::fold::{self, FoldError, Verify};
 use crate::limits::Limits;
 use crate::sim::{lock_sim, rebuild_at, MoveRecord, Registry, Sim};
-use crate::store::{Event, Kind, Log, StoreError};
+use crate::log::sqlite::{Event, Kind, Log, StoreError};
 use crate::value::{Args, Refusal};
 use crate::world::World;
 
@@ -92,7 +93,7 @@ impl Sim {
         e.result = Some(json);
         e.state_hash = state_hash.clone();
         self.log
-            .append_durable(e, record.to, None)
+            .append(std::slice::from_ref(&e), record.to, &[])
             .map_err(|err| format!("The {tool} could not be recorded and was not done: {err}"))?;
         self.world = world;
         self.state_hash = state_hash;
@@ -112,7 +113,7 @@ impl Sim {
         let mut walked = 0u64;
         let back = self
             .log
-            .chain_back(self.log.head_seq(), |e| {
+            .chain_back(self.log.head_seq(), &mut |e| {
                 walked += 1;
                 walked > count || e.kind == Kind::Root
             })
@@ -299,7 +300,7 @@ impl ForkSource {
             gui: rebuilt.world.gui(),
             at,
             parent_id: p.id().to_string(),
-            parent_path: p.log().path().to_path_buf(),
+            parent_path: p.log.path().to_path_buf(),
         })
     }
 }
@@ -344,7 +345,7 @@ impl Registry {
     pub(crate) fn fork_from(
         &self,
         source: &ForkSource,
-        parent: Option<&Log>,
+        parent: Option<&dyn EventLog>,
         new_id: String,
         args: &Args,
     ) -> Result<(Forked, Sim), Refusal> {
@@ -380,7 +381,7 @@ impl Registry {
     /// fork also copies the parent's snapshots on the chain. A failure leaves no file behind.
     pub(crate) fn adopt(
         &self,
-        ancestry: (&[Event], &dyn BlobSource, Option<&Log>),
+        ancestry: (&[Event], &dyn BlobSource, Option<&dyn EventLog>),
         world: &World,
         root_cmd: Command,
         tool: &str,
@@ -397,7 +398,7 @@ impl Registry {
     /// state given as (snapshot bytes, state hash).
     pub(crate) fn adopt_unpublished(
         &self,
-        (chain, blobs, parent): (&[Event], &dyn BlobSource, Option<&Log>),
+        (chain, blobs, parent): (&[Event], &dyn BlobSource, Option<&dyn EventLog>),
         (snapshot, state_hash): (&[u8], &str),
         root_cmd: Command,
         tool: &str,
@@ -411,31 +412,14 @@ impl Registry {
             }
             _ => return Err("not a fork or load root".into()),
         };
-        let result = result.to_string();
-        let root = Event {
-            seq: last.seq + 1,
-            kind: Kind::Root,
-            parent: Some(last.seq),
-            tool: tool.into(),
-            arguments: Value::Object(args.clone()).to_string(),
-            command: Some(serde_json::to_string(&root_cmd).map_err(|e| e.to_string())?),
-            version: EVENT_VERSION,
-            ok: true,
-            mutates: true,
-            inherited: false,
-            result_hash: Some(crate::digest::result_hash(&result)),
-            result: Some(result),
-            state_hash: state_hash.to_string(),
-            engine: Some(crate::engine::ENGINE_BUILD.into()),
-        };
+        let arguments = Value::Object(args.clone()).to_string();
+        let root = Event::root(last.seq + 1, Some(last.seq), tool, arguments, &root_cmd, result.to_string(), state_hash)?;
         let path = self.path_for(&id);
-        let partial = crate::store::partial_path(&path);
+        let partial = crate::log::sqlite::partial_path(&path);
         let built = (|| {
             let mut log = Log::create(&partial, &id, self.config().sync).map_err(store_err)?;
-            for (hash, bytes) in &crate::save::chain_blobs(chain, blobs) {
-                let raw = base64::Engine::decode(&base64::engine::general_purpose::STANDARD, bytes)
-                    .map_err(|e| e.to_string())?;
-                log.put_blob(hash, &raw).map_err(store_err)?;
+            for (hash, bytes) in &fold::chain_blobs(chain, blobs) {
+                log.put_blob(hash, bytes).map_err(store_err)?;
             }
             let snap_hash = crate::digest::content_hash(snapshot);
             log.append_root_with_ancestry(chain, parent, root, (snapshot, &snap_hash))

@@ -261,7 +261,7 @@ pub fn config(dir: &Path) -> physics_mcp::sim::Config {
         data_dir: dir.join("data"),
         workspace: dir.join("ws"),
         limits: physics_mcp::limits::Limits::default(),
-        sync: physics_mcp::store::SyncMode::Normal,
+        sync: physics_mcp::log::sqlite::SyncMode::Normal,
     }
 }
 

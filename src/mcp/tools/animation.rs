@@ -9,12 +9,12 @@ use rmcp::{tool, tool_router};
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use super::lenient::{int_or, Int, Text};
-use super::params::{self, RenderAnimation};
-use super::PhysicsServer;
-use crate::animation::{self, Camera};
-use crate::budget;
-use crate::fold::Lent;
+use crate::params::lenient::{int_or, Int, Text};
+use crate::params::{self, RenderAnimation};
+use crate::mcp::PhysicsServer;
+use crate::seeing::animation::{self, Camera};
+use crate::sim::budget;
+use crate::log::fold::Lent;
 use crate::value::{Args, Refusal};
 use crate::files::{write, Sandbox};
 
@@ -94,7 +94,7 @@ fn output(user: Option<Text>, sandbox: &Sandbox) -> Result<Option<(String, std::
 }
 
 /// Parses the call: the interval asked for and the rest.
-fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::time::Asked, Asked), Refusal> {
+fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::trajectory::Asked, Asked), Refusal> {
     let p: RenderAnimation = params::parse(TOOL, a)?;
     let interval = (opt_u64(p.from_seq, "from_seq")?, opt_u64(p.to_seq, "to_seq")?);
     let cam = Camera {

@@ -9,12 +9,13 @@ use rmcp::{tool, tool_router, Peer, RoleServer};
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
 
-use super::params::{self, CallSpec};
-use super::{constraints, mjcf, objects, robots, simulations, viewer, Params, PhysicsServer};
-use crate::batch::{call_refused, Call, Planned, MAX_CALLS, READS};
+use crate::params::{self, CallSpec};
+use super::{constraints, mjcf, objects, robots, simulations, viewer};
+use crate::mcp::{Params, PhysicsServer};
+use crate::sim::apply::{call_refused, Call, Planned, MAX_CALLS, READS};
 use crate::command::Command;
 use crate::outputs::Batched;
-use crate::reads::Read;
+use crate::sim::reads::Read;
 use crate::command::ParsedModels;
 use crate::files::{Reader, Sandbox};
 use crate::value::{Args, Refusal};
@@ -66,7 +67,7 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "change_dynamics" => change(tool, a, objects::decide_dynamics),
         "remove_object" => change(tool, a, objects::decide_remove),
         "step_simulation" => change(tool, a, |p: params::Step| {
-            if super::time::step_sampling(&p)?.is_some() {
+            if super::trajectory::step_sampling(&p)?.is_some() {
                 return Err("sample_every and sample_objects are not available inside a batch or sweep".into());
             }
             simulations::decide_step(&p)
@@ -78,8 +79,8 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "remove_constraint" => change(tool, a, constraints::decide_remove),
         "enable_debug_visualization" => change(tool, a, viewer::decide_debug),
         "set_camera" => change(tool, a, viewer::decide_camera),
-        "load_urdf" => change(tool, a, |p: params::LoadUrdf| crate::urdf_files::load_urdf_command(reader, &p)),
-        "load_mjcf" => change(tool, a, |p: params::LoadMjcf| crate::mjcf_files::load_mjcf_command(reader, &p)),
+        "load_urdf" => change(tool, a, |p: params::LoadUrdf| crate::files::urdf::load_urdf_command(reader, &p)),
+        "load_mjcf" => change(tool, a, |p: params::LoadMjcf| crate::files::mjcf::load_mjcf_command(reader, &p)),
         "get_object_state" => read(tool, a, Read::ObjectState),
         "get_joint_state" => read(tool, a, Read::JointState),
         "get_link_state" => read(tool, a, Read::LinkState),
@@ -155,7 +156,7 @@ impl PhysicsServer {
         peer: Peer<RoleServer>,
         ct: CancellationToken,
     ) -> Result<Json<Batched>, String> {
-        let watch = super::progress::Watch::new(&meta, peer, ct, steps_asked(&args));
+        let watch = crate::mcp::progress::Watch::new(&meta, peer, ct, steps_asked(&args));
         let mut control = watch.control();
         let sandbox = self.reg.sandbox().clone();
         let out = self

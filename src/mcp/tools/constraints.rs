@@ -7,8 +7,8 @@ use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
 use super::objects::quat_or_identity;
-use super::params::{self, ConstraintRef, CreateConstraint};
-use super::PhysicsServer;
+use crate::params::{self, ConstraintRef, CreateConstraint};
+use crate::mcp::PhysicsServer;
 use crate::command::{Command, ConstraintSpec, ConstraintType};
 use crate::outputs::{ConstraintCreated, Message};
 use crate::value::Refusal;

@@ -7,11 +7,11 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::params::{self, LinkRef, ResetJoint};
-use super::PhysicsServer;
+use crate::params::{self, LinkRef, ResetJoint};
+use crate::mcp::PhysicsServer;
 use crate::command::Command;
 use crate::outputs::{LinkState, Message, MjcfLoaded};
-use crate::reads;
+use crate::sim::reads;
 use crate::value::Refusal;
 
 /// reset_joint_state's arguments → the command (the joint is checked against the world later).
@@ -35,7 +35,7 @@ impl PhysicsServer {
     /// simulated.
     #[tool(input_schema = schema_for_type::<params::LoadMjcf>())]
     async fn load_mjcf(&self, args: JsonObject) -> Result<Json<MjcfLoaded>, String> {
-        self.change_reading("load_mjcf", args, |p: params::LoadMjcf, reader| crate::mjcf_files::load_mjcf_command(reader, &p))
+        self.change_reading("load_mjcf", args, |p: params::LoadMjcf, reader| crate::files::mjcf::load_mjcf_command(reader, &p))
             .await
     }
 

@@ -1,10 +1,6 @@
 //! The tool adapters, one file per tool family: arguments (`crate::params`) → `Command` or
 //! read → `Sim` → MCP result.
 
-// The MCP layer's items, seen by the adapters as their parent's.
-pub(crate) use super::{lenient, params, progress, Params, PhysicsServer, Replied};
-pub(crate) use trajectory as time;
-
 pub(crate) mod animation;
 pub(crate) mod batch;
 pub(crate) mod constraints;

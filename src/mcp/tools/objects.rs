@@ -5,12 +5,12 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::lenient::{link_index, Color, NonNegative, Quat, Vec3};
-use super::params::{self, AddBox, AddRound, AddSphere, ApplyForce, ApplyTorque, ChangeDynamics, ObjectRef, SetPose, SetVelocity};
-use super::PhysicsServer;
+use crate::params::lenient::{link_index, Color, NonNegative, Quat, Vec3};
+use crate::params::{self, AddBox, AddRound, AddSphere, ApplyForce, ApplyTorque, ChangeDynamics, ObjectRef, SetPose, SetVelocity};
+use crate::mcp::PhysicsServer;
 use crate::command::{Command, DynamicsChange, Shape};
 use crate::outputs::{DynamicsChanged, DynamicsInfo, Message, ObjectAdded, ObjectState};
-use crate::reads;
+use crate::sim::reads;
 use crate::value::Refusal;
 
 /// An optional quaternion, the identity when absent.

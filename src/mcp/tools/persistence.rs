@@ -5,7 +5,8 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::{JsonObject, ProgressNotificationParam, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 
-use super::{params, PhysicsServer};
+use crate::mcp::PhysicsServer;
+use crate::params;
 use crate::outputs::{Loaded, Saved};
 
 #[tool_router(router = persistence_router, vis = "pub(crate)")]

@@ -5,12 +5,12 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::lenient::NonNegative;
-use super::params::{self, GenerateRevolute, LoadUrdf, MotorControl};
-use super::PhysicsServer;
+use crate::params::lenient::NonNegative;
+use crate::params::{self, GenerateRevolute, LoadUrdf, MotorControl};
+use crate::mcp::PhysicsServer;
 use crate::command::{Command, ControlMode, MotorSpec};
 use crate::outputs::{GeneratedUrdf, IkSolution, JointInfo, JointState, Message, NumJoints, UrdfLoaded};
-use crate::reads;
+use crate::sim::reads;
 use crate::value::Refusal;
 
 pub(super) fn decide_motor(p: MotorControl) -> Result<Command, Refusal> {
@@ -58,7 +58,7 @@ impl PhysicsServer {
     /// Load a URDF (workspace path or plane/cube/sphere.urdf); PyBullet joint numbering, no motors.
     #[tool(input_schema = schema_for_type::<params::LoadUrdf>())]
     async fn load_urdf(&self, args: JsonObject) -> Result<Json<UrdfLoaded>, String> {
-        self.change_reading("load_urdf", args, |p: LoadUrdf, reader| crate::urdf_files::load_urdf_command(reader, &p))
+        self.change_reading("load_urdf", args, |p: LoadUrdf, reader| crate::files::urdf::load_urdf_command(reader, &p))
             .await
     }
 
@@ -101,7 +101,7 @@ impl PhysicsServer {
     async fn generate_revolute_joint(&self, args: JsonObject) -> Result<Json<GeneratedUrdf>, String> {
         let reg = self.reg.clone();
         let p: GenerateRevolute = params::parse("generate_revolute_joint", &args)?;
-        tokio::task::spawn_blocking(move || crate::urdf_files::generate_revolute_joint(reg.sandbox(), &p))
+        tokio::task::spawn_blocking(move || crate::files::urdf::generate_revolute_joint(reg.sandbox(), &p))
             .await
             .map_err(|_| "Internal error: nothing was written".to_string())?
             .map(Json)

@@ -7,14 +7,14 @@ use rmcp::model::{CallToolResult, JsonObject};
 use rmcp::{tool, tool_router};
 use serde::Serialize;
 
-use super::lenient::int_or;
-use super::params::{self, CollisionPair, ProjectionMatrix as ProjectionParams, RayTest, RayTestBatch, SimRef, ViewMatrix as ViewParams, ViewMatrixYawPitch};
-use crate::budget;
-use super::{PhysicsServer, Replied};
-use crate::npy;
+use crate::params::lenient::int_or;
+use crate::params::{self, CollisionPair, ProjectionMatrix as ProjectionParams, RayTest, RayTestBatch, SimRef, ViewMatrix as ViewParams, ViewMatrixYawPitch};
+use crate::sim::budget;
+use crate::mcp::{PhysicsServer, Replied};
+use crate::files::npy;
 use crate::outputs::{CameraImage, Contacts, ProjectionMatrix, RayBatch, RayHit, ViewMatrix};
-use crate::reads;
-use crate::sensing::camera;
+use crate::sim::reads;
+use crate::seeing::sensing::camera;
 use crate::value::Refusal;
 use crate::files::{write, Sandbox};
 

@@ -6,12 +6,12 @@ use rmcp::model::{JsonObject, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 use tokio_util::sync::CancellationToken;
 
-use super::lenient::int_or;
-use super::params::{self, CreateSimulation, NoParams, SetTimestep, SimRef, Step};
-use super::PhysicsServer;
+use crate::params::lenient::int_or;
+use crate::params::{self, CreateSimulation, NoParams, SetTimestep, SimRef, Step};
+use crate::mcp::PhysicsServer;
 use crate::command::Command;
 use crate::outputs::{Created, Message, SimulationInfo, SimulationList, Stepped, TimestepSet};
-use crate::reads;
+use crate::sim::reads;
 use crate::value::Refusal;
 
 pub(super) fn decide_step(p: &Step) -> Result<Command, Refusal> {
@@ -92,9 +92,9 @@ impl PhysicsServer {
     ) -> Result<Json<Stepped>, String> {
         // For progress only: a refusal of the arguments is the step's own (below).
         let total = params::parse::<Step>("step_simulation", &args).map_or(1, |p| int_or(p.steps, 1).max(1) as u64);
-        let watch = super::progress::Watch::new(&meta, peer, ct, total);
+        let watch = crate::mcp::progress::Watch::new(&meta, peer, ct, total);
         let control = watch.control();
-        let sampling = params::parse::<Step>("step_simulation", &args).map(|p| super::time::step_sampling(&p));
+        let sampling = params::parse::<Step>("step_simulation", &args).map(|p| super::trajectory::step_sampling(&p));
         let out = match sampling {
             Ok(Ok(None)) => self.change_with("step_simulation", args, |p: Step, _| decide_step(&p), control).await,
             _ => self.sampled_step(args, control).await,

@@ -10,12 +10,12 @@ use rmcp::model::{JsonObject, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 use tokio_util::sync::CancellationToken;
 
-use super::params::{self, Sweep};
-use super::PhysicsServer;
-use crate::batch::call_refused;
+use crate::params::{self, Sweep};
+use crate::mcp::PhysicsServer;
+use crate::sim::apply::call_refused;
 use crate::outputs::Swept;
 use crate::sim::lock_sim;
-use crate::sweep::{Control, Observe, Request, MAX_VARIANTS};
+use crate::sim::sweep::{Control, Observe, Request, MAX_VARIANTS};
 use crate::value::{self, Args, Refusal};
 
 /// The sweep a call asks for, every variant's calls decided (a refusal names the variant
@@ -31,7 +31,7 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
     let observe = Observe {
         object_ids: o.object_ids.map(|ids| ids.into_iter().map(|i| i.0).collect()),
         include_velocities: o.include_velocities.is_some_and(|b| b.0),
-        every: super::time::opt_every(o.every, "observe.every")?,
+        every: super::trajectory::opt_every(o.every, "observe.every")?,
     };
     let mut variants = Vec::with_capacity(n);
     let mut ahead = super::batch::Ahead::new(sandbox);
@@ -62,7 +62,7 @@ impl PhysicsServer {
         let (n, steps, keep) = params::parse::<Sweep>("run_sweep", &args).map_or((1, 1, false), |p| {
             (p.variants.len().max(1), u64::try_from(p.steps.get()).unwrap_or(1), p.keep.is_some_and(|b| b.0))
         });
-        let watch = super::progress::Watch::new(&meta, peer, ct, (n as u64).saturating_mul(steps).max(1));
+        let watch = crate::mcp::progress::Watch::new(&meta, peer, ct, (n as u64).saturating_mul(steps).max(1));
         let done = Arc::new(AtomicU64::new(0));
         let mut controls: Vec<Control> = (0..n).map(|_| Box::new(watch.shared_control(done.clone())) as Control).collect();
         let reg = self.reg.clone();

@@ -5,11 +5,11 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::lenient::{int_or, Int};
-use super::params::{self, Count, Fork, HistoryPage, SimRef};
-use super::PhysicsServer;
+use crate::params::lenient::{int_or, Int};
+use crate::params::{self, Count, Fork, HistoryPage, SimRef};
+use crate::mcp::PhysicsServer;
 use crate::outputs::{Forked, History, Redone, Undone, Verified};
-use crate::timeline::HISTORY_MAX_LIMIT;
+use crate::sim::timeline::HISTORY_MAX_LIMIT;
 use crate::value::Refusal;
 
 /// `count` for undo/redo: an integer ≥ 1 (range against what is available is the sim's check).
@@ -32,7 +32,7 @@ fn within_budget(mut h: History, budget: usize) -> History {
         let mut page = serde_json::to_value(History { events: Vec::new(), head_seq: h.head_seq, last_seq: h.last_seq, truncated: k < n })
             .unwrap_or_default();
         page["events"] = serde_json::Value::Array(events[..k].to_vec());
-        crate::budget::reply_bytes("get_history", page) <= budget
+        crate::sim::budget::reply_bytes("get_history", page) <= budget
     };
     if n == 0 || fits(n) {
         return h;

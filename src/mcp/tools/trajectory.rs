@@ -8,21 +8,19 @@ use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 use serde::Serialize;
 
-use super::lenient::{Int, ObjectId};
-use super::params::{self, GetTrajectory, Step};
-use super::PhysicsServer;
-use crate::fold::{self, Lent};
+use crate::params::lenient::{Int, ObjectId};
+use crate::params::{self, GetTrajectory, Step};
+use crate::mcp::PhysicsServer;
+use crate::log::fold::{self, Lent};
 use crate::outputs::Trajectory;
 use crate::sim::lock_sim;
-use crate::trajectory::{self, Request};
+use crate::seeing::trajectory::{self, Request};
+use crate::sim::sampled_step::Sampling;
 use crate::value::{self, Args, Refusal};
 use crate::files::{write, Sandbox};
 
 /// The interval a call asks for: (from_seq, to_seq), each None for its default.
 pub(crate) type Asked = (Option<u64>, Option<u64>);
-
-/// step_simulation's sampling: (sample_every, sample_objects).
-pub(crate) type StepSampling = (Option<u64>, Option<Vec<u32>>);
 
 /// An optional seq: an integer ≥ 0.
 fn opt_seq(v: Option<Int<u64>>, name: &str) -> Result<Option<u64>, Refusal> {
@@ -72,15 +70,27 @@ fn deliver(t: Trajectory, path: Option<String>, sandbox: &Sandbox) -> Result<Tra
 }
 
 impl PhysicsServer {
-    /// step_simulation with sample_every / sample_objects (`sampled_step`), on the blocking
-    /// pool under the simulation's lock like any change.
+    /// step_simulation with sample_every / sample_objects (`Sim::step_sampled`), on the
+    /// blocking pool under the simulation's lock like any change.
     pub(crate) async fn sampled_step(
         &self,
         args: Args,
         mut control: impl FnMut(u64) -> bool + Send + 'static,
     ) -> Result<Json<crate::outputs::Stepped>, String> {
         let out = self
-            .with_sim(args, move |sim, a, limits| sampled_step(sim, a, limits, &mut control))
+            .with_sim(args, move |sim, a, limits| {
+                let parsed = params::parse::<Step>("step_simulation", a).and_then(|p| {
+                    let steps = match super::simulations::decide_step(&p)? {
+                        crate::command::Command::StepSimulation { steps } => steps,
+                        _ => 0,
+                    };
+                    Ok((steps, step_sampling(&p)?.unwrap_or_default()))
+                });
+                match parsed {
+                    Ok((steps, sampling)) => sim.step_sampled(a, steps, &sampling, limits, &mut control),
+                    Err(why) => Err(sim.refuse("step_simulation", a, why)),
+                }
+            })
             .await?;
         Ok(Json(out))
     }
@@ -96,7 +106,7 @@ impl PhysicsServer {
         parse: impl FnOnce(&Args) -> Result<(Asked, P), Refusal> + Send + 'static,
         f: impl FnOnce(P, &Lent) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
-        let measure = move |t: &T, _: &()| crate::budget::reply_bytes(tool, serde_json::to_value(t).unwrap_or_default());
+        let measure = move |t: &T, _: &()| crate::sim::budget::reply_bytes(tool, serde_json::to_value(t).unwrap_or_default());
         self.look_back_with(tool, args, parse, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
     }
 
@@ -153,80 +163,10 @@ impl PhysicsServer {
     }
 }
 
-/// step_simulation's sampling arguments: (sample_every, sample_objects), None when neither
+/// step_simulation's sampling arguments, None when neither sample_every nor sample_objects
 /// is given (a plain step).
-pub(crate) fn step_sampling(p: &Step) -> Result<Option<StepSampling>, Refusal> {
+pub(crate) fn step_sampling(p: &Step) -> Result<Option<Sampling>, Refusal> {
     let every = opt_every(p.sample_every, "sample_every")?;
-    let ids = opt_ids(p.sample_objects.clone());
-    Ok((every.is_some() || ids.is_some()).then_some((every, ids)))
-}
-
-/// A step taken by `Sim::change_observed` with a `Sampler` watching: the event, its recorded
-/// result and hash are a plain step's; the samples (SPEC's rule, `fold::Cadence`) are added
-/// to the reply only. Bounds are checked before stepping, since a step cannot be refused
-/// after it is taken.
-pub(crate) fn sampled_step(
-    sim: &mut crate::sim::Sim,
-    a: &Args,
-    limits: &crate::limits::Limits,
-    control: crate::world::StepControl,
-) -> Result<crate::outputs::Stepped, Refusal> {
-    sampled_step_with(sim, a, limits, control, false)
-}
-
-/// `sampled_step`, with velocities in the samples when `include_velocities` (run_sweep's
-/// observe).
-pub(crate) fn sampled_step_with(
-    sim: &mut crate::sim::Sim,
-    a: &Args,
-    limits: &crate::limits::Limits,
-    control: crate::world::StepControl,
-    include_velocities: bool,
-) -> Result<crate::outputs::Stepped, Refusal> {
-    let checked = (|| {
-        let p: Step = params::parse("step_simulation", a)?;
-        let (every, ids) = step_sampling(&p)?.unwrap_or_default();
-        let cmd = super::simulations::decide_step(&p)?;
-        let steps = match &cmd {
-            crate::command::Command::StepSimulation { steps } => *steps,
-            _ => 0,
-        };
-        let w = sim.world();
-        let listed: Vec<u32> = ids.clone().unwrap_or_else(|| w.objects().map(|(id, _)| id).collect());
-        if let Some(id) = listed.iter().find(|id| !w.has_object(**id)) {
-            return Err(format!("sample_objects: object {id} does not exist in simulation {}", w.simulation_id()));
-        }
-        let every = every.unwrap_or_else(|| trajectory::default_every(steps));
-        let samples = trajectory::max_samples(steps, every);
-        trajectory::check_cells(samples, listed.len() as u64, "sample_every")?;
-        let numbers = listed.iter().map(|id| trajectory::numbers_per_object(w, *id, include_velocities)).sum();
-        // And against --max-reply-bytes, which may be lower than the default: the central
-        // reply check could only refuse after the steps were taken.
-        crate::budget::check_structured_bound("step_simulation", trajectory::reply_bound(samples, numbers), limits.max_reply_bytes)?;
-        Ok((cmd, every, ids))
-    })();
-    let (cmd, every, ids) = match checked {
-        Ok(c) => c,
-        Err(why) => return Err(sim.refuse("step_simulation", a, why)),
-    };
-    let (from, seq) = (sim.log().head_seq(), sim.log().next_seq());
-    let req = Request { every: Some(every), object_ids: ids, include_velocities };
-    let mut sampler = trajectory::Sampler::new(fold::Interval { from_seq: from, to_seq: seq }, every, &req);
-    sampler.sample(sim.world(), from);
-    let mut cadence = fold::Cadence::new(every);
-    let mut observe = |w: &crate::world::World| {
-        if cadence.step() {
-            sampler.sample(w, seq);
-        }
-    };
-    let outcome = sim.change_observed("step_simulation", a, Ok(cmd), limits, control, &mut observe)?;
-    let mut result = crate::outputs::Stepped::try_from(outcome)
-        .map_err(|_| "Internal error: step_simulation gave a result of an unexpected kind".to_string())?;
-    if cadence.end() {
-        sampler.sample(sim.world(), seq);
-    }
-    // The samples' seq is the event's, which `change` appended right after `head_seq`.
-    debug_assert_eq!(sim.log().head_seq(), seq);
-    result.trajectory = sampler.finish("sample_every").ok();
-    Ok(result)
+    let object_ids = opt_ids(p.sample_objects.clone());
+    Ok((every.is_some() || object_ids.is_some()).then_some(Sampling { every, object_ids, include_velocities: false }))
 }

@@ -7,8 +7,8 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use super::params::{self, DebugVisualization, SetCamera};
-use super::PhysicsServer;
+use crate::params::{self, DebugVisualization, SetCamera};
+use crate::mcp::PhysicsServer;
 use crate::command::Command;
 use crate::outputs::Message;
 use crate::value::Refusal;

@@ -14,10 +14,10 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use crate::command::Command;
-use crate::fold::{self, Lent};
-use crate::sensing::camera::{self, Mat4};
-use crate::sensing::render;
-use crate::sensing::capture::Scene;
+use crate::log::fold::{self, Lent};
+use crate::seeing::sensing::camera::{self, Mat4};
+use crate::seeing::sensing::render;
+use crate::seeing::sensing::capture::Scene;
 use crate::world::Viewer;
 /// At most this many frames in one animation (SPEC).
 pub const MAX_FRAMES: u64 = 600;

@@ -9,14 +9,15 @@
 mod page;
 mod plots;
 
+use crate::log::EventLog;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::animation::{self, Camera};
-use crate::fold::{self, At, Lent};
-use crate::sensing::render;
-use crate::sensing::capture::Scene;
-use crate::store::{Event, Log};
+use crate::seeing::animation::{self, Camera};
+use crate::log::fold::{self, At};
+use crate::seeing::sensing::render;
+use crate::seeing::sensing::capture::Scene;
+use crate::log::sqlite::Event;
 
 pub use page::html;
 
@@ -40,26 +41,10 @@ pub struct Span {
     pub to: Option<u64>,
 }
 
-/// Opens a log read-only and lends `span` of its head's chain.
-pub fn lend(path: &Path, span: Span) -> Result<(Log, Lent), String> {
-    if path.extension().is_some_and(|x| x == "json") {
-        return Err(format!("{}: pictures need a simulation log (.sqlite), not a saved file", path.display()));
-    }
-    let log = Log::open_read_only(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let id = log.simulation_id().map_err(|e| e.to_string())?;
-    let to = span.to.unwrap_or(log.head_seq());
-    let from = match span.from {
-        Some(f) => f,
-        None => log.chain_to(to).map_err(|e| e.to_string())?.first().map_or(to, |e| e.seq),
-    };
-    let lent = fold::lend(&log, &id, Some(from), Some(to))?;
-    Ok((log, lent))
-}
-
 /// `replay FILE --render OUT.gif`: the span as a looping GIF (30 fps); `progress(steps
 /// done, steps in all)` is told as the re-simulation goes. Returns the animation.
 pub fn render_gif(path: &Path, span: Span, every: Option<u64>, size: (u32, u32), mut progress: impl FnMut(u64, u64) + Send) -> Result<animation::Animation, String> {
-    let (_log, lent) = lend(path, span)?;
+    let lent = crate::log::replay::lend_interval(path, span.from, span.to)?;
     let steps = lent.interval_steps();
     let every = every.unwrap_or_else(|| animation::default_every(steps));
     let cam = Camera { width: size.0, height: size.1, view: None, projection: None };
@@ -111,11 +96,11 @@ pub struct Story {
 /// Gathers the story of a log: a full replay for the verdict, then one re-simulation of the
 /// head's chain for the pictures and plots. `progress(steps done, steps in all)`.
 pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<Story, String> {
-    let verdict = match crate::replay::replay(path, None, |_, _| {}) {
+    let verdict = match crate::log::replay::replay(path, None, |_, _| {}) {
         Ok(s) => format!("verified: {} events replayed, {} state hashes, {} reads and {} snapshots checked", s.events, s.state_events, s.reads_checked, s.snapshots_checked),
         Err(e) => format!("NOT verified: {e}"),
     };
-    let (log, lent) = lend(path, Span::default())?;
+    let (log, lent) = crate::log::replay::open_interval(path, None, None)?;
     let events = log.all_events().map_err(|e| e.to_string())?;
     let steps = lent.interval_steps();
     let every = animation::default_every(steps);

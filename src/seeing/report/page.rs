@@ -8,7 +8,7 @@ use std::fmt::Write;
 use base64::Engine;
 
 use super::{plots, Story};
-use crate::store::{Event, Kind};
+use crate::log::sqlite::{Event, Kind};
 
 const STYLE: &str = "
 body { font: 14px system-ui, sans-serif; margin: 16px 24px; color: #222; max-width: 1200px; }

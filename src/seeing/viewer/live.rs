@@ -15,8 +15,8 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, LazyLock, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::sensing::capture::Scene;
-use crate::viewer::Overlays;
+use crate::seeing::sensing::capture::Scene;
+use crate::seeing::viewer::Overlays;
 use crate::world::World;
 
 /// How often a running step publishes (wall time): 10 pictures a second to choose from.

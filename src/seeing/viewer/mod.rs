@@ -23,9 +23,9 @@ use axum::Router;
 use base64::Engine;
 use serde::{Deserialize, Serialize};
 
-use crate::sensing::camera::{self, Mat4};
-use crate::sensing::capture::Scene;
-use crate::sensing::{contacts, render};
+use crate::seeing::sensing::camera::{self, Mat4};
+use crate::seeing::sensing::capture::Scene;
+use crate::seeing::sensing::{contacts, render};
 use crate::sim::Registry;
 use crate::value::{r32, r32s};
 use crate::world::{Viewer as RecordedCamera, World};

@@ -9,10 +9,10 @@ use std::sync::{Arc, LazyLock, Mutex};
 use serde::Serialize;
 
 use crate::command::Command;
-use crate::fold::{self, At};
-use crate::sensing::capture::Scene;
+use crate::log::fold::{self, At};
+use crate::seeing::sensing::capture::Scene;
 use crate::sim::Sim;
-use crate::viewer::Overlays;
+use crate::seeing::viewer::Overlays;
 
 /// Past states kept rendered-ready (scenes are small: poses and shape handles).
 const CACHED: usize = 64;

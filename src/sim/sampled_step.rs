@@ -1,0 +1,72 @@
+//! A step with samples — step_simulation's `sample_every`/`sample_objects` and run_sweep's
+//! `observe.every` — taken through the one apply path with a `Sampler` watching: the event,
+//! its recorded result and hash are a plain step's; the samples (the interval sampling rule,
+//! `fold::Cadence`) go to the reply only. Bounds are checked before stepping, since a step
+//! cannot be refused after it is taken.
+
+use crate::command::Command;
+use crate::limits::Limits;
+use crate::log::fold;
+use crate::outputs::Stepped;
+use crate::seeing::trajectory::{self, Request};
+use crate::sim::Sim;
+use crate::value::{Args, Refusal};
+use crate::world::{StepControl, World};
+
+/// What to sample while stepping.
+#[derive(Clone, Debug, Default)]
+pub struct Sampling {
+    /// Steps between samples (None: about 100 samples over the step).
+    pub every: Option<u64>,
+    /// The objects sampled (None: all).
+    pub object_ids: Option<Vec<u32>>,
+    /// Velocities too.
+    pub include_velocities: bool,
+}
+
+impl Sim {
+    /// Takes `steps` steps sampling as `sampling` says; `args` are the call's arguments as
+    /// the log records them. A refusal (an unknown object, too many samples, a reply over the
+    /// budget) is logged and changes nothing.
+    pub fn step_sampled(&mut self, args: &Args, steps: u64, sampling: &Sampling, limits: &Limits, control: StepControl) -> Result<Stepped, Refusal> {
+        let every = match self.check_sampling(steps, sampling, limits) {
+            Ok(every) => every,
+            Err(why) => return Err(self.refuse("step_simulation", args, why)),
+        };
+        let (from, seq) = (self.log().head_seq(), self.log().next_seq());
+        let req = Request { every: Some(every), object_ids: sampling.object_ids.clone(), include_velocities: sampling.include_velocities };
+        let mut sampler = trajectory::Sampler::new(fold::Interval { from_seq: from, to_seq: seq }, every, &req);
+        sampler.sample(self.world(), from);
+        let mut cadence = fold::Cadence::new(every);
+        let mut observe = |w: &World| {
+            if cadence.step() {
+                sampler.sample(w, seq);
+            }
+        };
+        let outcome = self.change_observed("step_simulation", args, Ok(Command::StepSimulation { steps }), limits, control, &mut observe)?;
+        let mut result = Stepped::try_from(outcome).map_err(|_| "Internal error: step_simulation gave a result of an unexpected kind".to_string())?;
+        if cadence.end() {
+            sampler.sample(self.world(), seq);
+        }
+        // The samples' seq is the event's, appended right after `head_seq`.
+        debug_assert_eq!(self.log().head_seq(), seq);
+        result.trajectory = sampler.finish("sample_every").ok();
+        Ok(result)
+    }
+
+    /// The steps between samples, or why the sampling cannot be done: an object that does not
+    /// exist, too many samples, or samples whose documented size could not fit the reply.
+    fn check_sampling(&self, steps: u64, sampling: &Sampling, limits: &Limits) -> Result<u64, Refusal> {
+        let w = self.world();
+        let listed: Vec<u32> = sampling.object_ids.clone().unwrap_or_else(|| w.objects().map(|(id, _)| id).collect());
+        if let Some(id) = listed.iter().find(|id| !w.has_object(**id)) {
+            return Err(format!("sample_objects: object {id} does not exist in simulation {}", w.simulation_id()));
+        }
+        let every = sampling.every.unwrap_or_else(|| trajectory::default_every(steps));
+        let samples = trajectory::max_samples(steps, every);
+        trajectory::check_cells(samples, listed.len() as u64, "sample_every")?;
+        let numbers = listed.iter().map(|id| trajectory::numbers_per_object(w, *id, sampling.include_velocities)).sum();
+        crate::sim::budget::check_structured_bound("step_simulation", trajectory::reply_bound(samples, numbers), limits.max_reply_bytes)?;
+        Ok(every)
+    }
+}
