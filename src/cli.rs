@@ -90,7 +90,7 @@ mod tests {
 }
 
 /// Which interval of a log's head chain `replay --trajectory` (and `--render`) looks at:
-/// the whole chain unless told otherwise (SPEC "Seeing time").
+/// the whole chain unless told otherwise (docs/tools.md "Seeing time").
 #[derive(Args, Clone, Debug, Default)]
 pub struct IntervalArgs {
     /// Steps between samples (default: about 100 samples).

@@ -12,25 +12,20 @@
 //! - `digest`  — content hashes of snapshots and blobs (blake3, parallel when large).
 //! - `limits`  — the limits every request is checked against.
 //!
-//! The server, in this crate:
-//! - `reads`   — the read-only tools, shared by the MCP adapters and replay.
-//! - `fold`    — the one fold routine (decode → check → apply → compare the recorded hash).
-//! - `store`   — the SQLite event log of one simulation: events, head, snapshots, blobs.
-//! - `sim`     — `Sim` = log + world (decide → apply → append → reply) and the `Registry`.
-//! - `timeline` — undo, redo, history, verify and fork: operations on the log.
-//! - `mcp`     — rmcp adapters: JSON arguments → `Command` → `Sim` → MCP result; HTTP, stdio.
-//! - `replay`  — replay, history and diff of a log (the CLI).
-//! - `save`    — the saved-file format, save and load.
-//! - `workspace` — the path sandbox for user files.
-//! - `urdf_files` — reading URDFs and meshes (and the built-in assets) for load_urdf;
-//!   writing generate_revolute_joint's URDFs.
-//! - `sensing` — rays, contacts, camera matrices and the CPU renderer (read-only).
-//! - `report`  — a recorded session as a self-contained HTML page; `replay --render`.
-//! - `animation` — frames of re-simulated intervals → looping GIFs (palette, encoder).
-//! - `trajectory` — the pose sampler over the re-simulation core (get_trajectory, CSV/JSONL).
-//! - `failpoints` — crash points for the crash-loop test (feature `failpoints` only).
-//! - `cli`     — command-line flags for core structs (`LimitArgs` → `Limits`).
-//! - `npy`     — NumPy `.npy` files for get_camera_image's depth and segmentation arrays.
+//! The server, in this crate, by layer (each may use the ones above it, never below;
+//! docs/design.md has the code map and the rules, tests/architecture.rs checks them):
+//! - `params`  — every tool's argument types and lenient values: the log's argument schema.
+//! - `files`   — the only code that opens a user's path: sandbox, bounded reads, the write
+//!   policy, URDF and MJCF with their meshes, the save format, NPY.
+//! - `log`     — the event log behind one trait (`EventLog`; SQLite today), the data
+//!   directory, the one fold routine and replay.
+//! - `sim`     — `Sim` (log + world), the `Registry` and its lock order, the one apply path,
+//!   timeline (undo/redo/fork/verify), sweeps, reads, save/load, the reply budget.
+//! - `seeing`  — sensing, trajectories, animations, the session report and the web viewer.
+//! - `mcp`     — the MCP protocol (transports, sessions, subscriptions, logging, resources,
+//!   prompts) and `mcp::tools`, one thin adapter file per tool family.
+//! - `cli`, `client`, `shutdown`, `failpoints` — flags, `physics-mcp call`, the process-wide
+//!   shutdown, test-only crash points.
 #![warn(missing_docs)]
 
 pub use physics_core::{command, digest, engine, limits, outputs, value, world};

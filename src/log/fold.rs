@@ -215,7 +215,7 @@ pub fn fold_decoded(
         }
         _ => {
             // A fold reads nothing but the log: a model that names a file of its own is not
-            // folded (SPEC "Compatibility": the one exception to old logs folding).
+            // folded (docs/log-format.md "Compatibility of logs and files": the one exception to old logs folding).
             if let Command::LoadMjcf { mjcf, .. } = &cmd {
                 if let Some(r) = crate::world::mjcf::file_reference(&String::from_utf8_lossy(&mjcf.bytes)) {
                     return Err(FoldError::NeedsFile { seq: e.seq, file: r.file });
@@ -275,7 +275,7 @@ pub fn root_gui(cmd: &Command) -> Option<bool> {
     }
 }
 
-// ---- Looking back: the one re-simulation core (DESIGN.md "Looking back") ----
+// ---- Looking back: the one re-simulation core (docs/design.md "The re-simulation core") ----
 
 /// The chain from the nearest snapshot a fold may start from at or before `before` up to
 /// `target` (oldest first), with that snapshot's bytes (hash checked; None: the chain starts
@@ -357,7 +357,7 @@ fn is_step(e: &Event) -> bool {
     e.command.as_deref().is_some_and(|c| matches!(serde_json::from_str::<Command>(c), Ok(Command::StepSimulation { .. })))
 }
 
-/// SPEC's default `from_seq` for an interval ending at `to`: the state just before the most
+/// the documented default `from_seq` for an interval ending at `to`: the state just before the most
 /// recent step_simulation on the chain (the root's when there is none).
 pub fn default_from(log: &dyn EventLog, to: u64) -> Result<u64, StoreError> {
     let back = log.chain_back(to, &mut |e| e.kind == Kind::Root || is_step(e))?;
@@ -421,7 +421,7 @@ pub struct Moment {
     pub steps: u64,
     /// Steps taken so far inside event `seq` (0 at Start and for events that are not steps).
     pub step_in_event: u64,
-    /// Whether this is one of SPEC's samples: the first state, every `every`-th step, and the
+    /// Whether this is one of the documented samples: the first state, every `every`-th step, and the
     /// last state when anything changed since the previous sample.
     pub sample: bool,
     /// Whether this is the interval's last point (the Boundary of `to_seq`, or Start when
@@ -429,7 +429,7 @@ pub struct Moment {
     pub last: bool,
 }
 
-/// SPEC's sampling rule, shared by re-simulation and live stepping (step_simulation's
+/// the sampling rule (docs/tools.md "Seeing time"), shared by re-simulation and live stepping (step_simulation's
 /// `sample_every`): sample the first state, after every `every`-th step counted from it, and
 /// the last state when anything changed since the previous sample.
 #[derive(Clone, Copy, Debug)]

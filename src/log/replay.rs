@@ -106,7 +106,7 @@ impl Replayer<'_> {
     }
 
     /// Results are re-checked only for events of the version that recorded them: an older
-    /// event's result was computed under older rules (SPEC "Compatibility"); its state hash
+    /// event's result was computed under older rules (docs/log-format.md "Compatibility of logs and files"); its state hash
     /// is still checked.
     fn check_result(e: &Event, result: &Value) -> Result<(), ReplayError> {
         if e.version != crate::command::EVENT_VERSION {
@@ -317,7 +317,7 @@ pub struct RootBuild {
 }
 
 /// Which engine builds made a log's roots (inherited ones included), against this binary's:
-/// SPEC "Compatibility" wants `replay` to say so before anything else when they differ.
+/// docs/log-format.md "Compatibility of logs and files" wants `replay` to say so before anything else when they differ.
 #[derive(Serialize, Debug, Clone)]
 pub struct EngineBuilds {
     /// This binary's build (`engine::ENGINE_BUILD`).

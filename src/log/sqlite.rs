@@ -4,7 +4,7 @@
 //! State-changing events (root, change, move) are committed — together with any buffered read
 //! and refused events, the head and an optional snapshot — in one transaction before the call
 //! replies. Read and refused events are buffered and committed with the next write, every
-//! `LAZY_FLUSH_AT` events, or on `flush` (they may be lost if the process is killed; SPEC
+//! `LAZY_FLUSH_AT` events, or on `flush` (they may be lost if the process is killed; docs/log-format.md
 //! allows that). `--sync normal` survives a killed process (WAL); `--sync full` also fsyncs
 //! every commit, for power loss.
 
@@ -44,7 +44,7 @@ pub enum SyncMode {
     Full,
 }
 
-/// What an event is (SPEC "Events, heads and hashes").
+/// What an event is (docs/log-format.md "Events, heads and hashes").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
     /// create/load/fork: the first state of this simulation.
@@ -145,7 +145,7 @@ impl Event {
     }
 
     /// A root event (create, fork, load): its command, result and state, and the engine build
-    /// that made it (SPEC "Compatibility": every root records it).
+    /// that made it (docs/log-format.md "Compatibility of logs and files": every root records it).
     pub fn root(seq: u64, parent: Option<u64>, tool: &str, arguments: String, command: &crate::command::Command, result_json: String, state_hash: &str) -> Result<Event, String> {
         let mut e = Event::blank(seq, Kind::Root, tool, arguments);
         e.parent = parent;

@@ -1,4 +1,4 @@
-//! MCP prompts (SPEC "Resources and prompts"): short, ready-made workflows an agent can start
+//! MCP prompts (docs/tools.md "Resources and prompts"): short, ready-made workflows an agent can start
 //! from — a drop test, a robot-arm reach, replaying a session. Each is text naming the tools in
 //! the order to call them, with the facts to check, so a client that offers prompts as slash
 //! commands gets a working session in one pick.

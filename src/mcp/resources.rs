@@ -1,4 +1,4 @@
-//! MCP resources (SPEC "Resources and prompts"): every simulation as three readable URIs —
+//! MCP resources (docs/tools.md "Resources and prompts"): every simulation as three readable URIs —
 //! `sim://{id}/info` (get_simulation_info's answer), `sim://{id}/history` (its events as JSON
 //! lines) and `sim://{id}/image` (a PNG from the viewer camera) — and the session list that
 //! lets a simulation created or destroyed in one session tell every session its resource list

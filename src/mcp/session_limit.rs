@@ -24,7 +24,7 @@ use rmcp::transport::streamable_http_server::session::{
     EventStore, RestoreOutcome, ServerSseMessage, SessionId, SessionManager,
 };
 
-/// The default bound (SPEC: `--max-sessions 1000`).
+/// The default bound (docs/tools.md: `--max-sessions 1000`).
 pub const DEFAULT_MAX_SESSIONS: usize = 1000;
 
 /// How the refusal sentence begins; [`limit_sessions`] finds it in rmcp's error reply.

@@ -1,4 +1,4 @@
-//! Resource subscriptions (SPEC "Resources and prompts"): a client that subscribed to
+//! Resource subscriptions (docs/tools.md "Resources and prompts"): a client that subscribed to
 //! `sim://{id}/…` hears `notifications/resources/updated` when that simulation's head moves —
 //! any state-changing call, undo or redo, from any session.
 //!

@@ -1,4 +1,4 @@
-//! The value types of tool parameters: strict about meaning, lenient about encoding (SPEC
+//! The value types of tool parameters: strict about meaning, lenient about encoding (docs/tools.md
 //! "Conventions"). Each type deserializes the encodings clients really send — a vector as a
 //! JSON string holding the array (`"[0, 0, 1]"`), a scalar as a string holding its token
 //! (`"false"`, `"240"`, `"0.5"`: the MCP Inspector CLI sends every argument so), an integral

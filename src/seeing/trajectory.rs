@@ -1,4 +1,4 @@
-//! Trajectories (SPEC "Seeing time"): the pose sampler — an observer of the re-simulation
+//! Trajectories (docs/tools.md "Seeing time"): the pose sampler — an observer of the re-simulation
 //! core (`fold::resimulate`) and of live stepping — its bounds, and its files (CSV, JSONL).
 //! get_trajectory, step_simulation's `sample_every` and `replay --trajectory` all sample
 //! here, with the same reads as get_object_state / get_joint_state, so a sample is bit for
@@ -12,7 +12,7 @@ use crate::outputs::{ObjectTrack, Trajectory};
 use crate::value::Refusal;
 use crate::world::World;
 
-/// Most samples × objects one trajectory holds (SPEC bound).
+/// Most samples × objects one trajectory holds (docs/tools.md "Seeing time").
 pub const MAX_CELLS: u64 = 1_000_000;
 /// Samples the default `every` aims at.
 pub const TARGET_SAMPLES: u64 = 100;
@@ -20,7 +20,7 @@ pub const TARGET_SAMPLES: u64 = 100;
 /// and separator), for refusing before stepping.
 const NUMBER_BYTES: u64 = 24;
 
-/// SPEC's default `every`: about `TARGET_SAMPLES` samples over `steps` steps.
+/// the documented default `every`: about `TARGET_SAMPLES` samples over `steps` steps.
 pub fn default_every(steps: u64) -> u64 {
     steps.div_ceil(TARGET_SAMPLES).max(1)
 }
@@ -105,7 +105,7 @@ impl Sampler {
         }
     }
 
-    /// The re-simulation observer: samples at SPEC's sample points.
+    /// The re-simulation observer: samples at the documented sample points.
     pub fn observe(&mut self, w: &World, m: &Moment) -> bool {
         !m.sample || self.sample(w, m.seq)
     }

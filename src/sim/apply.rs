@@ -1,7 +1,7 @@
 //! The one path by which calls change a live simulation: a list of calls carried out in
 //! order, each checked against the state the earlier ones leave, each its own event, all
 //! committed in one transaction after the reply has been measured. A single state-changing
-//! call is a list of one ([`Mode::Alone`]); `batch` (SPEC "Scale") is a list of up to
+//! call is a list of one ([`Mode::Alone`]); `batch` (docs/tools.md "Scale") is a list of up to
 //! 10,000, all or nothing ([`Mode::AllOrNothing`]).
 //!
 //! - Alone, the call is applied to the live world (it was checked first, so only a
@@ -26,10 +26,10 @@ use crate::log::sqlite::{Event, Kind};
 use crate::value::{Args, Refusal};
 use crate::world::{StepControl, StepObserver, World};
 
-/// The most calls one batch may hold (SPEC).
+/// The most calls one batch may hold (docs/tools.md).
 pub const MAX_CALLS: usize = 10_000;
 
-/// The tools a batch may hold besides the state-changing ones (SPEC "Scale").
+/// The tools a batch may hold besides the state-changing ones (docs/tools.md "Scale").
 pub const READS: [&str; 4] = ["get_object_state", "get_joint_state", "get_link_state", "get_simulation_info"];
 
 /// What the adapter decided a call is: a change's command or one of the batch's reads —

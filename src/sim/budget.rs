@@ -1,4 +1,4 @@
-//! The reply budget (SPEC "Conventions"), measured where a call is decided: no reply — the
+//! The reply budget (docs/tools.md "Conventions"), measured where a call is decided: no reply — the
 //! serialized JSON-RPC message — exceeds `--max-reply-bytes` (the Python MCP SDK drops an SSE
 //! event over 1 MiB). The simulation layer measures a reply *before* it commits or logs the
 //! call, so a reply never contradicts the log:

@@ -65,7 +65,7 @@ pub fn snapshots_to_thin(newest_first: &[u64], head: u64) -> Vec<u64> {
     doomed
 }
 
-/// The standard "simulation not found" sentence (SPEC).
+/// The standard "simulation not found" sentence (docs/tools.md).
 pub fn sim_not_found(id: &str) -> Refusal {
     format!("Simulation {id} not found")
 }
@@ -768,7 +768,7 @@ impl Registry {
     /// table first, so a call holding a simulation that waits for the table (fork, keep)
     /// finishes instead of waiting for this. A simulation still busy at `deadline` is left:
     /// a change commits its own buffered events with its event, but a long read (verify,
-    /// history, save) does not, so its simulation's buffered reads may be lost (SPEC allows
+    /// history, save) does not, so its simulation's buffered reads may be lost (the documented durability allows
     /// losing reads to a kill; running steps and re-simulations stop at the signal, so in
     /// practice only a read already past its last check is still busy). Returns how many
     /// were left.

@@ -1,4 +1,4 @@
-//! run_sweep (SPEC "Scale"): one fork per variant, its calls applied as a batch, then its
+//! run_sweep (docs/tools.md "Scale"): one fork per variant, its calls applied as a batch, then its
 //! steps, the variants side by side on worker threads — nothing here but the existing fork,
 //! batch and step paths, so each variant's result equals doing the same by hand.
 //!
@@ -20,7 +20,7 @@ use crate::sim::timeline::ForkSource;
 use crate::value::{Args, Refusal};
 use crate::world::StepControl;
 
-/// The most variants one sweep may hold (SPEC).
+/// The most variants one sweep may hold (docs/tools.md).
 pub const MAX_VARIANTS: usize = 256;
 
 /// What a sweep reports of each variant.

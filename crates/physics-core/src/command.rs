@@ -161,17 +161,17 @@ impl<T> std::fmt::Debug for Parsed<T> {
 /// loads one robot many times parses it once.
 #[derive(Default)]
 pub struct ParsedModels {
-    urdf: BTreeMap<String, Arc<crate::world::urdf::RobotModel>>,
-    mjcf: BTreeMap<String, Arc<crate::world::mjcf::Prepared>>,
+    urdf: BTreeMap<ModelKey, Arc<crate::world::urdf::RobotModel>>,
+    mjcf: BTreeMap<ModelKey, Arc<crate::world::mjcf::Prepared>>,
 }
 
-/// A key naming a model's blobs and the options it is parsed with.
-fn model_key(main: &Blob, meshes: &BTreeMap<String, Blob>, options: &str) -> String {
-    let mut key = format!("{} {options}", main.hash);
-    for (name, b) in meshes {
-        key.push_str(&format!(" {name}={}", b.hash));
-    }
-    key
+/// What names a parsed model: its text's hash, the options it is parsed with, and each mesh
+/// by its name and hash.
+type ModelKey = (String, String, Vec<(String, String)>);
+
+/// The key of a model's blobs and options.
+fn model_key(main: &Blob, meshes: &BTreeMap<String, Blob>, options: &str) -> ModelKey {
+    (main.hash.clone(), options.to_string(), meshes.iter().map(|(n, b)| (n.clone(), b.hash.clone())).collect())
 }
 
 /// Where decoded events find their blobs' bytes: a log's `blobs` table, a saved file's map.
@@ -626,12 +626,12 @@ fn non_zero(name: &str, v: &[f32; 3]) -> Result<(), Refusal> {
     }
 }
 
-/// The standard "object not found" sentence (SPEC).
+/// The standard "object not found" sentence (docs/tools.md).
 pub fn object_not_found(object_id: u32, sim_id: &str) -> Refusal {
     format!("Object {object_id} not found in simulation {sim_id}")
 }
 
-/// The standard "constraint not found" sentence (SPEC).
+/// The standard "constraint not found" sentence (docs/tools.md).
 pub fn constraint_not_found(constraint_id: u32, sim_id: &str) -> Refusal {
     format!("Constraint {constraint_id} not found in simulation {sim_id}")
 }
@@ -657,8 +657,10 @@ impl Command {
         }
     }
 
-    /// The command with its model parsed ahead (a load; anything else as it is), refused as
-    /// the check would refuse it: what a single call does before its simulation is locked.
+    /// The command with its model parsed ahead (a load; anything else as it is), refused with
+    /// the sentence the check would give for the model (the check's world-dependent parts,
+    /// such as --max-objects, come later, under the simulation's lock): what a single call does
+    /// before its simulation is locked.
     pub fn ready(self) -> Result<Command, Refusal> {
         self.ready_in(&mut ParsedModels::default())
     }

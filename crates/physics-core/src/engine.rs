@@ -1,4 +1,4 @@
-//! Which engine build computes the worlds: recorded with every root event (SPEC
+//! Which engine build computes the worlds: recorded with every root event (docs/log-format.md
 //! "Compatibility of logs and files"), so `replay` of a log made by another build can say so,
 //! naming the crates that differ, before any hash disagrees.
 //!
@@ -293,7 +293,7 @@ version = "1.0.0"
     /// Roots written before builds were recorded, and roots that recorded rapier3d alone, read
     /// as the build of their time: rapier3d 0.36.1 with the frozen lock. That is this build
     /// as long as `Cargo.lock` changes no recorded crate: if a bump makes this fail, old logs
-    /// now warn on `replay` (as they should), and SPEC wants a newly recorded log in
+    /// now warn on `replay` (as they should), and docs/log-format.md wants a newly recorded log in
     /// `replays/`; then assert the differences here instead.
     #[test]
     fn unrecorded_roots_read_as_the_build_of_their_time() {

@@ -1,6 +1,6 @@
 //! Limits on everything a client can ask for (TigerBeetle's "put a limit on everything").
 //! Each is a CLI flag (the server crate's `cli::LimitArgs`, which takes its defaults from
-//! [`DEFAULT`]); the defaults are SPEC's.
+//! [`DEFAULT`]); the defaults are the documented ones (docs/tools.md "Limits and security").
 
 /// Per-server limits, settable from the command line.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -22,7 +22,7 @@ pub struct Limits {
     pub max_reply_bytes: usize,
 }
 
-/// SPEC's defaults: one table for the CLI flags and `Default`.
+/// the documented defaults: one table for the CLI flags and `Default`.
 pub const DEFAULT: Limits = Limits {
     max_sims: 32,
     max_objects: 10_000,

@@ -1,4 +1,4 @@
-//! render_animation: a looping GIF of any interval of a simulation's chain (SPEC "Seeing
+//! render_animation: a looping GIF of any interval of a simulation's chain (docs/tools.md "Seeing
 //! time"). Thin: the interval is lent by the log (`fold::lend`) under the simulation's lock,
 //! re-simulated and rendered without it (`animation::animate`), and the call is then recorded
 //! as a read (or a refusal). The live simulation is never changed.

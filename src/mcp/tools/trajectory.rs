@@ -1,4 +1,4 @@
-//! Seeing time (SPEC "Seeing time"): get_trajectory, and `look_back`, the adapter pattern
+//! Seeing time (docs/tools.md "Seeing time"): get_trajectory, and `look_back`, the adapter pattern
 //! every tool that re-simulates the past uses — lend the chain under the simulation's lock,
 //! re-simulate without it, then record the call as a read (or a refusal).
 

@@ -26,7 +26,7 @@ pub struct Frames<'a> {
     pub delay_cs: u16,
 }
 
-/// The GIF frame delay for a frame rate: round(100 / fps) hundredths (SPEC).
+/// The GIF frame delay for a frame rate: round(100 / fps) hundredths (docs/tools.md).
 pub fn delay_for_fps(fps: u32) -> u16 {
     ((100.0 / f64::from(fps.max(1))).round() as u16).max(1)
 }

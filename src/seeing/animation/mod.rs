@@ -19,7 +19,7 @@ use crate::seeing::sensing::camera::{self, Mat4};
 use crate::seeing::sensing::render;
 use crate::seeing::sensing::capture::Scene;
 use crate::world::Viewer;
-/// At most this many frames in one animation (SPEC).
+/// At most this many frames in one animation (docs/tools.md).
 pub const MAX_FRAMES: u64 = 600;
 /// At most this many pixels over all frames of one animation (RGB frames are kept until the
 /// palette is known: 3 bytes each, so at most ~600 MB).
@@ -72,7 +72,7 @@ pub fn gif_of(scenes: &[Scene], cam: &Camera, fps: u32) -> Result<Vec<u8>, Strin
     Ok(gif::encode(&frames)?.0)
 }
 
-/// SPEC's default sampling: about 100 samples over the interval, `max(1, ceil(steps / 100))`.
+/// the documented default sampling: about 100 samples over the interval, `max(1, ceil(steps / 100))`.
 pub fn default_every(steps: u64) -> u64 {
     steps.div_ceil(100).max(1)
 }

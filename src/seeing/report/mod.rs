@@ -21,11 +21,11 @@ use crate::log::sqlite::Event;
 
 pub use page::html;
 
-/// At most this many thumbnails on a page (SPEC).
+/// At most this many thumbnails on a page (docs/tools.md).
 pub const MAX_THUMBNAILS: usize = 200;
-/// At most this many objects plotted (SPEC).
+/// At most this many objects plotted (docs/tools.md).
 pub const MAX_PLOTTED: usize = 10;
-/// A report page's limit (SPEC).
+/// A report page's limit (docs/tools.md).
 pub const MAX_PAGE_BYTES: usize = 10 * 1024 * 1024;
 /// Thumbnail size.
 const THUMB: (u32, u32) = (160, 120);

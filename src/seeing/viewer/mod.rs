@@ -1,4 +1,4 @@
-//! The built-in web viewer (SPEC "Visualization"): `GET /viewer/{sim_id}` is a page that
+//! The built-in web viewer (docs/tools.md "Visualization"): `GET /viewer/{sim_id}` is a page that
 //! follows a simulation live; it polls `GET /viewer/{sim_id}/frame`, a render of the world by
 //! the same CPU rasteriser as get_camera_image plus what the page draws over it (contact points,
 //! body frames) and the matrices to place them.

@@ -6,7 +6,7 @@
 //! made, `Command::validate` prepares the model to refuse bad input, and `World::apply`
 //! prepares it again (the same text gives the same robot) to insert it.
 //!
-//! The mapping (SPEC "MJCF models"):
+//! The mapping (docs/tools.md "MJCF models"):
 //! - Link −1 is the base: the static worldbody (with its geoms, floor planes included), or the
 //!   single top-level body when it has a free joint (the worldbody's geoms then sit on a static
 //!   body of their own). Every hinge or slide joint is one link, numbered in file order (depth
@@ -111,7 +111,7 @@ pub struct Prepared {
     keyframe_qpos: Option<Vec<f64>>,
 }
 
-/// Elements the engine cannot simulate and SPEC refuses (never dropped silently).
+/// Elements the engine cannot simulate and the server refuses (docs/tools.md "MJCF models") (never dropped silently).
 const REFUSED_ELEMENTS: [(&str, &str); 6] = [
     ("spatial", "spatial tendons are not supported"),
     ("flex", "flex (deformable) objects are not supported"),
@@ -246,11 +246,18 @@ pub struct FileReference {
 /// (a sub-model, not supported) — matched by local name as the parser matches them. None when
 /// the model is self-contained; text that is not XML has none (the parser refuses it).
 pub fn file_reference(xml: &str) -> Option<FileReference> {
-    let doc = roxmltree::Document::parse(xml).ok()?;
+    file_references(xml).into_iter().next()
+}
+
+/// Every element of `xml` that mjcf-rs would read a file for, in document order
+/// (`file_reference`'s list).
+pub fn file_references(xml: &str) -> Vec<FileReference> {
+    let Ok(doc) = roxmltree::Document::parse(xml) else { return Vec::new() };
     doc.descendants()
         .filter(|n| n.is_element() && matches!(n.tag_name().name(), "include" | "model"))
-        .find(|n| n.tag_name().name() == "include" || n.attribute("file").is_some())
+        .filter(|n| n.tag_name().name() == "include" || n.attribute("file").is_some())
         .map(|n| FileReference { tag: n.tag_name().name().to_string(), file: n.attribute("file").unwrap_or("").to_string() })
+        .collect()
 }
 
 /// The one place MJCF text reaches the parser: refused first if any element would make the

@@ -167,7 +167,7 @@ impl Default for Viewer {
     }
 }
 
-/// Values kept as the client gave them, so results report them as set (SPEC Conventions: a
+/// Values kept as the client gave them, so results report them as set (docs/tools.md "Conventions": a
 /// mass of 3.5 reads 3.5; time is PyBullet's f64 `n × dt`). The engine runs on f32 copies, whose
 /// effects the state hash covers; these only shape what results say, so they are snapshotted
 /// (restore → identical results) but not hashed (old logs keep their hashes).
