@@ -13,4 +13,4 @@ here="$(cd "$(dirname "$0")" && pwd)"
 scripts=()
 for s in "$@"; do scripts+=("$(cd "$(dirname "$s")" && pwd)/$(basename "$s")"); done
 cd "$here/.."
-RECORD_SCRIPTS="${scripts[*]:-}" cargo test --test record_replays -- --ignored --exact record_replays --nocapture
+RECORD_SCRIPTS="${scripts[*]:-}" cargo test --test time_machine -- --ignored --exact record_replays::record_replays --nocapture

@@ -1,0 +1,12 @@
+//! Trust at the edges: models read no file behind the log's back, outputs never replace a file,
+//! a request's files are read once within a budget before its simulation is locked, a shutdown
+//! always ends, and the source tree keeps the rules that make these checkable.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod architecture;
+mod bounded_requests;
+mod model_files;
+mod output_files;
+mod shutdown;

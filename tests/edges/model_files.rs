@@ -1,0 +1,216 @@
+//! Models read no file behind the log's back: every file a model names (MJCF includes, a
+//! sub-model's `<asset><model file>`, meshes) is read by the files layer inside the workspace —
+//! regular files only, never blocking on a FIFO — or refused naming the element; a crafted or
+//! old log whose model names a file folds up to that event and is then reported damaged,
+//! naming the event and the file, without opening it; and every recorded log and every test
+//! model's log folds with the workspace gone.
+
+use crate::common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+use common::{Client, Server};
+use serde_json::{json, Value};
+
+/// A FIFO at `path` (opening it for reading would wait for a writer for ever).
+fn fifo(path: &Path) {
+    let ok = Command::new("mkfifo").arg(path).status().expect("mkfifo");
+    assert!(ok.success(), "mkfifo {}", path.display());
+}
+
+/// A small valid robot: one hinge.
+const ROBOT: &str = r#"<mujoco model="r"><worldbody><body name="root" pos="0 0 1"><joint name="j" type="hinge" axis="0 1 0"/><geom size="0.1"/></body></worldbody></mujoco>"#;
+
+/// `load_mjcf` within 60 s (a call that waits on a FIFO would never answer).
+async fn load_mjcf(c: &Client, sim: &str, file: &str) -> Result<Value, String> {
+    let call = c.try_call("load_mjcf", json!({"sim_id": sim, "file_path": file}));
+    tokio::time::timeout(Duration::from_secs(60), call).await.unwrap_or_else(|_| panic!("load_mjcf {file} did not answer: it waits on a file"))
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_model_cannot_make_the_server_read_outside_the_workspace_or_block() {
+    let dir = tempfile::tempdir().unwrap();
+    let outside = dir.path().join("outside");
+    std::fs::create_dir_all(&outside).unwrap();
+    std::fs::write(outside.join("robot.xml"), ROBOT.replace("root", "secret_body_name")).unwrap();
+    fifo(&outside.join("pipe.xml"));
+    let server = Server::start(dir.path(), &[]);
+    let ws = &server.workspace;
+    let write = |name: &str, text: String| std::fs::write(ws.join(name), text).unwrap();
+    let sub_model = |file: &str| {
+        format!(r#"<mujoco><asset><model name="m" file="{file}"/></asset><worldbody><body name="root" pos="0 0 1"><geom size="0.1"/><attach model="m" body="secret_body_name" prefix="x_"/></body></worldbody></mujoco>"#)
+    };
+    write("sub_abs.xml", sub_model(&outside.join("robot.xml").display().to_string()));
+    write("sub_rel.xml", sub_model("../outside/robot.xml"));
+    write("sub_fifo.xml", sub_model(&outside.join("pipe.xml").display().to_string()));
+    write("sub_zero.xml", sub_model("/dev/zero"));
+    write("sub_in_ws.xml", sub_model("robot.xml"));
+    write("robot.xml", ROBOT.to_string());
+    fifo(&ws.join("pipe.xml"));
+    std::os::unix::fs::symlink("/dev/zero", ws.join("zero.xml")).unwrap();
+    write("include_fifo.xml", r#"<mujoco><include file="pipe.xml"/><worldbody/></mujoco>"#.into());
+    write("include_zero.xml", r#"<mujoco><include file="zero.xml"/><worldbody/></mujoco>"#.into());
+    write("mesh_fifo.xml", r#"<mujoco><asset><mesh name="m" file="pipe.stl"/></asset><worldbody><body><geom type="mesh" mesh="m"/></body></worldbody></mujoco>"#.into());
+    fifo(&ws.join("pipe.stl"));
+    std::fs::create_dir_all(ws.join("dir.xml")).unwrap();
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let before = common::hard::fingerprint(&c, &sim).await;
+    let cases = [
+        ("sub_abs.xml", "<asset><model file="),
+        ("sub_rel.xml", "<asset><model file="),
+        ("sub_fifo.xml", "<asset><model file="),
+        ("sub_zero.xml", "<asset><model file="),
+        ("sub_in_ws.xml", "<asset><model file="),
+        ("pipe.xml", "not a regular file"),
+        ("include_fifo.xml", "not a regular file"),
+        ("include_zero.xml", "Access denied"),
+        ("zero.xml", "Access denied"),
+        ("mesh_fifo.xml", "not a regular file"),
+        ("dir.xml", "a directory"),
+    ];
+    for (file, words) in cases {
+        let why = load_mjcf(&c, &sim, file).await.expect_err(&format!("{file} must be refused"));
+        assert!(why.contains(words), "{file}: {why:?} should say {words:?}");
+        assert!(!why.contains("secret_body_name"), "{file}: the outside file was read: {why}");
+        common::hard::assert_unchanged(&c, &sim, &before, file).await;
+    }
+    // Every refusal is logged as one.
+    let history = c.call("get_history", json!({"sim_id": sim, "limit": 100})).await;
+    let refused = history["events"].as_array().unwrap().iter().filter(|e| e["tool"] == "load_mjcf" && e["kind"] == "refused").count();
+    assert_eq!(refused, cases.len());
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_nested_include_is_refused_in_a_sentence_and_logged() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let ws = &server.workspace;
+    std::fs::write(ws.join("a.xml"), "<mujoco><worldbody/></mujoco>").unwrap();
+    std::fs::write(ws.join("b.xml"), "<mujoco><worldbody/></mujoco>").unwrap();
+    std::fs::write(ws.join("nested.xml"), r#"<mujoco><include file="a.xml"><include file="b.xml"/></include><worldbody/></mujoco>"#).unwrap();
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let why = load_mjcf(&c, &sim, "nested.xml").await.expect_err("a nested include is refused");
+    assert!(why.contains("<include>") && why.contains("must be empty"), "{why}");
+    let history = c.call("get_history", json!({"sim_id": sim})).await;
+    let last = history["events"].as_array().unwrap().last().unwrap().clone();
+    assert_eq!((last["tool"].as_str(), last["kind"].as_str()), (Some("load_mjcf"), Some("refused")), "{last}");
+    // The server still serves.
+    assert!(load_mjcf(&c, &sim, "a.xml").await.is_ok());
+}
+
+/// Rewrites simulation `id`'s first load_mjcf event so its model names `file` in an
+/// `<asset><model>` (as a log written before files were resolved into blobs could), keeping
+/// the log otherwise valid: the new text is stored as a blob under its hash.
+fn plant_sub_model(data: &Path, id: &str, file: &str) -> u64 {
+    let conn = rusqlite::Connection::open(data.join(format!("{id}.sqlite"))).unwrap();
+    let (seq, command): (i64, String) = conn
+        .query_row("SELECT seq, command FROM events WHERE tool = 'load_mjcf' AND kind = 'change' ORDER BY seq LIMIT 1", [], |r| Ok((r.get(0)?, r.get(1)?)))
+        .unwrap();
+    let mut cmd: Value = serde_json::from_str(&command).unwrap();
+    let old: Vec<u8> = conn.query_row("SELECT bytes FROM blobs WHERE hash = ?1", [cmd["mjcf"].as_str().unwrap()], |r| r.get(0)).unwrap();
+    let text = String::from_utf8(old).unwrap().replacen("<worldbody>", &format!(r#"<asset><model name="m" file="{file}"/></asset><worldbody>"#), 1);
+    let hash = blake3::hash(text.as_bytes()).to_hex().to_string();
+    conn.execute("INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)", rusqlite::params![hash, text.as_bytes()]).unwrap();
+    cmd["mjcf"] = json!(hash);
+    conn.execute("UPDATE events SET command = ?1 WHERE seq = ?2", rusqlite::params![cmd.to_string(), seq]).unwrap();
+    conn.execute("DELETE FROM snapshots WHERE seq >= ?1", [seq]).unwrap();
+    seq as u64
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_log_whose_model_names_a_file_is_damaged_naming_it_and_the_file_is_never_opened() {
+    let dir = tempfile::tempdir().unwrap();
+    let outside = dir.path().join("outside");
+    std::fs::create_dir_all(&outside).unwrap();
+    // A FIFO: a fold that opened it would wait for ever (and the restart never listen).
+    let pipe = outside.join("robot.xml");
+    fifo(&pipe);
+    let id = {
+        let server = Server::start(dir.path(), &[]);
+        std::fs::write(server.workspace.join("robot.xml"), ROBOT).unwrap();
+        let c = server.client().await;
+        let sim = c.new_sim(json!({})).await;
+        c.call("load_mjcf", json!({"sim_id": sim, "file_path": "robot.xml"})).await;
+        c.step(&sim, 5).await;
+        server.terminate();
+        sim
+    };
+    let data = dir.path().join("data");
+    let seq = plant_sub_model(&data, &id, &pipe.display().to_string());
+    let expected = format!("event {seq} needs file {}, which the log does not hold", pipe.display());
+    // The CLI says so first, without opening the file.
+    let out = tokio::time::timeout(
+        Duration::from_secs(60),
+        tokio::process::Command::new(env!("CARGO_BIN_EXE_physics-mcp")).arg("replay").arg(data.join(format!("{id}.sqlite"))).output(),
+    )
+    .await
+    .expect("replay waits on the model's file")
+    .unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!out.status.success() && said.contains(&expected), "{said}");
+    // A restart serves everything else and reports this simulation damaged, naming why.
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let (_, damaged) = common::hard::listed(&c.call("list_simulations", json!({})).await);
+    assert_eq!(damaged.len(), 1, "{damaged:?}");
+    assert_eq!(damaged[0].0, id);
+    assert!(damaged[0].1.contains(&expected), "{damaged:?}");
+    let why = c.try_call("get_simulation_info", json!({"sim_id": id})).await.unwrap_err();
+    assert!(why.contains(&expected), "{why}");
+}
+
+/// Every fixture model: (tool, path in the workspace).
+fn fixture_models() -> Vec<(&'static str, String)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+    let mut v: Vec<(&str, String)> = ["two_link_arm.urdf", "iiwa14.urdf", "wheeled_base.urdf", "continuous_limits.urdf", "joint_limits.urdf", "mesh_bot/urdf/mesh_bot.urdf"]
+        .into_iter()
+        .map(|f| ("load_urdf", f.to_string()))
+        .collect();
+    let mut mjcf: Vec<PathBuf> = std::fs::read_dir(root.join("mjcf")).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "xml")).collect();
+    mjcf.sort();
+    v.extend(mjcf.iter().map(|p| ("load_mjcf", format!("mjcf/{}", p.file_name().unwrap().to_string_lossy()))));
+    v
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn every_model_and_every_recorded_log_folds_with_the_workspace_gone() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut ids = Vec::new();
+    {
+        let server = Server::start(dir.path(), &[]);
+        server.copy_fixtures();
+        let c = server.client().await;
+        for (tool, file) in fixture_models() {
+            let sim = c.new_sim(json!({})).await;
+            c.ground(&sim).await;
+            c.call(tool, json!({"sim_id": sim, "file_path": file, "position": [0, 0, 1]})).await;
+            c.step(&sim, 30).await;
+            ids.push((sim, file));
+        }
+        server.terminate();
+    }
+    std::fs::remove_dir_all(dir.path().join("workspace")).unwrap();
+    // Recovery folds every log; then each verifies and replays in a fresh process.
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let (live, damaged) = common::hard::listed(&c.call("list_simulations", json!({})).await);
+    assert!(damaged.is_empty(), "{damaged:?}");
+    for (sim, file) in &ids {
+        assert!(live.contains(sim), "{file}: not recovered");
+        let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
+        assert_eq!(v["ok"], json!(true), "{file}: {v}");
+        common::assert_replays(&server.data, sim);
+    }
+    // The recorded sessions in replays/ name files of workspaces long gone.
+    let replays = Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
+    for e in std::fs::read_dir(replays).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "sqlite") {
+            physics_mcp::log::replay::replay(&p, None, |_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        }
+    }
+}

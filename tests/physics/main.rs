@@ -1,0 +1,17 @@
+//! What the tools compute, against independent references (analytic physics, PyBullet, MuJoCo):
+//! bodies and contacts, sensing, robots from URDF and MJCF, joint limits, inverse kinematics,
+//! values reported as set, and stepping on several threads bit for bit.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod ik;
+mod link_state;
+mod mjcf;
+mod physical_facts;
+mod robots;
+mod sensing;
+mod threads;
+mod threads_flag;
+mod urdf_limits;
+mod values_as_set;

@@ -1,0 +1,306 @@
+//! Issue 13 item 3: one simulation may step on several threads (rapier's `parallel`, the
+//! server's `--threads N`) because every state hash is bit-identical to the single-threaded
+//! build for 1, 2 and 4 threads, snapshot → restore → continue included, with the pool handed
+//! back after the restore.
+//!
+//! Three scenes — the 1000-box pile (benches/pile.rs), 64 free two-link URDF arms falling in
+//! stacks (multibodies in contact), 64 revolute box pairs plus spherical, fixed and prismatic
+//! chains (impulse joints) — are stepped in chunks, hashing after each, snapshotted half way,
+//! restored and continued, and compared with `tests/fixtures/threads_reference.json`: the
+//! hashes the single-threaded build (before `parallel` was enabled) recorded. Every `replays/`
+//! log is refolded on 1, 2 and 4 threads too. A divergence is reported by scene, thread count
+//! and the first hash that differs.
+
+// A test may read its fixture and the environment; the bans in clippy.toml are for the world.
+#![allow(clippy::disallowed_methods)]
+
+#[path = "../../benches/pile.rs"]
+mod pile;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use physics_mcp::command::{Blob, Command, ConstraintSpec, ConstraintType, ControlMode, MotorSpec, Shape};
+use physics_mcp::world::World;
+
+/// Steps per chunk; a hash is taken after each.
+const CHUNK: u64 = 50;
+
+/// One scene: how it is built and how many steps it runs.
+struct Scene {
+    name: &'static str,
+    build: fn() -> World,
+    steps: u64,
+}
+
+fn scenes() -> Vec<Scene> {
+    vec![
+        Scene { name: "pile_1000_boxes", build: pile::pile_world, steps: 500 },
+        Scene { name: "urdf_arms_64", build: arms, steps: 400 },
+        Scene { name: "constraints_64_pairs_and_chains", build: constraints, steps: 400 },
+    ]
+}
+
+fn step(w: &mut World, n: u64) {
+    w.apply(&Command::StepSimulation { steps: n }, &mut |_| true);
+}
+
+fn apply(w: &mut World, c: Command) -> serde_json::Value {
+    w.apply(&c, &mut |_| true).to_value()
+}
+
+fn ground(w: &mut World) {
+    apply(
+        w,
+        Command::AddBody {
+            shape: Shape::Box { half_extents: [20.0, 20.0, 0.5] },
+            position: [0.0, 0.0, -0.5],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            mass: 0.0,
+            color: None,
+        },
+    );
+}
+
+fn yaw(a: f32) -> [f32; 4] {
+    let (s, c) = (a / 2.0).sin_cos();
+    [0.0, 0.0, s, c]
+}
+
+/// 64 free-floating two-link arms (multibodies) in 8 stacks of 8, each turned against the one
+/// below, falling onto the ground and each other; every other arm's shoulder is velocity-driven.
+fn arms() -> World {
+    let mut w = World::create(&pile::root("arms")).unwrap().0;
+    ground(&mut w);
+    let urdf = std::fs::read(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/two_link_arm.urdf")).unwrap();
+    for s in 0..8 {
+        for k in 0..8 {
+            let n = s * 8 + k;
+            let out = apply(
+                &mut w,
+                Command::LoadUrdf {
+                    file_path: "two_link_arm.urdf".into(),
+                    urdf: Blob::new(urdf.clone()),
+                    meshes: Default::default(),
+                    position: [(s % 4) as f32 * 1.2, (s / 4) as f32 * 1.2, 0.1 + 0.08 * k as f32],
+                    orientation: yaw(0.7 * k as f32),
+                    fixed_base: false,
+                    continuous_limits_from_file: true,
+                    revolute_prismatic_limits_from_file: true,
+                    parsed: Default::default(),
+                },
+            );
+            let id = out["object_id"].as_u64().unwrap() as u32;
+            if n % 2 == 0 {
+                let motor = MotorSpec {
+                    mode: ControlMode::VelocityControl,
+                    target_position: 0.0,
+                    target_velocity: if n % 4 == 0 { 2.0 } else { -2.0 },
+                    force: Some(5.0),
+                    position_gain: 0.1,
+                    velocity_gain: 1.0,
+                };
+                apply(&mut w, Command::SetJointMotor { object_id: id, joint_index: 0, motor });
+            }
+        }
+    }
+    w
+}
+
+fn body(w: &mut World, half: [f32; 3], p: [f32; 3], mass: f32) -> u32 {
+    let out = apply(
+        w,
+        Command::AddBody {
+            shape: Shape::Box { half_extents: half },
+            position: p,
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            mass,
+            color: None,
+        },
+    );
+    out["object_id"].as_u64().unwrap() as u32
+}
+
+fn joint(w: &mut World, parent: u32, child: Option<u32>, kind: ConstraintType, axis: [f32; 3], pf: [f32; 3], cf: [f32; 3]) {
+    let spec = ConstraintSpec {
+        parent_id: parent,
+        child_id: child,
+        joint_type: kind,
+        joint_axis: axis,
+        parent_frame_position: pf,
+        child_frame_position: cf,
+        parent_frame_orientation: [0.0, 0.0, 0.0, 1.0],
+        child_frame_orientation: [0.0, 0.0, 0.0, 1.0],
+    };
+    let out = apply(w, Command::CreateConstraint { spec });
+    assert!(out.get("constraint_id").is_some(), "{out}");
+}
+
+/// 64 box pairs joined by revolute constraints tumbling onto the ground in a heap, and 8
+/// chains of 8 boxes hanging from the world by spherical joints, linked by fixed, spherical
+/// and prismatic constraints, swinging into the heap.
+fn constraints() -> World {
+    let mut w = World::create(&pile::root("constraints")).unwrap().0;
+    ground(&mut w);
+    for n in 0..64u32 {
+        let (i, j, k) = ((n % 4) as f32, ((n / 4) % 4) as f32, (n / 16) as f32);
+        let p = [i * 0.35, j * 0.35, 0.3 + k * 0.3];
+        let a = body(&mut w, [0.1, 0.05, 0.05], p, 1.0);
+        let b = body(&mut w, [0.1, 0.05, 0.05], [p[0] + 0.2, p[1], p[2] + 0.05], 0.5);
+        let axis = if n % 2 == 0 { [0.0, 1.0, 0.0] } else { [0.0, 0.0, 1.0] };
+        joint(&mut w, a, Some(b), ConstraintType::Revolute, axis, [0.1, 0.0, 0.025], [-0.1, 0.0, -0.025]);
+    }
+    for c in 0..8u32 {
+        let top = [-0.5 + 0.3 * c as f32, 1.8, 1.6];
+        let mut prev = body(&mut w, [0.04, 0.04, 0.04], top, 0.3);
+        joint(&mut w, prev, None, ConstraintType::Spherical, [0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [top[0], top[1] + 0.1, top[2]]);
+        for k in 1..8u32 {
+            let next = body(&mut w, [0.04, 0.04, 0.04], [top[0], top[1] - 0.12 * k as f32, top[2]], 0.3);
+            let kind = match (c + k) % 3 {
+                0 => ConstraintType::Fixed,
+                1 => ConstraintType::Spherical,
+                _ => ConstraintType::Prismatic,
+            };
+            joint(&mut w, prev, Some(next), kind, [0.0, 1.0, 0.0], [0.0, -0.06, 0.0], [0.0, 0.06, 0.0]);
+            prev = next;
+        }
+    }
+    w
+}
+
+/// How a world steps: on the stepping thread's pool (`None`) or on a pool of its own, handed
+/// back after every restore.
+type Pool = Option<std::sync::Arc<rapier3d::rayon::ThreadPool>>;
+
+fn with_pool(w: &mut World, pool: &Pool) {
+    w.set_thread_pool(pool.clone());
+    // (Without a pool of its own the count is the process's, which another test here changes.)
+    if let Some(p) = pool {
+        assert_eq!(w.num_threads(), p.current_num_threads());
+    }
+}
+
+fn pool_of(threads: usize) -> std::sync::Arc<rapier3d::rayon::ThreadPool> {
+    std::sync::Arc::new(rapier3d::rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap())
+}
+
+/// The scene's hashes: after building, after every chunk, the snapshot's content hash at the
+/// half-way chunk, then after every chunk continued from that snapshot restored.
+fn run(scene: &Scene, pool: &Pool) -> Vec<String> {
+    let mut w = (scene.build)();
+    with_pool(&mut w, pool);
+    let mut hashes = vec![format!("built {}", w.state_hash())];
+    let chunks = scene.steps / CHUNK;
+    let mut snapshot = None;
+    for c in 1..=chunks {
+        step(&mut w, CHUNK);
+        hashes.push(format!("step {} {}", c * CHUNK, w.state_hash()));
+        if c == chunks / 2 {
+            let bytes = w.snapshot();
+            hashes.push(format!("snapshot {} {}", c * CHUNK, physics_mcp::digest::content_hash(&bytes)));
+            snapshot = Some(bytes);
+        }
+    }
+    let mut r = World::restore(w.simulation_id(), false, &snapshot.unwrap()).unwrap();
+    with_pool(&mut r, pool);
+    for c in chunks / 2 + 1..=chunks {
+        step(&mut r, CHUNK);
+        hashes.push(format!("restored step {} {}", c * CHUNK, r.state_hash()));
+    }
+    hashes
+}
+
+fn reference_path() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/threads_reference.json")
+}
+
+fn reference() -> BTreeMap<String, Vec<String>> {
+    serde_json::from_slice(&std::fs::read(reference_path()).expect("tests/fixtures/threads_reference.json")).unwrap()
+}
+
+/// The first index where `a` and `b` differ, if any.
+fn first_difference(a: &[String], b: &[String]) -> Option<usize> {
+    (0..a.len().max(b.len())).find(|&i| a.get(i) != b.get(i))
+}
+
+/// Without a pool of its own a world steps on the test thread's stepping pool (of the process's
+/// count: 1, or what the replays test below sets meanwhile) and reproduces the reference: hashes
+/// recorded by the build before rapier's `parallel` was enabled (commit 07251e2), the
+/// single-threaded engine the `replays/` logs were made by. The file is never re-recorded: it is
+/// what later builds are measured against.
+#[test]
+fn the_reference_hashes_of_the_single_threaded_build_are_reproduced() {
+    let now: BTreeMap<String, Vec<String>> = scenes().iter().map(|s| (s.name.to_string(), run(s, &None))).collect();
+    let recorded = reference();
+    for (name, hashes) in &now {
+        let expected = &recorded[name];
+        if let Some(i) = first_difference(expected, hashes) {
+            panic!("{name}: this build differs from the reference at {:?} vs {:?}", expected.get(i), hashes.get(i));
+        }
+        // The restore → continue part equals the uninterrupted run.
+        for h in hashes.iter().filter(|h| h.starts_with("restored ")) {
+            assert!(hashes.contains(&h["restored ".len()..].to_string()), "{name}: {h} differs from the uninterrupted run");
+        }
+    }
+}
+
+/// Every thread count against the single-threaded build's reference and against its own
+/// one-thread run; prints every divergence (the report) and fails if there is any.
+#[test]
+fn every_thread_count_reproduces_the_single_threaded_build() {
+    let recorded = reference();
+    let mut divergences = Vec::new();
+    for scene in scenes() {
+        let mut one_thread = None;
+        for threads in [1usize, 2, 4] {
+            let hashes = run(&scene, &Some(pool_of(threads)));
+            let expected = &recorded[scene.name];
+            let mut line = format!("THREADS {} threads={threads}: ", scene.name);
+            match first_difference(expected, &hashes) {
+                None => line += "identical to the default build",
+                Some(i) => {
+                    line += &format!("differs from the default build first at {:?} (expected {:?})", hashes.get(i), expected.get(i));
+                    divergences.push(line.clone());
+                }
+            }
+            let one: &Vec<String> = one_thread.get_or_insert_with(|| hashes.clone());
+            if let Some(i) = first_difference(one, &hashes) {
+                line += &format!("; differs from 1 thread of this build first at {:?}", hashes.get(i));
+                divergences.push(format!("{} threads={threads} vs 1 thread at {:?}", scene.name, hashes.get(i)));
+            }
+            for h in hashes.iter().filter(|h| h.starts_with("restored ")) {
+                if !hashes.contains(&h["restored ".len()..].to_string()) {
+                    line += &format!("; restore → continue differs at {h:?}");
+                    divergences.push(format!("{} threads={threads}: restore → continue differs at {h:?}", scene.name));
+                    break;
+                }
+            }
+            println!("{line}");
+        }
+    }
+    assert!(divergences.is_empty(), "{} divergences:\n{}", divergences.len(), divergences.join("\n"));
+}
+
+/// Every `replays/` log refolds to its recorded hashes with 1, 2 and 4 threads per step
+/// (`set_step_threads`, what `--threads` sets). The only test here that sets the count, and
+/// the others' worlds have pools of their own, which win over it.
+#[test]
+fn every_replay_log_refolds_on_1_2_and_4_threads() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("replays");
+    let mut logs: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+        .collect();
+    logs.sort();
+    assert!(logs.len() >= 6, "replays/ holds {} logs", logs.len());
+    for threads in [1usize, 2, 4] {
+        physics_mcp::world::set_step_threads(threads);
+        for log in &logs {
+            let summary = physics_mcp::log::replay::replay(log, None, |_, _| {})
+                .unwrap_or_else(|e| panic!("{} does not refold on {threads} threads: {e}", log.display()));
+            assert!(summary.events > 0, "{}: {summary:?}", log.display());
+        }
+    }
+    physics_mcp::world::set_step_threads(1);
+}
