@@ -21,8 +21,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use physics_mcp::sim::apply::{Call, Planned};
 use physics_mcp::command::{Command, DynamicsChange, Shape};
 use physics_mcp::limits::Limits;
-use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::log::sqlite::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry};
 use physics_mcp::sim::sweep::{Control, Observe, Request};
 use physics_mcp::value::Args;
 use pile::raw_pile;
@@ -112,13 +111,7 @@ fn bench_pile_build_over_http(c: &mut Criterion) {
 
 /// A registry in `dir` holding a 100-box scene (a 5×5×4 stack on a ground), its id.
 fn sweep_scene(dir: &std::path::Path) -> (Registry, String) {
-    let config = Config {
-        data_dir: dir.join("data"),
-        workspace: dir.join("workspace"),
-        limits: Limits::default(),
-        sync: SyncMode::Normal,
-    };
-    let reg = Registry::open(config).unwrap();
+    let reg = Registry::open(common::config(dir)).unwrap();
     let id = "sweep-scene".to_string();
     reg.create(Command::CreateSimulation { simulation_id: id.clone(), gravity: [0.0, 0.0, -9.81], gui: false }, &Args::new()).unwrap();
     let sim = reg.get(&id).unwrap();

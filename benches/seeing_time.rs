@@ -6,6 +6,9 @@
 #[path = "pile.rs"]
 mod pile;
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -76,11 +79,8 @@ fn camera() -> Camera {
 
 /// The replay with the most events.
 fn longest_replay() -> std::path::PathBuf {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
-    let mut logs: Vec<(usize, std::path::PathBuf)> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+    let mut logs: Vec<(usize, std::path::PathBuf)> = common::recorded_logs()
+        .into_iter()
         .map(|p| (physics_mcp::log::replay::events(&p).unwrap().len(), p))
         .collect();
     logs.sort();

@@ -7,13 +7,15 @@
 // A benchmark reads the clock and its files; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use std::time::Instant;
 
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
 use physics_mcp::files::save_format::{world_from_history, SaveFile};
-use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::log::sqlite::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry};
 use physics_mcp::value::Args;
 use rand::{Rng, SeedableRng};
 
@@ -84,12 +86,7 @@ struct Figures {
 
 fn measure(n: u64) -> Figures {
     let dir = tempfile::tempdir().unwrap();
-    let reg = Registry::open(Config {
-        data_dir: dir.path().join("data"),
-        workspace: dir.path().join("ws"),
-        limits: Limits::default(),
-        sync: SyncMode::Normal,
-    })
+    let reg = Registry::open(common::config(dir.path()))
     .unwrap();
     pile(&reg, "pile");
     more_events(&reg, "pile", n);

@@ -15,14 +15,16 @@
 #[path = "pile.rs"]
 mod pile;
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use physics_mcp::command::Command;
 use physics_mcp::log::fold;
 use physics_mcp::limits::Limits;
-use physics_mcp::sim::{lock_sim, Config, Registry};
-use physics_mcp::log::sqlite::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry};
 use physics_mcp::seeing::trajectory::{self, Request};
 use physics_mcp::value::Args;
 use physics_mcp::world::World;
@@ -70,12 +72,7 @@ fn look_back(reg: &Registry, id: &str, from: u64, to: u64, req: &Request) -> f64
 }
 
 fn registry(dir: &std::path::Path) -> Registry {
-    Registry::open(Config {
-        data_dir: dir.join("data"),
-        workspace: dir.join("ws"),
-        limits: Limits::default(),
-        sync: SyncMode::Normal,
-    })
+    Registry::open(common::config(dir))
     .unwrap()
 }
 

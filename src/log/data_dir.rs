@@ -33,7 +33,15 @@ pub fn prepare_dir(flag: &str, dir: &Path, private: bool) -> anyhow::Result<Path
 pub fn lock(data_dir: &Path) -> anyhow::Result<std::fs::File> {
     let lock_path = data_dir.join(".lock");
     let lock = std::fs::File::options().create(true).truncate(false).write(true).open(&lock_path)?;
-    if lock.try_lock().is_err() {
+    // A lock just released can still be held for a moment: by a process that is exiting, or
+    // (in one process) by a child being spawned between its fork and its exec. Two seconds of
+    // retries tell those from another live server.
+    let mut tries = 0;
+    while lock.try_lock().is_err() && tries < 40 {
+        tries += 1;
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    if tries == 40 && lock.try_lock().is_err() {
         anyhow::bail!(
             "another physics-mcp process is using the data directory {} (it holds {}); \
              stop it or pass a different --data",

@@ -1,4 +1,4 @@
-//! Shared pieces of the hardening tests (issue #15): a replayable seed, and the per-simulation
+//! Shared pieces of the hardening tests: a replayable seed, and the per-simulation
 //! fingerprint (state hash, head, history length) that a refused call must leave unchanged.
 
 use rand::SeedableRng;

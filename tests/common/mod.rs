@@ -254,7 +254,18 @@ impl Client {
     }
 }
 
-/// Reads a 3-vector from a JSON result.
+/// Every recorded session log in `replays/`, in name order.
+pub fn recorded_logs() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
+    let mut logs: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
+        .collect();
+    logs.sort();
+    logs
+}
+
 /// An in-process registry's configuration in `dir` (data/ and ws/ under it), default limits.
 pub fn config(dir: &Path) -> physics_mcp::sim::Config {
     physics_mcp::sim::Config {
@@ -335,7 +346,7 @@ pub fn empty_world(id: &str) -> physics_mcp::world::World {
     let root = physics_mcp::command::Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false };
     physics_mcp::world::World::create(&root).unwrap().0
 }
-/// Hardening helpers (issue #15): seeds, fingerprints, list_simulations parts.
+/// Hardening helpers: seeds, fingerprints, list_simulations parts.
 pub mod hard;
 
 /// `physics-mcp replay` of simulation `id`'s log in `data`, every recorded hash checked:

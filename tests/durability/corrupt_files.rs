@@ -1,4 +1,4 @@
-//! Issue #15, corrupted files: a flipped state hash, random byte flips, a truncated file, a
+//! Corrupted files: a flipped state hash, random byte flips, a truncated file, a
 //! deleted WAL and a swapped snapshot blob. The server still starts, serves every other
 //! simulation unchanged, never serves the damaged one (every call on it answers
 //! `Simulation {id} is damaged: {reason}`), and lists it under `damaged` with a reason that

@@ -1,4 +1,4 @@
-//! Issue #15, full disk: the server runs under a file-size limit (RLIMIT_FSIZE, lowered from
+//! Full disk: the server runs under a file-size limit (RLIMIT_FSIZE, lowered from
 //! outside with prlimit(2) as `prlimit --pid` would) until its log cannot grow. A
 //! state-changing call that cannot be written is refused with a clear sentence and leaves
 //! memory and log agreeing (the next read shows the previous state); reads keep working; the

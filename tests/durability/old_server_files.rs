@@ -1,4 +1,4 @@
-//! Issue #10 items 3 and 4: robots in saved files. The old server documented a URDF object's
+//! Robots in saved files. The old server documented a URDF object's
 //! file as `urdf_path` but its code wrote `file_path`; our files carry both, load either, and
 //! files written before `urdf_path` was added keep loading. Old-server files (no `history`)
 //! with robots load as the old server loaded them: the URDF read from the workspace (sandboxed

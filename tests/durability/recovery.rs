@@ -1,6 +1,6 @@
-//! Process-level determinism and durability (issue 2, "Done means" 2 and 4c–4e): two server
+//! Process-level determinism and durability: two server
 //! processes agree hash for hash; a kill -9'd server restarts with every simulation exactly as
-//! it was and continues like a twin that never stopped; the state hash covers what SPEC lists;
+//! it was and continues like a twin that never stopped; the state hash covers what docs/log-format.md lists;
 //! stdio works; the data directory is exclusively locked; --token is enforced; ending a session
 //! answers 204.
 
@@ -247,7 +247,7 @@ async fn a_token_is_required_when_set() {
 }
 
 /// The Python `mcp` SDK logs `Session termination failed: 202` unless `DELETE /mcp` answers
-/// 200 or 204 (issue #10 item 7).
+/// 200 or 204.
 #[tokio::test(flavor = "multi_thread")]
 async fn ending_a_session_answers_204_no_content() {
     let dir = tempfile::tempdir().unwrap();
@@ -293,7 +293,7 @@ async fn a_tampered_log_is_reported_and_skipped_not_served() {
     let ids: Vec<&str> = listed["simulations"].as_array().unwrap().iter().map(|s| s["simulation_id"].as_str().unwrap()).collect();
     assert_eq!(ids, vec![good.as_str()], "the tampered simulation must not be served");
     let e = c.try_call("get_simulation_info", json!({"sim_id": bad})).await.unwrap_err();
-    // Issue #15: named damaged (it used to answer "not found"), with the event that diverged.
+    // named damaged (it used to answer "not found"), with the event that diverged.
     assert!(e.starts_with(&format!("Simulation {bad} is damaged: ")) && e.contains("seq"), "{e}");
     let damaged = &listed["damaged"][0];
     assert_eq!(damaged["simulation_id"], json!(bad));

@@ -206,11 +206,7 @@ async fn every_model_and_every_recorded_log_folds_with_the_workspace_gone() {
         common::assert_replays(&server.data, sim);
     }
     // The recorded sessions in replays/ name files of workspaces long gone.
-    let replays = Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
-    for e in std::fs::read_dir(replays).unwrap() {
-        let p = e.unwrap().path();
-        if p.extension().is_some_and(|x| x == "sqlite") {
-            physics_mcp::log::replay::replay(&p, None, |_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-        }
+    for p in common::recorded_logs() {
+        physics_mcp::log::replay::replay(&p, None, |_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     }
 }

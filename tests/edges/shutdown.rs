@@ -13,7 +13,7 @@ use std::time::Duration;
 use common::{pile_calls, Client, Server};
 use serde_json::{json, Value};
 
-/// The bound SPEC promises.
+/// The bound docs/guarantees.md promises.
 const WITHIN: Duration = Duration::from_secs(10);
 
 /// A simulation holding the 1,000-box pile.

@@ -1,4 +1,4 @@
-//! Issue #15, crash loop: kill -9 at random moments across 3 simulations (one of 300 bodies
+//! Crash loop: kill -9 at random moments across 3 simulations (one of 300 bodies
 //! in CI, `PHYSICS_CRASH_BODIES=1000` for the full size) while concurrent clients add, step, undo, redo, save, fork and load; then kills
 //! inside each risky phase, placed by crash points (feature `failpoints`, see
 //! src/failpoints.rs). After every restart: every acknowledged state-changing call is in the

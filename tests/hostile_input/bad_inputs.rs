@@ -1,4 +1,4 @@
-//! Table-driven refusals (issue 2, "Done means" 3): every bad input is an `isError` result that
+//! Table-driven refusals: every bad input is an `isError` result that
 //! names the parameter, and the simulation's state hash and head are unchanged afterwards.
 
 use crate::common;
@@ -36,7 +36,7 @@ async fn bad_inputs_are_refused_clearly_and_change_nothing() {
         ("add_box", json!({"sim_id": s, "position": [0, 0, 1]}), "dimensions is required"),
         ("add_box", bx(json!({"dimensions": [0.5, 0.5, -1]})), "dimensions"),
         ("add_box", bx(json!({"mass": -1})), "mass"),
-        ("add_box", bx(json!({"mass": "one"})), "mass"), // "1" is read as 1 (issue 12: scalars in strings)
+        ("add_box", bx(json!({"mass": "one"})), "mass"), // "1" is read as 1 (scalars in strings)
         ("add_box", bx(json!({"color": [1, 0, 0, 2]})), "color"),
         ("add_box", bx(json!({"color": [1, 0]})), "color"),
         ("add_box", bx(json!({"orientation": [0, 0, 0, 0]})), "orientation"),

@@ -1,4 +1,4 @@
-//! Issue #15, fuzzing over HTTP: a seeded generator of hostile arguments for every tool that
+//! Fuzzing over HTTP: a seeded generator of hostile arguments for every tool that
 //! tools/list names — wrong types, NaN/inf as strings, 1e39 for f32 fields, empty and huge
 //! arrays, deep nesting, unicode, path escapes, unknown parameters, missing ones. Invariants
 //! only (the wording of refusals is other tests' business): the server never panics, the

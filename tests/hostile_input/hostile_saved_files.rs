@@ -1,4 +1,4 @@
-//! Issue #16 item 3: a foreign saved file is refolded through the same validation as a tool
+//! A foreign saved file is refolded through the same validation as a tool
 //! call, so a hostile file cannot feed `World::apply` a timestep ≤ 0, a zero quaternion, a zero
 //! joint axis or ±inf. Each bad value is refused in one sentence naming it, and nothing is
 //! created.

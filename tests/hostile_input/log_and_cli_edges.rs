@@ -1,4 +1,4 @@
-//! Issue #16 item 6, "small sharp edges": a hostile log never panics the CLI, a corrupt event
+//! Small sharp edges: a hostile log never panics the CLI, a corrupt event
 //! kind is an error (the file is skipped, not served with the event silently reinterpreted),
 //! and a destroyed simulation refuses late writers without recreating its files.
 
@@ -88,7 +88,7 @@ fn an_unknown_event_kind_is_corruption_and_the_file_is_skipped() {
     assert!(err.contains("bogus"), "the error names the bad kind: {err}");
     let reg = Registry::open(config(dir.path())).unwrap();
     let e = reg.get("kind").err().expect("a log with an unknown event kind must not be served");
-    // Issue #15: a damaged log is named as such (it used to answer "not found").
+    // a damaged log is named as such (it used to answer "not found").
     assert!(e.starts_with("Simulation kind is damaged: "), "{e}");
     assert!(path.exists(), "the corrupt file is left for inspection");
 }

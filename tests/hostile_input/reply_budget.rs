@@ -1,4 +1,4 @@
-//! The reply budget (issue #12 item 1, SPEC "Conventions"): a client the size of the Python
+//! The reply budget (docs/tools.md "Conventions"): a client the size of the Python
 //! MCP SDK (it drops any SSE event over 1 MiB) calls every tool that can answer big, at its
 //! limits — 16,384 rays, a 1024×1024 image with depth and segmentation, a 1000-event history
 //! page, a long trajectory — over plain HTTP, measuring the raw bytes of each reply: each is

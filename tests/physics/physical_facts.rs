@@ -1,4 +1,4 @@
-//! Physical facts checked through the real server over MCP/HTTP (issue 2, "Done means" 2).
+//! Physical facts checked through the real server over MCP/HTTP.
 
 use crate::common;
 

@@ -173,7 +173,7 @@ async fn every_fixture_matches_what_pybullet_reports() {
     }
 }
 
-/// Issue #10 item 5: a continuous joint reports the lower/upper its `<limit>` gives (r2d2's
+/// A continuous joint reports the lower/upper its `<limit>` gives (r2d2's
 /// head_swivel: [−0.38, 0]) but, as in PyBullet, they do not bound its motion — a velocity
 /// motor drives it past its upper limit, while a revolute joint with the same limits stops.
 /// The positions are pybullet's own (`"motion"` in `tests/fixtures/pybullet_urdf.json`).
@@ -208,7 +208,7 @@ async fn issue_10_continuous_joint_limits_are_reported_but_not_enforced() {
     }
 }
 
-/// Compatibility (SPEC): a load_urdf event recorded before continuous joints reported their
+/// Compatibility (docs/log-format.md): a load_urdf event recorded before continuous joints reported their
 /// file limits decodes without `continuous_limits_from_file`, re-encodes byte for byte, and
 /// folds to the robot it always did — every continuous joint at [0, −1] — so an old log's
 /// state hashes still match. The same load as a new event reports the file's limits and

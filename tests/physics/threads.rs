@@ -1,4 +1,4 @@
-//! Issue 13 item 3: one simulation may step on several threads (rapier's `parallel`, the
+//! One simulation may step on several threads (rapier's `parallel`, the
 //! server's `--threads N`) because every state hash is bit-identical to the single-threaded
 //! build for 1, 2 and 4 threads, snapshot → restore → continue included, with the pool handed
 //! back after the restore.
@@ -286,13 +286,7 @@ fn every_thread_count_reproduces_the_single_threaded_build() {
 /// the others' worlds have pools of their own, which win over it.
 #[test]
 fn every_replay_log_refolds_on_1_2_and_4_threads() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("replays");
-    let mut logs: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
-        .collect();
-    logs.sort();
+    let logs = crate::common::recorded_logs();
     assert!(logs.len() >= 6, "replays/ holds {} logs", logs.len());
     for threads in [1usize, 2, 4] {
         physics_mcp::world::set_step_threads(threads);

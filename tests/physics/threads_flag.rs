@@ -1,4 +1,4 @@
-//! `--threads N` (issue 13, SPEC "Scale"): every world the server makes steps on the one pool
+//! `--threads N` (docs/tools.md "Scale"): every world the server makes steps on the one pool
 //! of N threads — created, stepped, undone, redone, forked, loaded, kept from a sweep, and
 //! recovered after a restart — because rapier drops the pool when a world is serialised, and a
 //! world without it would step elsewhere. In-process, the pool's size is asserted on each, and

@@ -1,4 +1,4 @@
-//! Issue #16: a revolute or prismatic joint whose `<limit>` leaves out `lower` and/or `upper`.
+//! A revolute or prismatic joint whose `<limit>` leaves out `lower` and/or `upper`.
 //! PyBullet 3.2.7 reads each attribute on its own (a missing lower is 0, a missing upper −1)
 //! and enforces the pair only when lower ≤ upper; we used to read a missing one as 0 and lock
 //! the joint at [0, 0]. The reference is pybullet's own (`scripts/urdf_joint_limits.py` wrote
@@ -49,7 +49,7 @@ async fn partial_limits_are_read_and_enforced_as_pybullet_does() {
     }
 }
 
-/// Compatibility (SPEC): a load_urdf event recorded before the flag decodes without it,
+/// Compatibility (docs/log-format.md): a load_urdf event recorded before the flag decodes without it,
 /// re-encodes byte for byte and folds to the robot it always did — a missing attribute read as
 /// 0, so effort/velocity alone gives [0, 0] — so old logs' state hashes still match; the same
 /// load as a new event reads PyBullet's limits and hashes differently.

@@ -1,4 +1,4 @@
-//! Issue #10 item 2: a value the user set reads back as set — `change_dynamics(mass=3.5)` read
+//! A value the user set reads back as set — `change_dynamics(mass=3.5)` read
 //! `3.4999998` (rapier keeps 1/m) — and time is PyBullet's f64 `n × dt`
 //! (`0.004166666666666667` after one default step, not `0.004166666883975267`).
 

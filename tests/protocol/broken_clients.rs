@@ -1,4 +1,4 @@
-//! Issue #15, slow and broken clients: a client that sends half a request and stalls, clients
+//! Slow and broken clients: a client that sends half a request and stalls, clients
 //! that never read their (large) replies, 1,000 idle sessions, a 100 MB body — the server keeps
 //! serving a well-behaved client throughout, and its peak memory is reported. `--max-sessions`
 //! refuses a session past the bound with one sentence until one ends.

@@ -1,4 +1,4 @@
-//! `physics-mcp call URL TOOL '{json}'` (issue #12: every README command works from a clone of
+//! `physics-mcp call URL TOOL '{json}'` (every README command works from a clone of
 //! this repository alone): a real server, the real binary as the client; results print as
 //! JSON, refusals print their sentence and exit 1, a token is sent when given.
 

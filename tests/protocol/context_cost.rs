@@ -1,4 +1,4 @@
-//! What a model reads per tool (issue #12 item 2, SPEC "Conventions"): the mean length of the
+//! What a model reads per tool (docs/tools.md "Conventions"): the mean length of the
 //! compact JSON `{name, description, inputSchema}` over tools/list must stay ≤ 600 bytes —
 //! those bytes are in every agent's context before it does anything — while every parameter
 //! keeps a description and no schema carries `format`, `$schema` or `title` noise.
@@ -8,7 +8,7 @@ use crate::common;
 use common::Server;
 use serde_json::{json, Value};
 
-/// SPEC's ceiling on the mean context cost per tool, in bytes.
+/// The documented ceiling on the mean context cost per tool, in bytes.
 const MEAN_MAX: usize = 600;
 
 /// Every string-valued `format`, `$schema` or `title` keyword in `schema` (a property *named*

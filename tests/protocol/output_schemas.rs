@@ -1,5 +1,4 @@
-//! Every tool declares an `outputSchema` that its results validate against (SPEC Conventions;
-//! issue #10 item 6): a scenario on the real server calls every listed tool successfully once
+//! Every tool declares an `outputSchema` that its results validate against (docs/tools.md "Conventions"): a scenario on the real server calls every listed tool successfully once
 //! and validates each `structuredContent` with an independent JSON Schema validator. Both
 //! schemas of every tool are plain JSON Schema 2020-12 (no `$schema`, `title` or non-standard
 //! `format`).

@@ -1,4 +1,4 @@
-//! One parameter model (issue 16 item 4, on issue 12's rules): over HTTP, a misspelled or
+//! One parameter model: over HTTP, a misspelled or
 //! unknown parameter is refused naming it, scalars and vectors sent as strings are accepted,
 //! a value of the wrong type is refused with a sentence naming the parameter, and a refusal
 //! changes nothing (state hash and head). Every tool's arguments are parsed as the type its

@@ -1,4 +1,4 @@
-//! Issue #12 item 6: a 2026-07-28 client is served statelessly over plain HTTP — a
+//! A 2026-07-28 client is served statelessly over plain HTTP — a
 //! `tools/call` without `initialize` and `server/discover` — with no MCP client library in
 //! between, so what is tested is the wire itself.
 

@@ -1,4 +1,4 @@
-//! Issue #12 items 5–6 over HTTP: resource subscriptions (a second session hears the first
+//! Over HTTP: resource subscriptions (a second session hears the first
 //! one step; updates are paced and the last change is always announced; unsubscribed hears
 //! nothing) and MCP logging (after `logging/setLevel`, a refused call's reason arrives as
 //! `notifications/message`).

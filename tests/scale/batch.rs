@@ -1,4 +1,4 @@
-//! batch (issue 13, SPEC "Scale") over HTTP against the real server: a batch of 1,001 add_box
+//! batch (docs/tools.md "Scale") over HTTP against the real server: a batch of 1,001 add_box
 //! calls gives the state hash of the same 1,001 calls made one by one (and stays equal when
 //! both step on); a batch with one bad call anywhere changes nothing; undo after a batch takes
 //! back its last call only; reads inside a batch see the state the earlier calls left; a batch
@@ -6,25 +6,12 @@
 
 use crate::common;
 
+use common::pile_calls;
 use common::hard::{assert_unchanged, fingerprint};
 use common::Server;
 use serde_json::{json, Value};
 
 /// The pile of the benches (deterministic, no randomness needed here): a static ground and
-/// 1,000 boxes on a 10×10×10 grid, as (tool, arguments) calls.
-fn pile_calls() -> Vec<Value> {
-    let mut calls = vec![json!({"tool": "add_box", "arguments": {"dimensions": [20, 20, 0.5], "position": [0, 0, -0.5], "mass": 0}})];
-    for i in 0..10 {
-        for j in 0..10 {
-            for k in 0..10 {
-                let p = [i as f64 * 0.25 - 1.125, j as f64 * 0.25 - 1.125, 0.5 + k as f64 * 0.25];
-                calls.push(json!({"tool": "add_box", "arguments": {"dimensions": [0.1, 0.1, 0.1], "position": p, "orientation": [0, 0, 0.0998, 0.995]}}));
-            }
-        }
-    }
-    calls
-}
-
 #[tokio::test(flavor = "multi_thread")]
 async fn a_batch_equals_the_same_calls_one_by_one_and_undo_takes_back_its_last_call() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,4 +1,4 @@
-//! Issue #15, load: 20 concurrent clients (own MCP sessions) × 1,000 seeded mixed calls —
+//! Load: 20 concurrent clients (own MCP sessions) × 1,000 seeded mixed calls —
 //! reads, steps, adds, forces, poses, undo/redo, forks (destroyed again) and saves — over 5
 //! shared simulations. Zero errors other than intended refusals (undo/redo with nothing left,
 //! a read of an object an undo removed); afterwards every simulation verifies, its log holds

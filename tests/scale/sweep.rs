@@ -1,4 +1,4 @@
-//! run_sweep (issue 13, SPEC "Scale") over HTTP against the real server: 8 variants
+//! run_sweep (docs/tools.md "Scale") over HTTP against the real server: 8 variants
 //! (friction, restitution, a motor target, an applied force) each equal fork + the same calls
 //! plus step done by hand, state hash for state hash; the swept simulation is unchanged; forks not
 //! kept are gone from list_simulations and from the data directory; kept ones are ordinary

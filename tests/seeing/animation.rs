@@ -1,4 +1,4 @@
-//! Issue #11 "Seeing time", render_animation: a looping GIF of any past interval, re-simulated
+//! render_animation: a looping GIF of any past interval, re-simulated
 //! from the log. Its frames are checked against an independent path to the same states —
 //! get_camera_image on the live simulation and on `fork_simulation(at_seq)` — decoded with the
 //! `png` and `gif` crates, and against physics (a falling box moves down the picture).

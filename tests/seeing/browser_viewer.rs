@@ -1,7 +1,7 @@
 //! The web viewer in a real browser: headless Chromium (Debian's `chromium` package) opens
 //! `viewer_url` of a gui simulation, runs the page's script, and must show the simulation —
 //! the status line names its steps and state hash, and the screenshot holds the red box the
-//! server rendered. Issue #11: the session report (a file, offline) and the viewer scrubbed
+//! server rendered. The session report (a file, offline) and the viewer scrubbed
 //! to a past seq load without a console message or a request to another origin, and their
 //! screenshots are what README shows (`UPDATE_SCREENSHOTS=1` copies them into docs/). `#[ignore]`d for plain `cargo test` (no browser on a machine with only
 //! Rust); `.ci/run` installs Chromium and runs these with `--ignored`.

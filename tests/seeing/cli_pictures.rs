@@ -1,23 +1,17 @@
-//! Issue #11 "Seeing time", the command line: `replay FILE --render OUT.gif` and
+//! The command line: `replay FILE --render OUT.gif` and
 //! `report FILE -o OUT.html` on every recorded session in `replays/` (copied first: those
 //! files are never touched). The GIF decodes to the frames it says; the page has one
 //! timeline row per event of the log, requests nothing (no URL but `data:` ones, no script).
 
 use crate::common;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
 use common::pictures::Gif;
 
 fn replays() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
-        .collect();
-    files.sort();
+    let files = common::recorded_logs();
     assert!(files.len() >= 5, "recorded sessions: {files:?}");
     files
 }

@@ -1,4 +1,4 @@
-//! Issue 11, trajectories: get_trajectory, step_simulation(sample_every) and
+//! Trajectories: get_trajectory, step_simulation(sample_every) and
 //! `replay --trajectory`, all over the one re-simulation core. The reference is independent of
 //! it: a fork stepped one step at a time, read with get_object_state / get_joint_state, and
 //! compared bit for bit as f32 (`to_bits`).
@@ -238,11 +238,9 @@ async fn replay_trajectory_on_every_recorded_log_equals_get_trajectory() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     std::fs::create_dir_all(&data).unwrap();
-    let replays = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
     let mut logs = vec![];
-    for e in std::fs::read_dir(&replays).unwrap() {
-        let p = e.unwrap().path();
-        if p.extension().is_some_and(|x| x == "sqlite") {
+    for p in common::recorded_logs() {
+        {
             // A copy, named as the server names a simulation's log (`<id>.sqlite`; it skips
             // files named otherwise): the recorded logs are never touched.
             let id = physics_mcp::log::sqlite::Log::open_read_only(&p).unwrap().simulation_id().unwrap();

@@ -1,4 +1,4 @@
-//! Issue #11 "Seeing time", the viewer's timeline and live progress, over real HTTP: a past
+//! The viewer's timeline and live progress, over real HTTP: a past
 //! state (`/frame?seq=S`, `&step=K`) is pixel for pixel what get_camera_image shows on a fork
 //! at that state; while a long step runs, `/frame` shows its progress with a rising step
 //! count, and watching changes no result or hash.

@@ -1,4 +1,4 @@
-//! Issue #16 item 1: a cancelled step_simulation was logged as the steps requested, so
+//! A cancelled step_simulation was logged as the steps requested, so
 //! verify_simulation and `replay` diverged at it, and without a snapshot at that event a
 //! restart called the simulation corrupt. It now logs the steps it took: cancelled at several
 //! points (with and without a snapshot at the step), the simulation verifies, the CLI replays

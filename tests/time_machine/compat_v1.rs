@@ -1,9 +1,9 @@
-//! SPEC "Compatibility": a data directory and a saved file written by the build before event
+//! docs/log-format.md "Compatibility of logs and files": a data directory and a saved file written by the build before event
 //! version 2 (`tests/fixtures/datadir_v1`, made by commit 237147f) keep working — every log
 //! replays with every recorded state hash checked, every simulation recovers at start under
 //! its id and verifies, the saved file loads to its recorded hash, and all of them go on.
 //! Among them are step_simulation calls cancelled part way, which that build logged as the
-//! steps asked (#16): one of them had no snapshot at the step, so that build itself skipped it
+//! steps asked: one of them had no snapshot at the step, so that build itself skipped it
 //! as corrupt at its next start.
 
 use crate::common;

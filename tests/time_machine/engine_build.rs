@@ -1,4 +1,4 @@
-//! SPEC "Compatibility of logs and files": every root event records the engine build (a crate
+//! docs/log-format.md "Compatibility of logs and files": every root event records the engine build (a crate
 //! → version map of the result-affecting crates, rapier3d's with its features); roots written
 //! before builds were recorded, and roots that recorded rapier3d alone, read as the build of
 //! their time (rapier3d 0.36.1 with serde-serialize and enhanced-determinism, plus the frozen
@@ -71,12 +71,7 @@ fn new_roots_of_create_fork_and_load_record_this_build() {
 }
 
 fn replays() -> Vec<PathBuf> {
-    let mut logs: Vec<PathBuf> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("replays"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
-        .collect();
-    logs.sort();
+    let logs = common::recorded_logs();
     assert!(logs.len() >= 10, "the recorded replays are missing");
     logs
 }

@@ -1,4 +1,4 @@
-//! Issue #10 item 1: forking a fork at an inherited seq said "log is corrupt: no snapshot on
+//! Forking a fork at an inherited seq said "log is corrupt: no snapshot on
 //! the head's chain" (a fork copied its parent's events but only its own root's snapshot).
 //! Any state-changing event of a fork's ancestry — inherited, on an undone branch, several forks
 //! deep — forks to exactly the parent's recorded state, after a kill -9 restart too and after

@@ -1,4 +1,4 @@
-//! Seeded property tests over random sequences of tool calls (issue 3, "Done means" 2):
+//! Seeded property tests over random sequences of tool calls:
 //! folding twice gives the same hashes; stopping (restart = snapshot + refold) at a random
 //! point and continuing equals an uninterrupted run; undo k then redo k restores the hash; a
 //! fork at seq s then the same calls reproduces the original's hashes.
@@ -12,8 +12,7 @@ use std::path::Path;
 
 use physics_mcp::command::{Command, DynamicsChange, Shape};
 use physics_mcp::limits::Limits;
-use physics_mcp::sim::{lock_sim, Config, Registry, SharedSim};
-use physics_mcp::log::sqlite::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry, SharedSim};
 use physics_mcp::value::Args;
 use proptest::prelude::*;
 use proptest::test_runner::{Config as RunnerConfig, RngAlgorithm, TestRng, TestRunner};
@@ -51,12 +50,7 @@ fn op() -> impl Strategy<Value = Op> {
 }
 
 fn registry(dir: &Path) -> Registry {
-    Registry::open(Config {
-        data_dir: dir.join("data"),
-        workspace: dir.join("ws"),
-        limits: Limits::default(),
-        sync: SyncMode::Normal,
-    })
+    Registry::open(crate::common::config(dir))
     .expect("registry")
 }
 

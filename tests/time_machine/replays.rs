@@ -2,19 +2,9 @@
 //! snapshots) — so a change that alters physics or the encoding fails here until the logs are
 //! re-recorded on purpose (`bash replays/record.sh`). The CLI names the first divergence.
 
-use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn recorded() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("replays");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "sqlite"))
-        .collect();
-    files.sort();
-    files
-}
+use crate::common::recorded_logs as recorded;
 
 fn cli(args: &[&str]) -> (bool, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_physics-mcp")).args(args).output().unwrap();

@@ -1,4 +1,4 @@
-//! Determinism through `World::snapshot/restore` (our tables included), issue 2 "Done means" 4a/4b:
+//! Determinism through `World::snapshot/restore` (our tables included):
 //! a 200-body pile of mixed shapes with forces and dynamics changes, snapshotted mid-run,
 //! continues bit-identically (with constraints of every kind, one removed mid-run);
 //! re-serialising a restored snapshot gives the same bytes.

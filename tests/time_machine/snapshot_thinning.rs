@@ -3,19 +3,13 @@
 
 use physics_mcp::command::{Command, Shape};
 use physics_mcp::limits::Limits;
-use physics_mcp::sim::{lock_sim, Config, Registry, SNAPSHOT_EVERY_CHANGES};
-use physics_mcp::log::sqlite::SyncMode;
+use physics_mcp::sim::{lock_sim, Registry, SNAPSHOT_EVERY_CHANGES};
 use physics_mcp::value::Args;
 
 #[test]
 fn a_long_history_keeps_a_logarithmic_number_of_snapshots() {
     let dir = tempfile::tempdir().unwrap();
-    let config = Config {
-        data_dir: dir.path().join("data"),
-        workspace: dir.path().join("ws"),
-        limits: Limits::default(),
-        sync: SyncMode::Normal,
-    };
+    let config = crate::common::config(dir.path());
     let reg = Registry::open(config.clone()).unwrap();
     let root = Command::CreateSimulation { simulation_id: "long".into(), gravity: [0.0, 0.0, 0.0], gui: false };
     reg.create(root, &Args::new()).unwrap();

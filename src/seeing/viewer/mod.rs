@@ -246,33 +246,23 @@ pub fn scene_frame(s: &Scene, info: SceneInfo, q: &FrameQuery, max_px: usize) ->
     })
 }
 
-/// Renders one frame of `w` as the page asked; `state_hash` is the simulation's.
+/// Renders one frame of `w` as the page asked; `state_hash` is the simulation's. The same
+/// frame as `scene_frame` of the world captured now (`Scene::capture` gives the pixels
+/// `render::render` gives).
 pub fn frame(w: &World, state_hash: &str, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
-    let (width, height) = size(q, max_px)?;
-    let cam = w.viewer();
-    let (recorded, view, proj) = matrices(cam, q, width, height);
-    let image = render::render(w, width, height, &view, &proj);
-    let Overlays { show_contacts, show_frames, contacts, frames } = Overlays::of(w);
-    Ok(FrameJson {
-        simulation_id: w.simulation_id().to_string(),
-        width,
-        height,
-        png: base64::engine::general_purpose::STANDARD.encode(image.png()?),
-        view_matrix: view.to_vec(),
-        projection_matrix: proj.to_vec(),
-        camera: recorded,
-        time: w.current_time(),
+    let overlays = Overlays::of(w);
+    let info = SceneInfo {
+        simulation_id: w.simulation_id(),
         steps: w.steps(),
+        time: w.current_time(),
         objects: w.object_count(),
-        state_hash: state_hash.to_string(),
-        show_contacts,
-        show_frames,
-        contacts,
-        frames,
+        state_hash,
         seq: None,
         step: None,
         progress: None,
-    })
+        overlays: &overlays,
+    };
+    scene_frame(&Scene::capture(w), info, q, max_px)
 }
 
 /// One frame per body (each primitive, each robot base and link), at the body's origin.
@@ -301,9 +291,9 @@ fn body_frames(w: &World) -> Vec<BodyFrame> {
     out
 }
 
-/// Shared state of the viewer routes.
+/// Shared state of the viewer's HTTP routes (not `world::Viewer`, the recorded camera).
 #[derive(Clone)]
-struct Viewer {
+struct Routes {
     reg: Arc<Registry>,
 }
 
@@ -313,10 +303,10 @@ pub fn router(reg: Arc<Registry>) -> Router {
         .route("/viewer/{sim_id}", get(page))
         .route("/viewer/{sim_id}/frame", get(frame_route))
         .route("/viewer/{sim_id}/timeline", get(timeline_route))
-        .with_state(Viewer { reg })
+        .with_state(Routes { reg })
 }
 
-async fn page(State(v): State<Viewer>, Path(sim_id): Path<String>) -> Response {
+async fn page(State(v): State<Routes>, Path(sim_id): Path<String>) -> Response {
     match v.reg.get(&sim_id) {
         Ok(_) => {
             // The id is a UUID we issued, but escape it anyway: it lands in HTML and JS.
@@ -327,7 +317,7 @@ async fn page(State(v): State<Viewer>, Path(sim_id): Path<String>) -> Response {
     }
 }
 
-async fn frame_route(State(v): State<Viewer>, Path(sim_id): Path<String>, Query(q): Query<FrameQuery>) -> Response {
+async fn frame_route(State(v): State<Routes>, Path(sim_id): Path<String>, Query(q): Query<FrameQuery>) -> Response {
     let sim = match v.reg.get(&sim_id) {
         Ok(s) => s,
         Err(why) => return (StatusCode::NOT_FOUND, why).into_response(),
@@ -382,7 +372,7 @@ async fn frame_route(State(v): State<Viewer>, Path(sim_id): Path<String>, Query(
     }
 }
 
-async fn timeline_route(State(v): State<Viewer>, Path(sim_id): Path<String>) -> Response {
+async fn timeline_route(State(v): State<Routes>, Path(sim_id): Path<String>) -> Response {
     let sim = match v.reg.get(&sim_id) {
         Ok(s) => s,
         Err(why) => return (StatusCode::NOT_FOUND, why).into_response(),

@@ -1,0 +1,40 @@
+//! Parameters of create_constraint, remove_constraint.
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+
+use super::lenient::*;
+
+/// create_constraint parameters (PyBullet's createConstraint, plus revolute).
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct CreateConstraint {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Parent object.
+    pub parent_id: ObjectId,
+    /// Child object, or -1: the world.
+    pub child_id: Int<i64>,
+    /// fixed, prismatic, spherical or revolute.
+    pub joint_type: Text,
+    /// Parent frame (default [0, 0, 1]).
+    pub joint_axis: Option<Vec3>,
+    /// Parent body frame (default origin).
+    pub parent_frame_position: Option<Vec3>,
+    /// Child body frame, or world if child_id -1.
+    pub child_frame_position: Option<Vec3>,
+    /// Default identity.
+    pub parent_frame_orientation: Option<Quat>,
+    /// Default identity.
+    pub child_frame_orientation: Option<Quat>,
+}
+
+/// remove_constraint parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintRef {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Constraint id.
+    pub constraint_id: Int<u32>,
+}

@@ -1,0 +1,52 @@
+//! Parameters of load_mjcf, get_link_state, reset_joint_state.
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+
+use super::lenient::*;
+
+/// load_mjcf parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct LoadMjcf {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// MuJoCo MJCF file relative to the workspace (its `<include>`s are read beside it).
+    pub file_path: Text,
+    /// World position [x, y, z] of the model's frame (default [0, 0, 0]).
+    pub position: Option<Vec3>,
+    /// Orientation [x, y, z, w] of the model's frame (default identity).
+    pub orientation: Option<Quat>,
+    /// Fix a free-joint root body to the world (default false).
+    pub use_fixed_base: Option<Bool>,
+    /// Name of a `<key>` whose qpos the joints start at (default: qpos0).
+    pub keyframe: Option<Text>,
+}
+
+/// get_link_state parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct LinkRef {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// -1 = base.
+    pub link_index: Int<i32>,
+}
+
+/// reset_joint_state parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ResetJoint {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// PyBullet numbering.
+    pub joint_index: Int<u32>,
+    /// Position, rad or m.
+    pub target_value: Num,
+    /// Default 0.
+    pub target_velocity: Option<Num>,
+}

@@ -1,0 +1,116 @@
+//! Parameters of load_urdf, joints and motors, inverse kinematics, generate_revolute_joint.
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+
+use super::lenient::*;
+
+/// load_urdf parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct LoadUrdf {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Workspace-relative URDF, or a built-in.
+    pub file_path: Text,
+    /// Base position (default origin).
+    pub position: Option<Vec3>,
+    /// Default identity.
+    pub orientation: Option<Quat>,
+    /// Fix the base (default false).
+    pub use_fixed_base: Option<Bool>,
+}
+
+/// Parameters naming a joint of an object.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct JointRef {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// PyBullet numbering.
+    pub joint_index: Int<u32>,
+}
+
+/// set_joint_motor_control parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct MotorControl {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// PyBullet numbering.
+    pub joint_index: Int<u32>,
+    /// POSITION_CONTROL, VELOCITY_CONTROL or TORQUE_CONTROL.
+    pub control_mode: Text,
+    /// rad or m; required for POSITION_CONTROL.
+    pub target_position: Option<Num>,
+    /// Default 0.
+    pub target_velocity: Option<Num>,
+    /// Max effort (default: URDF limit, else 500); the torque for TORQUE_CONTROL.
+    pub force: Option<Num>,
+    /// Default 0.1.
+    pub position_gain: Option<NonNegative>,
+    /// Default 1.
+    pub velocity_gain: Option<NonNegative>,
+}
+
+/// calculate_inverse_kinematics parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct InverseKinematics {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// The link to place.
+    pub end_effector_link_index: Int<u32>,
+    /// World (m).
+    pub target_position: Vec3,
+    /// Optional.
+    pub target_orientation: Option<Quat>,
+    /// Default: the URDF's.
+    pub lower_limits: Option<NumList>,
+    /// Default: the URDF's.
+    pub upper_limits: Option<NumList>,
+    /// Accepted, ignored (PyBullet).
+    pub joint_ranges: Option<NumList>,
+    /// Start pose (default: current).
+    pub rest_poses: Option<NumList>,
+}
+
+/// generate_revolute_joint parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct GenerateRevolute {
+    /// box, sphere or cylinder.
+    pub parent_shape: Text,
+    /// box, sphere or cylinder.
+    pub child_shape: Text,
+    /// Box half-extents, [radius] or [radius, height].
+    pub parent_dimensions: NumList,
+    /// As parent_dimensions.
+    pub child_dimensions: NumList,
+    /// kg (default 1).
+    pub parent_mass: Option<Positive>,
+    /// kg (default 1).
+    pub child_mass: Option<Positive>,
+    /// Parent frame (default [0, 0, 1]).
+    pub joint_axis: Option<Vec3>,
+    /// Parent frame (default origin).
+    pub joint_origin: Option<Vec3>,
+    /// rad (default -3.14159).
+    pub joint_lower_limit: Option<Num>,
+    /// rad (default 3.14159).
+    pub joint_upper_limit: Option<Num>,
+    /// Default 100.
+    pub max_effort: Option<NonNegative>,
+    /// Default 10.
+    pub max_velocity: Option<NonNegative>,
+    /// Default generated/revolute_<n>.urdf.
+    pub output_path: Option<Text>,
+    /// Replace a file it did not write (default false).
+    pub overwrite: Option<Bool>,
+}

@@ -1,0 +1,53 @@
+//! Parameters of create_simulation, list_simulations, destroy_simulation, step_simulation, set_timestep, get_simulation_info.
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+
+use super::lenient::*;
+
+/// No parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct NoParams {}
+
+/// create_simulation parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct CreateSimulation {
+    /// m/s² (default [0, 0, -9.81]); a number g means [0, 0, g].
+    pub gravity: Option<Gravity>,
+    /// Web viewer (default false).
+    pub gui: Option<Bool>,
+}
+
+/// Parameters naming just a simulation.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SimRef {
+    /// Simulation id.
+    pub sim_id: Text,
+}
+
+/// step_simulation parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct Step {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Default 1, at most --max-steps.
+    pub steps: Option<Int<u64>>,
+    /// Also return poses every N steps.
+    pub sample_every: Option<Int<u64>>,
+    /// Default all.
+    pub sample_objects: Option<Vec<ObjectId>>,
+}
+
+/// set_timestep parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SetTimestep {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// Seconds per step (default 1/240).
+    pub timestep: PositiveGiven,
+}

@@ -1,0 +1,35 @@
+//! Parameters of run_sweep.
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+
+use super::batch::CallSpec;
+use super::lenient::*;
+
+/// What run_sweep reports of each variant.
+#[derive(Deserialize, JsonSchema, Debug, Clone, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Observe {
+    /// Default all.
+    pub object_ids: Option<Vec<ObjectId>>,
+    /// Default false.
+    pub include_velocities: Option<Bool>,
+    /// Also sample poses every N steps.
+    pub every: Option<Int<u64>>,
+}
+
+/// run_sweep parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct Sweep {
+    /// Simulation id.
+    pub sim_id: Text,
+    /// 1-256 lists of calls, one fork each.
+    pub variants: Vec<Vec<CallSpec>>,
+    /// Steps after the calls.
+    pub steps: Int<u64>,
+    /// Default: final states of all objects.
+    pub observe: Option<Observe>,
+    /// Keep the forks (default false).
+    pub keep: Option<Bool>,
+}
