@@ -890,9 +890,15 @@ impl super::EventLog for Log {
     }
 }
 
+/// A log never outlives its background checkpointer: a fork or load drops its Log before
+/// renaming `<id>.partial`, and a checkpointer still running would then open the renamed file
+/// under its old name and leave a `.partial-wal` beside the published log.
 impl Drop for Log {
     fn drop(&mut self) {
         let _ = self.flush();
+        while self.checkpointing.load(Ordering::Acquire) {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
     }
 }
 

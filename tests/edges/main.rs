@@ -6,6 +6,8 @@
 mod common;
 
 mod architecture;
+mod file_fuzz;
+mod interleavings;
 mod bounded_requests;
 mod model_files;
 mod output_files;
