@@ -128,7 +128,7 @@ fn measure(n: u64) -> Figures {
         reg.destroy(&id).unwrap();
         // Its rebuild part alone (the same function load calls): MAC check, restore, refold.
         let t = Instant::now();
-        let (world, _) = world_from_history(h, "loaded", reg.mac_key(), reg.limits(), &mut |_, _| {}).unwrap();
+        let (world, _) = world_from_history(h, reg.mac_key(), reg.limits(), &mut |_, _| {}).unwrap();
         b_ms.push(t.elapsed().as_secs_f64() * 1e3);
         assert_eq!(world.state_hash(), want);
     }

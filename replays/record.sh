@@ -2,7 +2,7 @@
 # Re-records replays/*.sqlite from replays/scripts/*.txt. Run this on purpose, after a change
 # that is meant to alter physics or the log encoding, and commit the new files:
 #   bash replays/record.sh [replays/scripts/ONE.txt ...]
-# The recorder is the ignored test `record_replays` in tests/record_replays.rs: each script runs
+# The recorder is the ignored test `record_replays` in tests/time_machine/record_replays.rs: each script runs
 # against a fresh server (the project's own binary and MCP client); every simulation it creates
 # is saved as replays/<script>[-<n>].sqlite (compacted to 4 KB pages, no WAL) and must pass
 # `physics-mcp replay`. A call that is refused fails the recording unless its line starts

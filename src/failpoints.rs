@@ -1,4 +1,4 @@
-//! Crash points for the crash-loop test (`tests/crash_loop.rs`): with the test-only cargo
+//! Crash points for the crash-loop test (`tests/failpoints/crash_loop.rs`): with the test-only cargo
 //! feature `failpoints`, `crash_point!("name")` aborts the process at that spot when the
 //! `FAILPOINTS` environment variable enables it (`FAILPOINTS="snapshot_write=return"`), so
 //! kills land inside the risky phases (snapshot write, checkpoint, create/fork/load, save)

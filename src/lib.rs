@@ -13,7 +13,7 @@
 //! - `limits`  — the limits every request is checked against.
 //!
 //! The server, in this crate, by layer (each may use the ones above it, never below;
-//! docs/design.md has the code map and the rules, tests/architecture.rs checks them):
+//! docs/design.md has the code map and the rules, tests/edges/architecture.rs checks them):
 //! - `params`  — every tool's argument types and lenient values: the log's argument schema.
 //! - `files`   — the only code that opens a user's path: sandbox, bounded reads, the write
 //!   policy, URDF and MJCF with their meshes, the save format, NPY.

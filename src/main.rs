@@ -271,7 +271,7 @@ fn open_registry(c: Common) -> anyhow::Result<Arc<Registry>> {
 
 /// A write past the file-size limit (RLIMIT_FSIZE) raises SIGXFSZ, whose default action kills
 /// the process. Ignored, the write fails with EFBIG instead: the call is refused and the
-/// server keeps serving (tests/full_disk.rs).
+/// server keeps serving (tests/durability/full_disk.rs).
 fn ignore_file_size_signal() {
     #[cfg(unix)]
     // SAFETY: setting a signal's disposition to SIG_IGN, before any thread is started here,

@@ -43,6 +43,7 @@ fn refuse_unresolvable(text: &str, shown: &str) -> Result<(), Refusal> {
 
 /// The text with every `<include>` replaced by the included file's content, recursively.
 fn splice(reader: &mut Reader, text: &str, shown: &str, dir: &Path, chain: &mut Vec<PathBuf>, budget: &mut u64) -> Result<String, Refusal> {
+    crate::world::xml_guard::check(text, shown)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| format!("{shown} is not well-formed XML: {e}"))?;
     refuse_unresolvable(text, shown)?;
     let mut includes: Vec<(std::ops::Range<usize>, String)> = Vec::new();

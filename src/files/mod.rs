@@ -1,7 +1,7 @@
 //! The files layer: the only code of the server that opens a path a user named — tool
 //! arguments (`file_path`, `output_path`), the files a model names inside itself (MJCF
 //! includes and meshes, URDF meshes) and the command line's inputs and outputs. A test
-//! (`tests/architecture.rs`) fails on file-system calls anywhere else but the log's own
+//! (`tests/edges/architecture.rs`) fails on file-system calls anywhere else but the log's own
 //! storage (`log/`).
 //!
 //! - `sandbox` — resolving a user path inside the workspace (and out of the data directory).

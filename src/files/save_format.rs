@@ -116,19 +116,42 @@ pub struct SavedSnapshot {
     pub bytes: String,
 }
 
-/// The MAC of a snapshot: only a server holding `key` can produce it.
-pub fn snapshot_mac(key: &[u8; 32], seq: u64, hash: &str, state_hash: &str) -> String {
-    mac(key, seq, hash, state_hash).to_hex().to_string()
+/// The MAC of a snapshot and of the saved events up to it (`events`, root first, ending at the
+/// snapshot's event): only a server holding `key` can produce it, so a load may start from the
+/// snapshot without refolding those events. It covers the events too because a load adopts
+/// them into the new log as they are: a file whose root command was edited after saving must
+/// be refolded (and refused), not trusted. Files saved before it covered the events carry a
+/// MAC over the snapshot alone, which no longer matches: they are refolded in full.
+pub fn snapshot_mac(key: &[u8; 32], seq: u64, hash: &str, events: &[Event]) -> String {
+    mac(key, seq, hash, events).to_hex().to_string()
 }
 
-fn mac(key: &[u8; 32], seq: u64, hash: &str, state_hash: &str) -> blake3::Hash {
-    blake3::keyed_hash(key, format!("{seq}:{hash}:{state_hash}").as_bytes())
+fn mac(key: &[u8; 32], seq: u64, hash: &str, events: &[Event]) -> blake3::Hash {
+    let mut h = blake3::Hasher::new_keyed(key);
+    h.update(format!("events-v2:{seq}:{hash}").as_bytes());
+    for e in events {
+        let fields = (
+            e.seq,
+            e.kind.as_str(),
+            e.parent,
+            &e.tool,
+            &e.arguments,
+            &e.command,
+            e.version,
+            &e.result_hash,
+            &e.state_hash,
+            &e.engine,
+        );
+        h.update(&serde_json::to_vec(&fields).unwrap_or_default());
+        h.update(b"\n");
+    }
+    h.finalize()
 }
 
 /// Whether a saved snapshot's MAC is ours, compared as `blake3::Hash` values (constant time;
 /// a string `==` would tell a forger how many leading characters were right).
-fn snapshot_mac_matches(key: &[u8; 32], s: &SavedSnapshot, state_hash: &str) -> bool {
-    blake3::Hash::from_hex(&s.mac).is_ok_and(|given| given == mac(key, s.seq, &s.hash, state_hash))
+fn snapshot_mac_matches(key: &[u8; 32], s: &SavedSnapshot, events: &[Event]) -> bool {
+    blake3::Hash::from_hex(&s.mac).is_ok_and(|given| given == mac(key, s.seq, &s.hash, events))
 }
 
 /// The readable fields of a world, as saved (and as compared on load).
@@ -322,17 +345,22 @@ fn bad(why: impl std::fmt::Display) -> Refusal {
 }
 
 /// Rebuilds the world a saved history describes, never trusting it byte for byte unless the
-/// snapshot's MAC is ours: the chain is checked for shape, every command against the limits,
-/// and every recorded state hash. `progress(done, total)` reports refold progress.
+/// MAC over its snapshot and the events before it is ours: the chain is checked for shape
+/// (a root first, without a parent; kinds root or change), every command against the limits,
+/// every recorded state hash, and the result hashes of this event version. The world keeps
+/// the identity its events were recorded under (the caller gives it the new one);
+/// `progress(done, total)` reports refold progress.
 pub fn world_from_history(
     h: &SavedHistory,
-    id: &str,
     key: &[u8; 32],
     limits: &Limits,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(World, Vec<Event>), Refusal> {
+    if let Some(e) = h.events.iter().find(|e| e.kind != "root" && e.kind != "change") {
+        return Err(bad(format!("event {} has kind {:?} (root or change expected)", e.seq, e.kind)));
+    }
     let events: Vec<Event> = h.events.iter().map(log_event).collect();
-    let world = world_from_events(&events, &SavedBlobs(&h.blobs), h.snapshot.as_ref(), id, key, limits, progress)?;
+    let world = world_from_events(&events, &SavedBlobs(&h.blobs), h.snapshot.as_ref(), key, limits, progress)?;
     Ok((world, events))
 }
 
@@ -342,12 +370,14 @@ pub fn world_from_events(
     events: &[Event],
     blobs: &dyn BlobSource,
     snapshot: Option<&SavedSnapshot>,
-    id: &str,
     key: &[u8; 32],
     limits: &Limits,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<World, Refusal> {
     let first = events.first().ok_or_else(|| bad("history.events is empty"))?;
+    if first.kind != Kind::Root || first.parent.is_some() {
+        return Err(bad("history.events does not start with a root event without a parent"));
+    }
     for (i, e) in events.iter().enumerate() {
         if e.version > EVENT_VERSION {
             return Err(bad(format!("event {} has version {}, newer than this server", e.seq, e.version)));
@@ -360,7 +390,7 @@ pub fn world_from_events(
     // Start from our own snapshot when its MAC proves this server wrote it.
     let trusted = snapshot.and_then(|s| {
         let at = events.iter().position(|e| e.seq == s.seq)?;
-        let mac_ok = snapshot_mac_matches(key, s, &events[at].state_hash);
+        let mac_ok = snapshot_mac_matches(key, s, &events[..=at]);
         let bytes = base64::engine::general_purpose::STANDARD.decode(&s.bytes).ok()?;
         let hash_ok = crate::digest::content_hash(&bytes) == s.hash;
         // An older-version snapshot lacks the values as given: refold instead.
@@ -368,23 +398,46 @@ pub fn world_from_events(
     });
     let (start, mut world) = match trusted {
         Some((at, bytes)) => {
-            let gui = false;
-            let w = World::restore(id, gui, &bytes).map_err(bad)?;
+            // Under the identity its events were recorded with, so results compare.
+            let (recorded_id, gui) = identity_at(&events[..=at], blobs)?;
+            let w = World::restore(&recorded_id, gui, &bytes).map_err(bad)?;
             (at, w)
         }
         None => (0, crate::log::fold::create_root(first, blobs).map_err(bad)?.0),
     };
     let total = (events.len() - start) as u64;
-    crate::log::fold::check_hash(&world, &events[start])
-        .and_then(|()| {
-            let mut report = |_: &World, _: &Event, i: usize| {
-                progress(i as u64 + 1, total);
-                Ok(())
-            };
-            crate::log::fold::fold(&mut world, &events[start + 1..], blobs, limits, crate::log::fold::Verify::Each, &mut report)
-        })
-        .map_err(bad)?;
+    crate::log::fold::check_hash(&world, &events[start]).map_err(bad)?;
+    // Every state hash, and every result hash of this event version (older results were
+    // computed under older rules, as replay has it): the new log adopts them as they are.
+    for (i, e) in events[start + 1..].iter().enumerate() {
+        let (_, outcome) = crate::log::fold::fold_event(&mut world, e, blobs, limits, true).map_err(bad)?;
+        if e.kind == Kind::Root {
+            // A fork or load inside the chain: later results name its simulation.
+            let (recorded_id, gui) = identity_at(std::slice::from_ref(e), blobs)?;
+            world = world.with_identity(&recorded_id, gui);
+        }
+        if let (Some(o), Some(recorded), true) = (outcome, &e.result_hash, e.version == crate::command::EVENT_VERSION) {
+            if crate::digest::result_hash(&o.to_value().to_string()) != *recorded {
+                return Err(bad(format!("event {} records a result hash its command does not give", e.seq)));
+            }
+        }
+        progress(i as u64 + 1, total);
+    }
     Ok(world)
+}
+
+/// The simulation id and gui flag the events up to the last of `events` were recorded under:
+/// those of the last root among them (create, fork or load).
+fn identity_at(events: &[Event], blobs: &dyn BlobSource) -> Result<(String, bool), Refusal> {
+    let root = events.iter().rev().find(|e| e.kind == Kind::Root).ok_or_else(|| bad("history.events has no root"))?;
+    match crate::log::fold::decode(root, blobs).map_err(bad)? {
+        Some(
+            Command::CreateSimulation { simulation_id, gui, .. }
+            | Command::ForkSimulation { simulation_id, gui, .. }
+            | Command::LoadSimulation { simulation_id, gui, .. },
+        ) => Ok((simulation_id, gui)),
+        _ => Err(bad(format!("event {} is a root without a root command", root.seq))),
+    }
 }
 
 /// Passes to `emit`, root first, the commands (with their tools) that re-create an old-server

@@ -272,7 +272,7 @@ pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<S
         .ok_or_else(|| StoreError::Corrupt("the file has no history to replay".into()))?;
     let untrusted = [0u8; 32];
     let limits = crate::limits::Limits { max_steps: u64::MAX, ..Default::default() };
-    let (world, chain) = crate::files::save_format::world_from_history(&h, "replay", &untrusted, &limits, &mut progress)
+    let (world, chain) = crate::files::save_format::world_from_history(&h, &untrusted, &limits, &mut progress)
         .map_err(|why| {
             ReplayError::Diverged(Box::new(Divergence {
                 seq: 0,

@@ -58,17 +58,19 @@ impl Sim {
                 (head, b, h)
             }
         };
-        let at = chain.iter().find(|e| e.seq == snap_seq).ok_or("a snapshot is off the chain")?;
+        chain.iter().find(|e| e.seq == snap_seq).ok_or("a snapshot is off the chain")?;
+        let events: Vec<_> = chain.iter().map(saved_event).collect();
+        let covered: Vec<_> = events.iter().take_while(|e| e.seq <= snap_seq).map(crate::files::save_format::log_event).collect();
         let file = SaveFile {
             format: Some(SAVE_FORMAT.into()),
             format_version: Some(SAVE_FORMAT_VERSION),
             readable: readable(&self.world),
             history: Some(SavedHistory {
-                events: chain.iter().map(saved_event).collect(),
+                events,
                 blobs: chain_blobs(&chain, &self.log),
                 snapshot: Some(SavedSnapshot {
                     seq: snap_seq,
-                    mac: snapshot_mac(reg.mac_key(), snap_seq, &hash, &at.state_hash),
+                    mac: snapshot_mac(reg.mac_key(), snap_seq, &hash, &covered),
                     hash,
                     bytes: base64::engine::general_purpose::STANDARD.encode(&bytes),
                 }),
@@ -108,7 +110,7 @@ impl Registry {
         }
         let sim = match &file.history {
             Some(h) => {
-                let (world, chain) = world_from_history(h, &new_id, self.mac_key(), self.limits(), progress)?;
+                let (world, chain) = world_from_history(h, self.mac_key(), self.limits(), progress)?;
                 if let Some(fields) = disagreeing_fields(&file.readable.with_urdf_path_aliases(), &world) {
                     return Err(format!(
                         "The file's readable fields disagree with its history: {fields} (remove \"history\" to load the readable fields alone)"

@@ -19,9 +19,9 @@
 //!
 //! `PHYSICS_SEED=N` replays a run; `PHYSICS_FUZZ_ROUNDS=N` sets the number of mutated inputs
 //! (default 1,000). A failure keeps the test's directory and prints the input's path. The
-//! defects this test found and that are not fixed yet are written down where the test avoids
-//! or tolerates them (look for KNOWN DEFECT); `PHYSICS_FUZZ_KNOWN_DEFECTS=1` runs the full
-//! inputs and fails on them (10,000-level XML, a 10,000-link chain).
+//! defects it found (deep XML aborting the server, numbers in models panicking the engine,
+//! a 10,000-link chain stepping for hours, saved histories adopted unchecked) are fixed and
+//! stay among its inputs, each written down where it is made.
 
 use crate::common;
 
@@ -48,12 +48,6 @@ const MODEL_LIMIT: u64 = 8 << 20;
 const MESH_LIMIT: u64 = 64 << 20;
 /// Simulations kept for the final verify-and-replay (a sample; see `Fuzz::keep`).
 const KEPT: usize = 120;
-
-/// Whether to run the inputs that hit the known defects written down in `hostile_table`
-/// (they end the run: the server aborts, or a step runs for hours).
-fn known_defects() -> bool {
-    std::env::var_os("PHYSICS_FUZZ_KNOWN_DEFECTS").is_some()
-}
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
@@ -325,8 +319,8 @@ fn mutate_xml(rng: &mut ChaCha8Rng, b: &mut Vec<u8>, mjcf: bool, out: &str) -> S
             format!("insert {u:?} at {at}")
         }
         11 => {
-            // Deeper only with the known defects on (see `hostile_table`: deep XML aborts).
-            let n = rng.gen_range(10..if known_defects() { 3000 } else { 100 });
+            // Around the nesting bound (64 levels): both sides of it.
+            let n = rng.gen_range(10..130);
             let tag = if mjcf { *["body", "frame", "default", "worldbody"].choose(rng).unwrap() } else { *["link", "x", "robot"].choose(rng).unwrap() };
             let at = pick(rng, &element_ends(b), len);
             let open = format!("<{tag}>").repeat(n);
@@ -464,20 +458,8 @@ fn node<'a>(v: &'a mut Value, path: &[Value]) -> &'a mut Value {
 fn mutate_json(rng: &mut ChaCha8Rng, v: &mut Value) -> String {
     let mut paths = Vec::new();
     json_paths(v, &mut Vec::new(), &mut paths);
-    // KNOWN DEFECT (avoided unless PHYSICS_FUZZ_KNOWN_DEFECTS is set, because it would stop
-    // most runs): load_simulation refolds a saved history checking every state hash, but
-    // adopts into the new log fields it never checks (src/save.rs, world_from_events): the
-    // recorded result hashes, and the first event's kind and parent (only later events are
-    // checked for being a chain). A saved add_box event with `result_hash` set to 64 zeros, or
-    // a root whose `kind` is "x", loads and verifies, and `physics-mcp replay` of the new log
-    // then diverges ("result hash: expected 000…", "parent: expected None, got 0"); a root
-    // whose `parent` is 5 loads and verify_simulation answers "log is corrupt: event 5 on the
-    // chain is missing".
-    let unchecked = |p: &Vec<Value>| {
-        p.iter().any(|k| k == "result_hash")
-            || (p.len() == 4 && p[..3] == [json!("history"), json!("events"), json!(0)] && (p[3] == "kind" || p[3] == "parent"))
-    };
-    paths.retain(|p| known_defects() || !unchecked(p));
+    // Every field is fair game: the result hashes and the root's kind and parent too (a load
+    // once adopted them unchecked, and the new log then failed replay and verify).
     // Mostly not the whole file, and mostly the leaves.
     let path = paths[1..].choose(rng).cloned().unwrap_or_default();
     let shown = Value::Array(path.clone()).to_string();
@@ -614,8 +596,6 @@ struct Fuzz {
     seen: usize,
     accepted: usize,
     refused: usize,
-    /// Known engine panics met (see `is_known_engine_panic`).
-    known_hits: usize,
     slowest: (Duration, String),
 }
 
@@ -644,17 +624,16 @@ impl Fuzz {
             tokio::time::sleep(Duration::from_millis(20)).await;
             panics = self.new_panics();
         }
-        for p in &panics {
-            assert!(is_known_engine_panic(p) && !known_defects(), "{what}: {tool}: the server panicked: {p}");
-            eprintln!("known defect hit ({tool}): {p} — {what}");
-            self.known_hits += 1;
+        // Numbers in models once reached the engine unchecked (a negative cylinder, a vertex
+        // at -1e308, a body at 1e400, a 1e26 m cylinder) and panicked it at load or at every
+        // later step: every panic now fails.
+        if let Some(p) = panics.first() {
+            panic!("{what}: {tool}: the server panicked: {p}");
         }
         let whole = serde_json::to_string(&reply).unwrap();
         assert!(!whole.contains(MARKER), "{what}: {tool}'s reply holds text of a file outside the workspace: {}", whole.chars().take(600).collect::<String>());
         if reply.is_error == Some(true) {
-            if panics.is_empty() || !text.starts_with("Internal error") {
-                one_sentence(&text, &format!("{what}: {tool}"));
-            }
+            one_sentence(&text, &format!("{what}: {tool}"));
             Err(text)
         } else {
             Ok(reply.structured_content.unwrap_or_else(|| panic!("{what}: {tool} answered without structuredContent")))
@@ -745,28 +724,6 @@ impl Fuzz {
             }
         }
     }
-}
-
-/// KNOWN DEFECT (tolerated unless PHYSICS_FUZZ_KNOWN_DEFECTS is set, because about one
-/// mutated input in a thousand meets it): numbers in a model are not checked the way tool
-/// arguments are (finite, sizes > 0) — an MJCF sphere of radius -1 loads — and extreme sizes
-/// pass either way (a box half-extent of 1.8e19 is a finite f32), so they reach the engine,
-/// which panics. Each panic is caught and answered "Internal error: the call failed and
-/// changed nothing": at load (an MJCF cylinder `size="-1 0.5"`: parry's cylinder assertion;
-/// an MJCF mesh with a vertex at -1e308: its convex hull), or at every later step_simulation
-/// of a model that loaded, leaving a simulation that can never step again (a body at
-/// z = 1e400 beside a limited joint: an LU solve in the multibody solver; a URDF cylinder
-/// 1e26 long on a joint over the ground, or add_box with a 1.8e19 half-extent beside the
-/// mesh_robot fixture: EPA). Only these panic sites are tolerated; any other panic fails.
-fn is_known_engine_panic(line: &str) -> bool {
-    [
-        ("/parry3d-", "/src/query/epa/epa3.rs:"),
-        ("/parry3d-", "/src/transformation/convex_hull3/convex_hull.rs:"),
-        ("/parry3d-", "/src/shape/cylinder.rs:"),
-        ("/nalgebra-", "/src/linalg/lu.rs:"),
-    ]
-    .iter()
-    .any(|(krate, file)| line.contains("panicked at") && line.contains(krate) && line.contains(file))
 }
 
 /// A refusal is one sentence: not empty, no panic text, no backtrace, no "Internal error".
@@ -913,14 +870,23 @@ fn hostile_table(ws: &Path, out: &Path) -> Vec<Case> {
     sparse(&h.join("big_b.stl"), &stl(&TETRA, 4), MESH_LIMIT / 2 + 1000);
     w("mesh_two_big.xml", r#"<mujoco><asset><mesh name="a" file="big_a.stl"/><mesh name="b" file="big_b.stl"/></asset><worldbody><body><geom type="mesh" mesh="a"/><geom type="mesh" mesh="b"/></body></worldbody></mujoco>"#);
     mj("mesh_two_big.xml", "MJCF meshes together over 64 MiB", true);
-    // Deep XML: 10,000 levels with PHYSICS_FUZZ_KNOWN_DEFECTS, else depths that pass today.
-    // KNOWN DEFECT (off by default because it kills the server, ending the run): XML nesting
-    // is not bounded before the MJCF and URDF parsers recurse, and deep nesting overflows the
-    // stack and aborts the process (debug build: 250 nested <default> at load_mjcf, ~800
-    // <body>, ~2,000 <frame>, ~5,000 unknown elements; URDF ~5,000 nested elements). 200
-    // nested <default> load, and then verify_simulation, fork_simulation or run_sweep on that
-    // simulation aborts the server.
-    let deep = |safe: usize| if known_defects() { 10_000 } else { safe };
+    // Deep XML: 10,000 levels.
+    // XML nesting was not bounded before the parsers recurse: deep nesting overflowed the
+    // stack and aborted the server (250 nested <default> at load; 200 at a later verify or
+    // fork). Now 64 levels load (and verify and fork, below) and deeper is refused.
+    for tag in ["body", "frame", "default"] {
+        let (open, close) = match tag {
+            "default" => ((0..61).map(|i| format!(r#"<default class="c{i}">"#)).collect::<String>(), "</default>".repeat(61)),
+            _ => (format!("<{tag}>").repeat(61), format!("</{tag}>").repeat(61)),
+        };
+        let text = match tag {
+            "default" => format!("<mujoco>{open}{close}<worldbody/></mujoco>"),
+            _ => mjcf_with(&format!("{open}{}{close}", r#"<geom size="0.1"/>"#)),
+        };
+        w(&format!("limit_{tag}.xml"), &text);
+        mj(&format!("limit_{tag}.xml"), &format!("63 levels of <{tag}> (the bound is 64)"), false);
+    }
+    let deep = |_: usize| 10_000;
     let n = deep(300);
     w("deep_body.xml", &mjcf_with(&format!("{}{}", r#"<body><geom size="0.1"/>"#.repeat(n), "</body>".repeat(n))));
     mj("deep_body.xml", &format!("{n} nested <body>"), false);
@@ -1043,15 +1009,11 @@ fn hostile_table(ws: &Path, out: &Path) -> Vec<Case> {
     };
     w("chain200.urdf", &chain(200));
     ur("chain200.urdf", "a chain of 200 links", false);
-    // KNOWN DEFECT (left in, off by default because it blocks the run): a robot's size is not
-    // bounded, and one step of a chain of n links costs O(n^3) time and O(n^2) memory — in a
-    // debug build 1,000 links take 20 s and 3,000 links 1 GB per step, so this 3.8 MB URDF
-    // (under the 8 MiB limit) loads and then makes a one-step step_simulation run for hours
-    // and take ~10 GB. `PHYSICS_FUZZ_KNOWN_DEFECTS=1` runs it.
-    if known_defects() {
-        w("chain10000.urdf", &chain(10_000));
-        ur("chain10000.urdf", "a chain of 10,000 links", false);
-    }
+    // One step of a chain of n links costs O(n^3) time and O(n^2) memory: this 3.8 MB URDF
+    // (under the 8 MiB limit) once loaded and then made a one-step step_simulation run for
+    // hours. A model has at most 512 joints now.
+    w("chain10000.urdf", &chain(10_000));
+    ur("chain10000.urdf", "a chain of 10,000 links", true);
     w("cycle.urdf", &robot.replace("</robot>", r#"<link name="b"/><joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint><joint name="j2" type="fixed"><parent link="b"/><child link="a"/></joint></robot>"#));
     ur("cycle.urdf", "URDF joints in a cycle", true);
     w("two_parents.urdf", &robot.replace("</robot>", r#"<link name="b"/><link name="c"/><joint name="j1" type="fixed"><parent link="a"/><child link="c"/></joint><joint name="j2" type="fixed"><parent link="b"/><child link="c"/></joint></robot>"#));
@@ -1239,16 +1201,13 @@ fn mutated(rng: &mut ChaCha8Rng, ws: &Path, round: usize, out: &str, save: &str)
             }
         }
         let bytes_too = rng.gen_bool(0.2);
-        // KNOWN DEFECT (off by default because most runs would stop at it): a load whose
-        // snapshot's MAC is ours trusts the events up to the snapshot without decoding or
-        // refolding them (src/save.rs, world_from_events), so a saved file whose root event's
-        // command was edited — to text that does not decode, or to another gravity — loads,
-        // and the new simulation's log then fails verify_simulation and replay. Unless
-        // PHYSICS_FUZZ_KNOWN_DEFECTS is set, an input that edits the events, the blobs or the
-        // bytes goes without its snapshot, so the load refolds and checks every event.
+        // A load whose snapshot's MAC was ours once trusted the events before it without
+        // refolding them, so an edited root command loaded and the new log failed verify. The
+        // MAC covers the events now: half the inputs that edit them keep the snapshot (the MAC
+        // no longer matches), half go without it (the load refolds everything).
         let edits_events = bytes_too
             || what.iter().any(|w| w.contains(r#""history","events""#) || w.contains(r#""history","blobs""#) || w.starts_with(r#"json ["history"]"#) || w.starts_with("blob"));
-        if edits_events && !known_defects() {
+        if edits_events && rng.gen_bool(0.5) {
             if let Some(h) = v.get_mut("history").and_then(Value::as_object_mut) {
                 h.remove("snapshot");
             }
@@ -1306,7 +1265,6 @@ async fn fuzz_files(seed: u64, dir: &Path) {
         seen: 0,
         accepted: 0,
         refused: 0,
-        known_hits: 0,
         slowest: (Duration::ZERO, String::new()),
     };
     // The saved file the mutations start from: primitives, a robot, an MJCF model, steps.
@@ -1350,11 +1308,10 @@ async fn fuzz_files(seed: u64, dir: &Path) {
         f.run(&case).await;
     }
     eprintln!(
-        "mutations: {rounds} inputs in {:.1} s; {} accepted, {} refused in all, {} known engine panics; slowest call {:.1} s ({})",
+        "mutations: {rounds} inputs in {:.1} s; {} accepted, {} refused in all; slowest call {:.1} s ({})",
         started.elapsed().as_secs_f64(),
         f.accepted,
         f.refused,
-        f.known_hits,
         f.slowest.0.as_secs_f64(),
         f.slowest.1.chars().take(200).collect::<String>()
     );

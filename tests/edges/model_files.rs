@@ -210,3 +210,51 @@ async fn every_model_and_every_recorded_log_folds_with_the_workspace_gone() {
         physics_mcp::log::replay::replay(&p, None, |_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     }
 }
+
+/// What the file fuzzer found, kept as plain cases: nesting at the bound loads, steps,
+/// verifies and forks (a fold once overflowed a smaller thread stack at 200 levels); one level
+/// more, a 10,000-link chain and numbers the engine panics on are refused in a sentence naming
+/// the parameter, changing nothing; the server never panics.
+#[tokio::test(flavor = "multi_thread")]
+async fn deep_huge_and_extreme_models_are_refused_and_models_at_the_bounds_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let ws = &server.workspace;
+    let write = |name: &str, text: String| std::fs::write(ws.join(name), text).unwrap();
+    let nested = |n: usize| format!("<mujoco><worldbody>{}<geom size=\"0.1\"/>{}</worldbody></mujoco>", "<body><joint type=\"hinge\"/>".repeat(n), "</body>".repeat(n));
+    // <mujoco><worldbody> + n bodies: 62 bodies nest 64 levels.
+    write("at_bound.xml", nested(62));
+    write("over_bound.xml", nested(63));
+    let chain: String = (0..600).map(|i| format!(r#"<link name="l{}"/><joint name="j{i}" type="revolute"><parent link="l{i}"/><child link="l{}"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>"#, i + 1, i + 1)).collect();
+    write("chain.urdf", format!(r#"<robot name="c"><link name="l0"/>{chain}</robot>"#));
+    write("negative_cylinder.xml", r#"<mujoco><worldbody><body><geom type="cylinder" size="-1 0.5"/></body></worldbody></mujoco>"#.into());
+    write("far_body.xml", r#"<mujoco><worldbody><body pos="0 0 1e400"><joint type="hinge" range="-1 1" limited="true"/><geom size="0.1"/></body></worldbody></mujoco>"#.into());
+    write("long_cylinder.urdf", r#"<robot name="r"><link name="a"/><link name="b"><collision><geometry><cylinder radius="0.1" length="1e26"/></geometry></collision></link><joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#.into());
+    write("entities.xml", r#"<?xml version="1.0"?><!DOCTYPE mujoco [<!ENTITY a "<body><geom size='0.1'/></body>">]><mujoco><worldbody>&a;</worldbody></mujoco>"#.into());
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let before = common::hard::fingerprint(&c, &sim).await;
+    let refused = [
+        ("load_mjcf", "over_bound.xml", "nests elements deeper than 64"),
+        ("load_urdf", "chain.urdf", "600 joints; a model may have at most 512"),
+        ("load_mjcf", "negative_cylinder.xml", "size [-1.0, 0.5]"),
+        ("load_mjcf", "far_body.xml", "has pos"),
+        ("load_urdf", "long_cylinder.urdf", "cylinder length of 1000000"),
+        ("load_mjcf", "entities.xml", "declares XML entities"),
+    ];
+    for (tool, file, says) in refused {
+        let why = c.try_call(tool, json!({"sim_id": sim, "file_path": file})).await.expect_err(file);
+        assert!(why.contains("file_path") || why.contains("geom") || why.contains("body") || why.contains("link"), "{file}: {why}");
+        assert!(why.contains(says), "{file}: {why}");
+        assert!(!why.contains("Internal error"), "{file}: {why}");
+    }
+    let why = c.try_call("add_box", json!({"sim_id": sim, "dimensions": [1.8e19, 1, 1], "position": [0, 0, 1]})).await.expect_err("a huge box");
+    assert!(why.contains("dimensions must be within 100000 m"), "{why}");
+    common::hard::assert_unchanged(&c, &sim, &before, "a refused model").await;
+    c.call("load_mjcf", json!({"sim_id": sim, "file_path": "at_bound.xml"})).await;
+    c.call("step_simulation", json!({"sim_id": sim, "steps": 5})).await;
+    let verified = c.call("verify_simulation", json!({"sim_id": sim})).await;
+    assert_eq!(verified["ok"], true, "{verified}");
+    c.call("fork_simulation", json!({"sim_id": sim})).await;
+    assert!(server.stderr.lock().unwrap().iter().all(|l| !l.contains("panicked")), "the server panicked");
+}

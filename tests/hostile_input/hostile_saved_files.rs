@@ -67,3 +67,46 @@ async fn hostile_saved_files_are_refused_naming_the_value() {
         assert_eq!(files(), files_before, "{what} left a file");
     }
 }
+
+/// A load adopts the saved events into the new log as they are, so it checks every field it
+/// adopts: an edited root command behind our own MAC'd snapshot, a result hash its command
+/// does not give, a root of another kind or with a parent. Each once loaded and left a log that
+/// failed verify_simulation and replay (found by the file fuzzer); each is refused now, and
+/// the untouched file still loads from its snapshot.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_saved_history_is_checked_in_every_field_the_new_log_adopts() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.ground(&sim).await;
+    c.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]})).await;
+    c.step(&sim, 10).await;
+    c.call("save_simulation", json!({"sim_id": sim, "file_path": "good.json"})).await;
+    let good: Value = serde_json::from_slice(&std::fs::read(server.workspace.join("good.json")).unwrap()).unwrap();
+    assert!(good["history"]["snapshot"].is_object(), "the file carries our snapshot");
+    let event = |f: &mut Value, tool: &str| -> *mut Value {
+        f["history"]["events"].as_array_mut().unwrap().iter_mut().find(|e| e["tool"] == tool).unwrap() as *mut Value
+    };
+    let edit = |tool: &'static str, change: fn(&mut Value)| {
+        let mut f = good.clone();
+        // SAFETY: the pointer is into `f`, alive and not otherwise borrowed here.
+        change(unsafe { &mut *event(&mut f, tool) });
+        f
+    };
+    let cases: Vec<(&str, Value, &str)> = vec![
+        ("an edited root command", tamper(&good, "create_simulation", |c| c["gravity"] = json!([0, 0, -1.62])), "state hash"),
+        ("a wrong result hash", edit("add_box", |e| e["result_hash"] = json!("0".repeat(64))), "result hash"),
+        ("a root of another kind", edit("create_simulation", |e| e["kind"] = json!("x")), "kind"),
+        ("a root with a parent", edit("create_simulation", |e| e["parent"] = json!(5)), "root event without a parent"),
+    ];
+    for (what, file, says) in &cases {
+        std::fs::write(server.workspace.join("bad.json"), file.to_string()).unwrap();
+        let e = c.try_call("load_simulation", json!({"file_path": "bad.json"})).await.expect_err(what);
+        assert!(e.contains(says) && e.contains("not a valid saved simulation"), "{what}: {e}");
+    }
+    let loaded = c.call("load_simulation", json!({"file_path": "good.json"})).await;
+    let id = loaded["sim_id"].as_str().or(loaded["simulation_id"].as_str()).unwrap().to_string();
+    let v = c.call("verify_simulation", json!({"sim_id": id})).await;
+    assert_eq!(v["ok"], true, "{v}");
+}

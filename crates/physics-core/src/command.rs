@@ -667,6 +667,7 @@ impl Command {
 
     /// `ready`, parsing each distinct model once within `models` (one request's).
     pub fn ready_in(mut self, models: &mut ParsedModels) -> Result<Command, Refusal> {
+        self.within_extent()?;
         let rules = self.urdf_rules();
         match &mut self {
             Command::LoadUrdf { urdf, meshes, parsed, .. } => {
@@ -696,6 +697,27 @@ impl Command {
             _ => {}
         }
         Ok(self)
+    }
+
+    /// Sizes and positions within [`crate::limits::MAX_EXTENT_M`]: beyond it the engine
+    /// panics on every later step (a 1.8e19 m box beside a mesh). Checked at the edge only, not
+    /// in `validate`, so logs recorded before the bound fold as they always did.
+    fn within_extent(&self) -> Result<(), Refusal> {
+        let bound = crate::limits::MAX_EXTENT_M as f32;
+        let near = |name: &str, v: &[f32]| match v.iter().all(|x| x.abs() <= bound) {
+            true => Ok(()),
+            false => Err(format!("{name} must be within {bound} m; got {v:?}")),
+        };
+        match self {
+            Command::AddBody { shape, position, .. } => {
+                near("position", position)?;
+                near("dimensions", &shape.dimensions())
+            }
+            Command::SetObjectPose { position, .. } | Command::LoadUrdf { position, .. } | Command::LoadMjcf { position, .. } => {
+                near("position", position)
+            }
+            _ => Ok(()),
+        }
     }
 
     /// `as_done` given the steps a step_simulation took (None: not a step result).

@@ -24,7 +24,7 @@ use std::collections::BTreeMap;
 /// name (several locked versions of one crate joined by `", "`):
 /// `rapier3d 0.36.1 (serde-serialize, enhanced-determinism); RustyXML 0.3.0; ahash 0.8.12; …`.
 /// rapier's `parallel` (on since `--threads`) is not named: the same bits come out for any
-/// thread count and with or without it — `tests/threads.rs` holds every `replays/` log and
+/// thread count and with or without it — `tests/physics/threads.rs` holds every `replays/` log and
 /// three scenes on 1, 2 and 4 threads to hashes the build without it recorded — so naming it
 /// would only make `replay` warn about every older log.
 pub const ENGINE_BUILD: &str = include_str!(concat!(env!("OUT_DIR"), "/engine_build.txt"));

@@ -54,3 +54,23 @@ impl Limits {
         }
     }
 }
+
+/// How far (m) any body, mesh vertex or shape may reach from the origin when a model or an
+/// object is added. The engine works in f32 (7.8 mm apart at this distance); beyond it, and
+/// with sizes like 1e19 or 1e26 m, its contact and multibody solvers panic on every later step,
+/// leaving a simulation that can never step again. Not a CLI flag: no real scene is near it.
+pub const MAX_EXTENT_M: f64 = 1e5;
+
+/// Joints one model (URDF or MJCF) may have. One step of an articulation of n links costs
+/// O(n³) time and O(n²) memory in the engine's multibody solver, so a 10,000-link chain that
+/// fits in a small file made a single step run for hours; real robots have tens of joints.
+pub const MAX_MODEL_JOINTS: usize = 512;
+
+/// Refuses a model with more joints than [`MAX_MODEL_JOINTS`], naming the parameter.
+pub fn check_model_joints(joints: usize) -> Result<(), crate::value::Refusal> {
+    if joints > MAX_MODEL_JOINTS {
+        Err(format!("file_path has {joints} joints; a model may have at most {MAX_MODEL_JOINTS}"))
+    } else {
+        Ok(())
+    }
+}

@@ -38,8 +38,8 @@ pub const RESULT_NEUTRAL_CRATES: &[(&str, &str)] = &[
     ("find-msvc-tools", "cc's search for the MSVC toolchain"),
     ("shlex", "cc's command-line quoting"),
     // Scheduling and synchronisation: no values.
-    ("rayon", "thread pool: the same bits for any thread count (tests/threads.rs)"),
-    ("rayon-core", "thread pool: the same bits for any thread count (tests/threads.rs)"),
+    ("rayon", "thread pool: the same bits for any thread count (tests/physics/threads.rs)"),
+    ("rayon-core", "thread pool: the same bits for any thread count (tests/physics/threads.rs)"),
     ("crossbeam-deque", "rayon's work stealing: scheduling only"),
     ("crossbeam-epoch", "rayon's memory reclamation: scheduling only"),
     ("crossbeam-utils", "rayon's synchronisation primitives: scheduling only"),

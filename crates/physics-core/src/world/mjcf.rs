@@ -263,6 +263,7 @@ pub fn file_references(xml: &str) -> Vec<FileReference> {
 /// The one place MJCF text reaches the parser: refused first if any element would make the
 /// parser open a file (`file_reference`), so parsing reads nothing but `xml`.
 pub fn parse_model(xml: &str) -> Result<Model, Refusal> {
+    super::xml_guard::check(xml, "file_path")?;
     if let Some(r) = file_reference(xml) {
         return Err(match r.tag.as_str() {
             "include" => format!("<include file=\"{}\"> must be resolved by the server before loading", r.file),
@@ -289,6 +290,7 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
         ),
     );
     let body_name = |id: usize| model.bodies[id].body.name.clone().unwrap_or_else(|| format!("#{id}"));
+    crate::limits::check_model_joints(model.bodies_iter().map(|(_, e)| e.body.joints.len()).sum())?;
     let mut top_level = 0usize;
     let mut free_root = false;
     for (id, entry) in model.bodies_iter() {
@@ -318,6 +320,7 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
         if entry.body.mocap {
             return Err(format!("body {} is a mocap body, which is not supported", body_name(id)));
         }
+        bounded_body(&entry.body, &body_name(id))?;
     }
     if free_root && top_level != 1 {
         return Err("a free joint is supported only on the single top-level body (the model's free base)".into());
@@ -748,4 +751,37 @@ fn find_joint<'a>(model: &'a Model, body: usize, name: Option<&str>) -> Option<&
         Some(n) => joints.iter().find(|j| j.name.as_deref() == Some(n)),
         None => joints.iter().find(|j| j.name.is_none()),
     }
+}
+
+/// Refuses a body whose position, or a geom whose position or size, is not a finite number
+/// within [`crate::limits::MAX_EXTENT_M`] (a size must also be > 0): the engine panics on such
+/// values at load (a negative cylinder) or at every later step (a body at 1e400).
+fn bounded_body(body: &rapier3d_mjcf::mjcf_rs::body::Body, name: &str) -> Result<(), Refusal> {
+    let bound = crate::limits::MAX_EXTENT_M;
+    let within = |x: f64| x.abs() <= bound;
+    if !body.pose.translation.to_array().into_iter().all(within) {
+        return Err(format!("body {name} has pos {:?}, not finite numbers within {bound} m", body.pose.translation.to_array()));
+    }
+    for (i, g) in body.geoms.iter().enumerate() {
+        let geom = g.name.clone().unwrap_or_else(|| format!("#{i} of body {name}"));
+        let used = match g.type_ {
+            GeomType::Sphere => 1,
+            GeomType::Capsule | GeomType::Cylinder if g.fromto.is_some() => 1,
+            GeomType::Capsule | GeomType::Cylinder => 2,
+            GeomType::Box | GeomType::Ellipsoid => 3,
+            _ => 0,
+        };
+        let used = match g.mesh {
+            Some(_) => 0, // sized from the mesh
+            None => used,
+        };
+        if !g.size[..used].iter().all(|&x| x > 0.0 && within(x)) {
+            return Err(format!("geom {geom} has size {:?}, not numbers > 0 and within {bound} m", &g.size[..used]));
+        }
+        let at = g.pose.translation.to_array();
+        if !at.into_iter().chain(g.fromto.into_iter().flatten()).all(within) {
+            return Err(format!("geom {geom} has a position not finite or beyond {bound} m"));
+        }
+    }
+    Ok(())
 }

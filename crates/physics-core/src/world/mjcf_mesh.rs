@@ -191,6 +191,7 @@ fn mesh_data(name: &str, mesh: &Mesh, blobs: &BTreeMap<String, Blob>) -> Result<
     let refpos = mesh.refpose.translation;
     let refquat: DQuat = mesh.refpose.rotation;
     let points: Vec<DVec3> = raw.iter().map(|p| s * (refquat.inverse() * (*p - refpos))).collect();
+    super::urdf::within_extent(name, points.iter().map(|p| p.to_array()))?;
     if s.x * s.y * s.z < 0.0 {
         for t in &mut triangles {
             t.swap(1, 2);

@@ -16,6 +16,7 @@ mod robot;
 pub mod scene;
 mod threads;
 pub mod urdf;
+pub mod xml_guard;
 
 pub use threads::{set_step_threads, step_threads};
 

@@ -1,6 +1,6 @@
 //! Which threads step a world (docs/tools.md "Scale"; rapier's `parallel` feature). Results
 //! and hashes do not depend on it: rapier 0.36's parallel step is bit-identical for any thread
-//! count, which `tests/threads.rs` checks against hashes recorded by the single-threaded build
+//! count, which `tests/physics/threads.rs` checks against hashes recorded by the single-threaded build
 //! for every `replays/` log and three scenes, restore included. So no snapshot, event or hash
 //! carries it.
 //!

@@ -170,6 +170,7 @@ pub fn mesh_names(urdf: &str) -> Result<Vec<String>, Refusal> {
 }
 
 fn parse(urdf: &str) -> Result<urdf_rs::Robot, Refusal> {
+    super::xml_guard::check(urdf, "file_path")?;
     urdf_rs::read_from_string(urdf).map_err(|e| {
         let msg = e.to_string();
         let first = msg.lines().next().unwrap_or("").trim();
@@ -200,6 +201,7 @@ pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>, rules: LimitsFromFi
     if robot.links.is_empty() {
         return Err("file_path is not a valid URDF: it has no links".into());
     }
+    crate::limits::check_model_joints(robot.joints.len())?;
     let index: BTreeMap<&str, usize> =
         robot.links.iter().enumerate().map(|(i, l)| (l.name.as_str(), i)).collect();
     if index.len() != robot.links.len() {
@@ -296,6 +298,9 @@ fn joint_spec(joint: &urdf_rs::Joint, parent: i32, limit_given: Option<&BTreeSet
         .chain(joint.origin.rpy.0);
     if all.into_iter().any(|x| !x.is_finite()) {
         return Err(format!("joint {} has a non-finite origin or limit", joint.name));
+    }
+    if joint.origin.xyz.0.iter().any(|x| x.abs() > crate::limits::MAX_EXTENT_M) {
+        return Err(format!("joint {} has an origin farther than {} m", joint.name, crate::limits::MAX_EXTENT_M));
     }
     Ok(JointSpec {
         name: joint.name.clone(),
@@ -410,6 +415,9 @@ fn link_model(
     }
     let mut parts = Vec::new();
     for c in &link.collision {
+        if !c.origin.xyz.0.iter().all(|x| x.abs() <= crate::limits::MAX_EXTENT_M) {
+            return Err(format!("link {} has a collision origin not finite or farther than {} m", link.name, crate::limits::MAX_EXTENT_M));
+        }
         let geom = geometry(&link.name, &c.geometry, meshes)?;
         if let Some(geom) = geom {
             parts.push(Part {
@@ -445,11 +453,12 @@ fn geometry(
     meshes: &BTreeMap<String, Vec<u8>>,
 ) -> Result<Option<Geom>, Refusal> {
     use urdf_rs::Geometry as G;
+    let bound = crate::limits::MAX_EXTENT_M;
     let positive = |x: f64, what: &str| {
-        if x.is_finite() && x > 0.0 {
+        if x > 0.0 && x <= bound {
             Ok(x as f32)
         } else {
-            Err(format!("link {link} has a {what} that is not a positive number"))
+            Err(format!("link {link} has a {what} of {x}, not a positive number up to {bound} m"))
         }
     };
     Ok(Some(match g {
@@ -531,8 +540,19 @@ pub fn mesh_triangles(name: &str, bytes: &[u8]) -> Result<Triangles, Refusal> {
     if points.is_empty() || points.iter().flatten().any(|x| !x.is_finite()) {
         return Err(format!("mesh {name} has no vertices or non-finite ones"));
     }
+    within_extent(name, points.iter().map(|p| p.map(f64::from)))?;
     if triangles.iter().flatten().any(|i| *i as usize >= points.len()) {
         return Err(format!("mesh {name} has a face naming a vertex it does not have"));
     }
     Ok((points, triangles))
+}
+
+/// Refuses a mesh with a vertex farther than [`crate::limits::MAX_EXTENT_M`] from its origin
+/// (in its own units, and again after scaling): such vertices panic the convex hull.
+pub fn within_extent(name: &str, points: impl IntoIterator<Item = [f64; 3]>) -> Result<(), Refusal> {
+    let bound = crate::limits::MAX_EXTENT_M;
+    match points.into_iter().find(|p| p.iter().any(|x| !(x.abs() <= bound))) {
+        Some(p) => Err(format!("mesh {name} has a vertex at {p:?}, farther than {bound} from its origin")),
+        None => Ok(()),
+    }
 }
