@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# What an agent spends (issue #24): the Python `mcp` SDK (pinned, from PyPI, in a venv) runs
+# scripts/agent_tasks.py's nine tasks against a server with a copy of tests/fixtures in its
+# workspace, and prints per task the calls, the reply bytes a model reads and whether the
+# physical outcome is right, then the issue's budget targets. Arguments go to the script:
+# --report (measurement only, exit 0), --enforce-targets (a missed target fails), --calls.
+#
+#   scripts/agent_tasks.sh --report
+#   PHYSICS_MCP_BIN=target/debug/physics-mcp scripts/agent_tasks.sh   # skip the release build
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+MCP_VERSION=2.3.0
+venv="${PYTHON_SDK_VENV:-${CARGO_TARGET_DIR:-target}/python-sdk-venv}"
+scratch=$(mktemp -d "${TMPDIR:-/tmp}/physics-mcp-agent-tasks.XXXXXX")
+who=agent_tasks
+source scripts/lib/server.sh
+
+if ! "$venv/bin/python" -c "import mcp, importlib.metadata as m; assert m.version('mcp') == '$MCP_VERSION'" 2>/dev/null; then
+  python3 -m venv "$venv"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "mcp==$MCP_VERSION"
+fi
+
+# The fixtures where the tasks name them: tests/fixtures/… relative to the workspace.
+mkdir -p "$scratch/workspace/tests"
+cp -r tests/fixtures "$scratch/workspace/tests/fixtures"
+
+start_server
+
+"$venv/bin/python" scripts/agent_tasks.py "$url" "$@"
