@@ -163,8 +163,8 @@ async fn damaged_logs_are_reported_and_never_served() {
     }
 }
 
-/// Saves a simulation and returns the file with an early event's command tampered: a load
-/// that trusts the snapshot never folds that event; a refold finds it.
+/// Saves a simulation (as `s.json`) and returns the file with an early event's command
+/// tampered: the snapshot's MAC covers the events, so no key trusts it, and a refold finds it.
 async fn tampered_save(server: &Server, c: &common::Client) -> Value {
     let sim = populated(c).await;
     c.call("save_simulation", json!({"sim_id": sim, "file_path": "s.json"})).await;
@@ -189,8 +189,11 @@ async fn mac_key_of_wrong_length_stops_the_start_and_another_key_makes_loads_ref
         let c = server.client().await;
         let file = tampered_save(&server, &c).await;
         std::fs::write(server.workspace.join("t.json"), file.to_string()).unwrap();
-        // Our own key: the snapshot is trusted, the tampered early event is never folded.
-        c.call("load_simulation", json!({"file_path": "t.json"})).await;
+        // Our own key: the untouched file loads; the tampered one is not trusted (the MAC
+        // covers the events, not the snapshot alone, as it once did) and its refold finds it.
+        c.call("load_simulation", json!({"file_path": "s.json"})).await;
+        let e = c.try_call("load_simulation", json!({"file_path": "t.json"})).await.unwrap_err();
+        assert!(e.contains("seq"), "the refold names the diverging event: {e}");
         server.terminate();
         file
     };
@@ -203,10 +206,11 @@ async fn mac_key_of_wrong_length_stops_the_start_and_another_key_makes_loads_ref
     assert!(stderr.contains("is not a 32-byte key; remove it to make a new one"), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "one sentence: {stderr}");
     // 32 other bytes: the file's MAC no longer proves it is ours, so the load refolds every
-    // event and finds the tampered one.
+    // event: the untouched file still loads, and the tampered one is found.
     std::fs::write(&key, [7u8; 32]).unwrap();
     let server = Server::start(dir.path(), &[]);
     let c = server.client().await;
+    c.call("load_simulation", json!({"file_path": "s.json"})).await;
     std::fs::write(server.workspace.join("t.json"), file.to_string()).unwrap();
     let e = c.try_call("load_simulation", json!({"file_path": "t.json"})).await.unwrap_err();
     assert!(e.contains("seq"), "the refold names the diverging event: {e}");

@@ -551,7 +551,7 @@ pub fn mesh_triangles(name: &str, bytes: &[u8]) -> Result<Triangles, Refusal> {
 /// (in its own units, and again after scaling): such vertices panic the convex hull.
 pub fn within_extent(name: &str, points: impl IntoIterator<Item = [f64; 3]>) -> Result<(), Refusal> {
     let bound = crate::limits::MAX_EXTENT_M;
-    match points.into_iter().find(|p| p.iter().any(|x| !(x.abs() <= bound))) {
+    match points.into_iter().find(|p| p.iter().any(|x| x.is_nan() || x.abs() > bound)) {
         Some(p) => Err(format!("mesh {name} has a vertex at {p:?}, farther than {bound} from its origin")),
         None => Ok(()),
     }
