@@ -33,6 +33,7 @@ pub fn raw_pile() -> Vec<Command> {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass: 0.0,
         color: None,
+        collides: true,
     }];
     for i in 0..10 {
         for j in 0..10 {
@@ -49,6 +50,7 @@ pub fn raw_pile() -> Vec<Command> {
                     orientation: [axis[0] / n * s, axis[1] / n * s, axis[2] / n * s, c],
                     mass: 1.0,
                     color: None,
+                    collides: true,
                 });
             }
         }

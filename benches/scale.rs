@@ -117,7 +117,7 @@ fn sweep_scene(dir: &std::path::Path) -> (Registry, String) {
     let sim = reg.get(&id).unwrap();
     let mut s = lock_sim(&sim);
     let add = |s: &mut physics_mcp::sim::Sim, half: [f32; 3], position: [f32; 3], mass: f32| {
-        let cmd = Command::AddBody { shape: Shape::Box { half_extents: half }, position, orientation: [0.0, 0.0, 0.0, 1.0], mass, color: None };
+        let cmd = Command::AddBody { shape: Shape::Box { half_extents: half }, position, orientation: [0.0, 0.0, 0.0, 1.0], mass, color: None, collides: true };
         s.change("add_box", &Args::new(), Ok(cmd), &Limits::default(), &mut |_| true).unwrap();
     };
     add(&mut s, [10.0, 10.0, 0.5], [0.0, 0.0, -0.5], 0.0);
@@ -146,7 +146,7 @@ fn sweep_request(id: &str) -> Request {
             }]
         })
         .collect();
-    Request { variants, steps: 1000, observe: Observe::default(), keep: false }
+    Request { variants, steps: 1000, observe: Observe::default(), keep: false, full: true, rank_by: None }
 }
 
 fn run_sweep(reg: &Registry, id: &str, workers: usize) -> f64 {

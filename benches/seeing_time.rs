@@ -45,7 +45,7 @@ fn event(seq: u64, kind: Kind, tool: &str, w: &World) -> Event {
 fn dropped_100() -> Lent {
     let (mut w, _) = World::create(&pile::root("anim")).unwrap();
     let add = |w: &mut World, shape, position: [f32; 3], mass, color| {
-        w.apply(&Command::AddBody { shape, position, orientation: [0.1, 0.2, 0.0, 0.97], mass, color }, &mut |_| true);
+        w.apply(&Command::AddBody { shape, position, orientation: [0.1, 0.2, 0.0, 0.97], mass, color, collides: true }, &mut |_| true);
     };
     add(&mut w, Shape::Box { half_extents: [10.0, 10.0, 0.1] }, [0.0, 0.0, -0.1], 0.0, Some([0.6, 0.6, 0.6, 1.0]));
     for i in 0..100 {

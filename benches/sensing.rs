@@ -40,7 +40,7 @@ fn collapsed_pile() -> World {
 fn scene_100() -> World {
     let (mut w, _) = World::create(&pile::root("scene")).unwrap();
     let mut add = |shape, position: [f32; 3], mass, color| {
-        w.apply(&Command::AddBody { shape, position, orientation: [0.0, 0.0, 0.0, 1.0], mass, color }, &mut |_| true);
+        w.apply(&Command::AddBody { shape, position, orientation: [0.0, 0.0, 0.0, 1.0], mass, color, collides: true }, &mut |_| true);
     };
     add(Shape::Box { half_extents: [10.0, 10.0, 0.1] }, [0.0, 0.0, -0.1], 0.0, Some([0.6, 0.6, 0.6, 1.0]));
     for i in 0..99 {

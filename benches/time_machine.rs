@@ -32,6 +32,7 @@ fn pile(reg: &Registry, id: &str) {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass: 0.0,
         color: None,
+        collides: true,
     };
     sim.change("add_box", &a, Ok(ground), &l, &mut |_| true).unwrap();
     for i in 0..1000 {
@@ -46,6 +47,7 @@ fn pile(reg: &Registry, id: &str) {
             orientation: [0.0, 0.0, sn, c],
             mass: 1.0,
             color: None,
+            collides: true,
         };
         sim.change("add_box", &a, Ok(cmd), &l, &mut |_| true).unwrap();
     }

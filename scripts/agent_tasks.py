@@ -15,10 +15,10 @@ are the issue's: (1) a five-box tower knocked over by a thrown ball and looked b
 (get_history to find the interval, get_trajectory of it); (2) a 100-box pile built in one
 batch, stepped, and checked settled; (3) a sweep over four throwing speeds with run_sweep,
 counting the boxes moved at each; (4) the KUKA iiwa14 (fixed base) moved to a target with
-calculate_inverse_kinematics and one set_joint_motor_control per joint; (5) the wheeled base
+calculate_inverse_kinematics and set_joint_motor_control_array; (5) the wheeled base
 driven forward by velocity motors on its wheels; (6) one undo, one fork, one get_history and
 one verify_simulation on a small scene; (7) a pick-style reach to a target where the agent
-also placed a marker sphere (an ordinary static sphere: the arm may collide with it);
+also placed a marker sphere (`collides: false`: the arm passes through it);
 (8) Gymnasium's MJCF reacher driven by per-joint motors; (9) boxes dropped from three heights,
 and the moment the first one hit the ground found with get_trajectory.
 
@@ -192,6 +192,8 @@ async def tower_lookback(t):
     by_id = {o["object_id"]: o for o in traj["objects"]}
     moved = 0
     for b in boxes:
+        if b not in by_id:  # listed in traj["unmoved"]: it did not move
+            continue
         p = by_id[b]["positions"]
         if dist(p[0], p[-1]) > 0.05:
             moved += 1
@@ -276,16 +278,16 @@ REACH_TARGET = [0.5, 0.2, 0.6]
 
 
 async def reach(t, sim, arm, target):
-    """IK, one position motor per joint, 3 s, and where the end effector ended."""
+    """IK, the position motors of every joint in one call, 3 s, and where the end effector ended."""
     ik = await t.call(
         "calculate_inverse_kinematics",
         {"sim_id": sim, "object_id": arm, "end_effector_link_index": IIWA_EE, "target_position": target},
     )
-    for j, q in enumerate(ik["joint_positions"][:IIWA_MOVABLE]):
-        await t.call(
-            "set_joint_motor_control",
-            {"sim_id": sim, "object_id": arm, "joint_index": j, "control_mode": "POSITION_CONTROL", "target_position": q},
-        )
+    qs = ik["joint_positions"][:IIWA_MOVABLE]
+    await t.call(
+        "set_joint_motor_control_array",
+        {"sim_id": sim, "object_id": arm, "joint_indices": list(range(len(qs))), "control_mode": "POSITION_CONTROL", "target_positions": qs},
+    )
     await t.call("step_simulation", {"sim_id": sim, "steps": 720})
     link = await t.call("get_link_state", {"sim_id": sim, "object_id": arm, "link_index": IIWA_EE})
     return ik, link["link_world_position"]
@@ -307,11 +309,11 @@ async def wheeled_drive(t):
     await t.call("load_urdf", {"sim_id": sim, "file_path": "plane.urdf"})
     start = [0, 0, 0.16]  # wheels (radius 0.1, 0.05 below the chassis) and caster touch z = 0
     robot = ids(await t.call("load_urdf", {"sim_id": sim, "file_path": WHEELED, "position": start}))
-    for wheel in (0, 1):  # left_wheel_joint, right_wheel_joint (the URDF's header lists them)
-        await t.call(
-            "set_joint_motor_control",
-            {"sim_id": sim, "object_id": robot, "joint_index": wheel, "control_mode": "VELOCITY_CONTROL", "target_velocity": 5},
-        )
+    # left_wheel_joint, right_wheel_joint (the URDF's header lists them)
+    await t.call(
+        "set_joint_motor_control_array",
+        {"sim_id": sim, "object_id": robot, "joint_indices": [0, 1], "control_mode": "VELOCITY_CONTROL", "target_velocities": [5, 5]},
+    )
     await t.call("step_simulation", {"sim_id": sim, "steps": 480})
     pos = (await t.call("get_object_state", {"sim_id": sim, "object_id": robot}))["position"]
     dx, dy = pos[0] - start[0], pos[1] - start[1]
@@ -343,10 +345,10 @@ PICK_TARGET = [0.55, 0.0, 0.35]
 
 
 async def pick_reach(t):
-    """A reach to where the agent placed a marker (a static sphere, mass 0): 1 cm, honestly."""
+    """A reach to where the agent placed a marker (a static sphere touching nothing): 1 cm, honestly."""
     sim = (await t.call("create_simulation", {}))["simulation_id"]
     arm = ids(await t.call("load_urdf", {"sim_id": sim, "file_path": IIWA, "use_fixed_base": True}))
-    marker = ids(await t.call("add_sphere", {"sim_id": sim, "radius": 0.02, "position": PICK_TARGET, "mass": 0, "color": [1, 0, 0, 1]}))
+    marker = ids(await t.call("add_sphere", {"sim_id": sim, "radius": 0.02, "position": PICK_TARGET, "mass": 0, "color": [1, 0, 0, 1], "collides": False}))
     ik, ee = await reach(t, sim, arm, PICK_TARGET)
     contacts = (await t.call("get_collisions_for_pair", {"sim_id": sim, "obj_a": arm, "obj_b": marker}))["contacts"]
     miss = dist(ee, PICK_TARGET)
@@ -365,11 +367,10 @@ async def mjcf_reacher(t):
     """Gymnasium's reacher (MJCF) driven by one position motor per arm joint for 2 s."""
     sim = (await t.call("create_simulation", {}))["simulation_id"]
     robot = ids(await t.call("load_mjcf", {"sim_id": sim, "file_path": REACHER}))
-    for j, q in REACHER_TARGETS.items():
-        await t.call(
-            "set_joint_motor_control",
-            {"sim_id": sim, "object_id": robot, "joint_index": j, "control_mode": "POSITION_CONTROL", "target_position": q},
-        )
+    await t.call(
+        "set_joint_motor_control_array",
+        {"sim_id": sim, "object_id": robot, "joint_indices": list(REACHER_TARGETS), "control_mode": "POSITION_CONTROL", "target_positions": list(REACHER_TARGETS.values())},
+    )
     await t.call("step_simulation", {"sim_id": sim, "steps": 480})
     reached = []
     for j, q in REACHER_TARGETS.items():

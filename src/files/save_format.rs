@@ -403,7 +403,11 @@ pub fn world_from_events(
             let w = World::restore(&recorded_id, gui, &bytes).map_err(bad)?;
             (at, w)
         }
-        None => (0, crate::log::fold::create_root(first, blobs).map_err(bad)?.0),
+        None => {
+            let (w, outcome) = crate::log::fold::create_root(first, blobs).map_err(bad)?;
+            check_result_hash(first, Some(outcome))?;
+            (0, w)
+        }
     };
     let total = (events.len() - start) as u64;
     crate::log::fold::check_hash(&world, &events[start]).map_err(bad)?;
@@ -411,19 +415,26 @@ pub fn world_from_events(
     // computed under older rules, as replay has it): the new log adopts them as they are.
     for (i, e) in events[start + 1..].iter().enumerate() {
         let (_, outcome) = crate::log::fold::fold_event(&mut world, e, blobs, limits, true).map_err(bad)?;
+        check_result_hash(e, outcome)?;
         if e.kind == Kind::Root {
             // A fork or load inside the chain: later results name its simulation.
             let (recorded_id, gui) = identity_at(std::slice::from_ref(e), blobs)?;
             world = world.with_identity(&recorded_id, gui);
         }
-        if let (Some(o), Some(recorded), true) = (outcome, &e.result_hash, e.version == crate::command::EVENT_VERSION) {
-            if crate::digest::result_hash(&o.to_value().to_string()) != *recorded {
-                return Err(bad(format!("event {} records a result hash its command does not give", e.seq)));
-            }
-        }
         progress(i as u64 + 1, total);
     }
     Ok(world)
+}
+
+/// Refuses an event of this version whose recorded result hash is not that of the result its
+/// command gives (`outcome`; None for fork and load roots, which record no result to check).
+fn check_result_hash(e: &Event, outcome: Option<crate::outputs::Outcome>) -> Result<(), Refusal> {
+    if let (Some(o), Some(recorded), true) = (outcome, &e.result_hash, e.version == crate::command::EVENT_VERSION) {
+        if crate::digest::result_hash(&o.to_value().to_string()) != *recorded {
+            return Err(bad(format!("event {} records a result hash its command does not give", e.seq)));
+        }
+    }
+    Ok(())
 }
 
 /// The simulation id and gui flag the events up to the last of `events` were recorded under:
@@ -528,6 +539,7 @@ fn primitive_from_readable(o: &serde_json::Map<String, Value>, i: usize, pose: P
             orientation: pose.orientation,
             mass: field("mass").map(|v| value::non_negative(&name("mass"), v)).transpose().map_err(bad)?.unwrap_or(1.0),
             color: field("color").map(|v| value::color(&name("color"), v)).transpose().map_err(bad)?,
+            collides: true,
         },
     ))
 }

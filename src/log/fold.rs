@@ -552,6 +552,7 @@ mod tests {
             orientation: [0.0, 0.0, 0.0, 1.0],
             mass,
             color: None,
+            collides: true,
         }
     }
 

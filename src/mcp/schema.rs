@@ -2,8 +2,8 @@
 //!
 //! schemars writes what a strict validator or a model does not need and may not understand:
 //! `$schema` and `title` boilerplate, and integer and float `format`s (`uint32`, `double`…)
-//! that JSON Schema does not define. `plain` drops them, keeping an unsigned 32-bit integer's
-//! sign as `minimum: 0` (schemars already gives the 8- and 16-bit ranges and unsigned minima).
+//! that JSON Schema does not define. `plain` drops them (schemars already gives unsigned
+//! integers `minimum: 0`).
 //! `input` also trims what only costs a model's context (see there).
 
 use rmcp::model::JsonObject;
@@ -45,23 +45,65 @@ pub(crate) fn plain(schema: &JsonObject) -> JsonObject {
 /// Output schemas keep `null`, since results do carry it.
 pub(crate) fn input(schema: &JsonObject) -> JsonObject {
     let mut schema = plain(schema);
-    let required: Vec<Value> = schema.get("required").and_then(Value::as_array).cloned().unwrap_or_default();
-    if let Some(Value::Object(props)) = schema.get_mut("properties") {
-        for (name, prop) in props.iter_mut() {
-            if required.iter().any(|r| r.as_str() == Some(name)) {
-                continue;
-            }
-            let Some(ty) = prop.get_mut("type") else { continue };
-            if let Value::Array(types) = ty {
-                if types.len() == 2 && types.iter().any(|t| t == "null") {
-                    if let Some(other) = types.iter().find(|t| *t != "null").cloned() {
-                        *ty = other;
-                    }
-                }
-            }
+    optional_without_null(&mut schema);
+    drop_zero_minimum(&mut schema);
+    // A parameter's own description says what a nested type is for; the type's doc comment
+    // would repeat it on every turn.
+    if let Some(Value::Object(defs)) = schema.get_mut("$defs") {
+        for def in defs.values_mut().filter_map(Value::as_object_mut) {
+            def.remove("description");
+            optional_without_null(def);
         }
     }
     schema
+}
+
+/// Integers without `minimum: 0`: ids, indices and counts say they are not negative by what
+/// they are, the server refuses a negative one with a sentence naming it, and the ~57 of them
+/// cost ~600 bytes of every model's context on every turn. (Output schemas keep it.)
+fn drop_zero_minimum(schema: &mut JsonObject) {
+    if schema.get("minimum") == Some(&Value::from(0)) {
+        schema.remove("minimum");
+    }
+    for value in schema.values_mut() {
+        match value {
+            Value::Object(sub) => drop_zero_minimum(sub),
+            Value::Array(list) => list.iter_mut().filter_map(Value::as_object_mut).for_each(drop_zero_minimum),
+            _ => {}
+        }
+    }
+}
+
+/// An object schema's optional properties without `"null"`: `["integer", "null"]` becomes
+/// `"integer"`, and `anyOf: [{$ref}, {type: null}]` the `$ref` alone.
+fn optional_without_null(schema: &mut JsonObject) {
+    let required: Vec<Value> = schema.get("required").and_then(Value::as_array).cloned().unwrap_or_default();
+    let Some(Value::Object(props)) = schema.get_mut("properties") else { return };
+    for (name, prop) in props.iter_mut() {
+        if required.iter().any(|r| r.as_str() == Some(name)) {
+            continue;
+        }
+        let Some(prop) = prop.as_object_mut() else { continue };
+        if let Some(Value::Array(types)) = prop.get("type") {
+            if types.len() == 2 && types.iter().any(|t| t == "null") {
+                if let Some(other) = types.iter().find(|t| *t != "null").cloned() {
+                    prop.insert("type".into(), other);
+                }
+            }
+        }
+        let single = match prop.get("anyOf") {
+            Some(Value::Array(alts)) if alts.len() == 2 && alts.iter().any(|a| a.get("type") == Some(&Value::from("null"))) => {
+                alts.iter().find(|a| a.get("type") != Some(&Value::from("null"))).and_then(Value::as_object).cloned()
+            }
+            _ => None,
+        };
+        if let Some(single) = single {
+            prop.remove("anyOf");
+            for (k, v) in single {
+                prop.entry(k).or_insert(v);
+            }
+        }
+    }
 }
 
 /// Cleans one schema object and, through the keywords that hold subschemas, all below it
@@ -69,18 +111,8 @@ pub(crate) fn input(schema: &JsonObject) -> JsonObject {
 fn clean(schema: &mut JsonObject) {
     schema.remove("title");
     let format = schema.get("format").and_then(Value::as_str).map(str::to_owned);
-    if let Some(format) = format.filter(|f| !STANDARD_FORMATS.contains(&f.as_str())) {
+    if format.is_some_and(|f| !STANDARD_FORMATS.contains(&f.as_str())) {
         schema.remove("format");
-        let range = match format.as_str() {
-            // Only the sign: no id or index comes near 2^31, a full 32-bit range would cost
-            // each such parameter ~20 bytes of every model's context, and the server refuses
-            // out-of-range values with a sentence anyway.
-            "uint32" => Some(0),
-            _ => None,
-        };
-        if let Some(min) = range {
-            schema.entry("minimum").or_insert(min.into());
-        }
     }
     for (keyword, value) in schema.iter_mut() {
         let keyword = keyword.as_str();

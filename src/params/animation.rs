@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RenderAnimation {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Default: before the last step.
     pub from_seq: Option<Int<u64>>,

@@ -20,8 +20,10 @@ pub struct CallSpec {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Batch {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// 1-10,000 calls, in order.
     pub calls: Vec<CallSpec>,
+    /// full: whole results (default: ids, values).
+    pub detail: Option<Text>,
 }

@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CreateConstraint {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Parent object.
     pub parent_id: ObjectId,
@@ -33,7 +33,7 @@ pub struct CreateConstraint {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ConstraintRef {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Constraint id.
     pub constraint_id: Int<u32>,

@@ -186,3 +186,13 @@ pub fn link_index(v: Option<Int<i64>>) -> Result<i32, Refusal> {
     let i = int_or(v, -1);
     i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
 }
+
+/// How much of a result a model asked for (`detail`, one meaning on every tool that has it):
+/// compact by default, everything with "full".
+pub fn full_detail(detail: Option<&Text>) -> Result<bool, Refusal> {
+    match detail.map(|t| t.0.as_str()) {
+        None | Some("compact") => Ok(false),
+        Some("full") => Ok(true),
+        Some(other) => Err(format!("detail must be \"compact\" or \"full\"; got {other:?}")),
+    }
+}

@@ -9,17 +9,17 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct LoadMjcf {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
-    /// MuJoCo MJCF file relative to the workspace (its `<include>`s are read beside it).
+    /// MJCF file in the workspace; its `<include>`s are read beside it.
     pub file_path: Text,
-    /// World position [x, y, z] of the model's frame (default [0, 0, 0]).
+    /// World position of the model's frame (default 0).
     pub position: Option<Vec3>,
-    /// Orientation [x, y, z, w] of the model's frame (default identity).
+    /// [x, y, z, w] of the model's frame (default identity).
     pub orientation: Option<Quat>,
     /// Fix a free-joint root body to the world (default false).
     pub use_fixed_base: Option<Bool>,
-    /// Name of a `<key>` whose qpos the joints start at (default: qpos0).
+    /// A `<key>` whose qpos the joints start at (default qpos0).
     pub keyframe: Option<Text>,
 }
 
@@ -27,7 +27,7 @@ pub struct LoadMjcf {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct LinkRef {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -39,7 +39,7 @@ pub struct LinkRef {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ResetJoint {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,

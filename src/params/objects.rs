@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct AddBox {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// HALF-extents [hx, hy, hz] (m).
     pub dimensions: Vec3,
@@ -21,13 +21,15 @@ pub struct AddBox {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
+    /// false: touches nothing; rays and camera see it.
+    pub collides: Option<Bool>,
 }
 
 /// add_sphere parameters.
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct AddSphere {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Radius (m).
     pub radius: Positive,
@@ -39,13 +41,15 @@ pub struct AddSphere {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
+    /// false: touches nothing; rays and camera see it.
+    pub collides: Option<Bool>,
 }
 
 /// add_cylinder / add_capsule parameters.
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct AddRound {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Radius (m).
     pub radius: Positive,
@@ -59,13 +63,15 @@ pub struct AddRound {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
+    /// false: touches nothing; rays and camera see it.
+    pub collides: Option<Bool>,
 }
 
 /// Parameters naming an object.
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectRef {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -75,7 +81,7 @@ pub struct ObjectRef {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SetPose {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -89,7 +95,7 @@ pub struct SetPose {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ApplyForce {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -105,7 +111,7 @@ pub struct ApplyForce {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ApplyTorque {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -119,7 +125,7 @@ pub struct ApplyTorque {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SetVelocity {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -133,7 +139,7 @@ pub struct SetVelocity {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ChangeDynamics {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -163,10 +169,44 @@ pub struct ChangeDynamics {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct DynamicsRef {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
     /// Default -1 (base).
     pub link_index: Option<Int<i64>>,
+}
+
+/// set_collision_filter_group_mask parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct CollisionFilterGroupMask {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// -1 = base (default).
+    pub link_index: Option<Int<i64>>,
+    /// Bits it belongs to.
+    pub collision_filter_group: Int<u32>,
+    /// Bits it collides with.
+    pub collision_filter_mask: Int<u32>,
+}
+
+/// set_collision_filter_pair parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct CollisionFilterPair {
+    /// Sim id.
+    pub sim_id: Text,
+    /// First object.
+    pub object_id_a: ObjectId,
+    /// Second object.
+    pub object_id_b: ObjectId,
+    /// Default -1 (base).
+    pub link_index_a: Option<Int<i64>>,
+    /// Default -1 (base).
+    pub link_index_b: Option<Int<i64>>,
+    /// false turns their contacts off.
+    pub enable_collision: Bool,
 }

@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Save {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Workspace-relative .json path.
     pub file_path: Text,

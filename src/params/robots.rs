@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct LoadUrdf {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Workspace-relative URDF, or a built-in.
     pub file_path: Text,
@@ -25,7 +25,7 @@ pub struct LoadUrdf {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct JointRef {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -37,7 +37,7 @@ pub struct JointRef {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct MotorControl {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
@@ -57,11 +57,35 @@ pub struct MotorControl {
     pub velocity_gain: Option<NonNegative>,
 }
 
+/// set_joint_motor_control_array parameters: one entry per joint in each list.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct MotorControlArray {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// PyBullet numbering.
+    pub joint_indices: Vec<Int<u32>>,
+    /// As set_joint_motor_control's, for all.
+    pub control_mode: Text,
+    /// Required for POSITION_CONTROL.
+    pub target_positions: Option<NumList>,
+    /// Default 0s.
+    pub target_velocities: Option<NumList>,
+    /// As force, per joint.
+    pub forces: Option<NumList>,
+    /// Default 0.1s.
+    pub position_gains: Option<NumList>,
+    /// Default 1s.
+    pub velocity_gains: Option<NumList>,
+}
+
 /// calculate_inverse_kinematics parameters.
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct InverseKinematics {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,

@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RayTest {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Start, world.
     pub ray_from: Vec3,
@@ -21,7 +21,7 @@ pub struct RayTest {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RayTestBatch {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Starts (at most --max-rays).
     pub rays_from: Vec3List,
@@ -35,7 +35,7 @@ pub struct RayTestBatch {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CollisionPair {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Object A.
     pub obj_a: ObjectId,
@@ -91,7 +91,7 @@ pub struct ProjectionMatrix {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CameraImage {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Pixels.
     pub width: Int<u32>,

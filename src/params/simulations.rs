@@ -24,7 +24,7 @@ pub struct CreateSimulation {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SimRef {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
 }
 
@@ -32,7 +32,7 @@ pub struct SimRef {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Step {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Default 1, at most --max-steps.
     pub steps: Option<Int<u64>>,
@@ -46,7 +46,7 @@ pub struct Step {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SetTimestep {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Seconds per step (default 1/240).
     pub timestep: PositiveGiven,

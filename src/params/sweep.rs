@@ -22,14 +22,28 @@ pub struct Observe {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Sweep {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// 1-256 lists of calls, one fork each.
     pub variants: Vec<Vec<CallSpec>>,
     /// Steps after the calls.
     pub steps: Int<u64>,
-    /// Default: final states of all objects.
+    /// Default: all objects.
     pub observe: Option<Observe>,
     /// Keep the forks (default false).
     pub keep: Option<Bool>,
+    /// full: unmoved objects too.
+    pub detail: Option<Text>,
+    /// Rank the variants, highest first.
+    pub rank_by: Option<RankBy>,
+}
+
+/// How run_sweep ranks its variants.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RankBy {
+    /// Object id.
+    pub object_id: ObjectId,
+    /// displacement, peak_speed or final_z.
+    pub metric: Text,
 }

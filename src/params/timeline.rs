@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Count {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Default 1.
     pub count: Option<Int<u64>>,
@@ -19,7 +19,7 @@ pub struct Count {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct HistoryPage {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Events after this seq (default 0).
     pub since_seq: Option<Int<u64>>,
@@ -31,7 +31,7 @@ pub struct HistoryPage {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Fork {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Default: the head.
     pub at_seq: Option<Int<u64>>,

@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct GetTrajectory {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Default: before the last step.
     pub from_seq: Option<Int<u64>>,
@@ -23,4 +23,8 @@ pub struct GetTrajectory {
     pub include_velocities: Option<Bool>,
     /// New .csv or .jsonl file.
     pub output_path: Option<Text>,
+    /// full: exact, unmoved objects too.
+    pub detail: Option<Text>,
+    /// Decimals (default 4).
+    pub precision: Option<Int<u32>>,
 }

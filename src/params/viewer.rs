@@ -9,7 +9,7 @@ use super::lenient::*;
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct DebugVisualization {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Contact points (default true).
     pub show_contacts: Option<Bool>,
@@ -21,7 +21,7 @@ pub struct DebugVisualization {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SetCamera {
-    /// Simulation id.
+    /// Sim id.
     pub sim_id: Text,
     /// Distance (m).
     pub distance: Positive,

@@ -98,6 +98,7 @@ impl Sampler {
                 seqs: vec![],
                 objects: vec![],
                 output_path: None,
+                unmoved: vec![],
             },
             tracks: BTreeMap::new(),
             cells: 0,
@@ -308,6 +309,42 @@ pub fn is_jsonl(path: &str, param: &str) -> Result<bool, Refusal> {
 /// `param`.
 pub fn file_bytes(t: &Trajectory, path: &str, param: &str) -> Result<Vec<u8>, Refusal> {
     Ok(if is_jsonl(path, param)? { to_jsonl(t) } else { to_csv(t) }.into_bytes())
+}
+
+/// What a model reads by default: with `precision` every number is rounded to that many
+/// decimals (times too), and then objects whose every shown sample is the same go from
+/// `objects` to `unmoved` (a 100-sample track of a static ground is ~5 KB of the same
+/// numbers; a box at rest that jitters by less than the shown precision is at rest to a model).
+pub fn compact(t: &mut Trajectory, precision: Option<u32>) {
+    fn same<T: PartialEq>(v: &[T]) -> bool {
+        v.windows(2).all(|w| w[0] == w[1])
+    }
+    if let Some(p) = precision {
+        let scale = 10f64.powi(p as i32);
+        let r = |x: &mut f64| *x = (*x * scale).round() / scale;
+        t.times.iter_mut().for_each(r);
+        for o in &mut t.objects {
+            o.positions.iter_mut().flatten().flatten().for_each(r);
+            o.orientations.iter_mut().flatten().flatten().for_each(r);
+            for v in [&mut o.linear_velocities, &mut o.angular_velocities].into_iter().flatten() {
+                v.iter_mut().flatten().flatten().for_each(r);
+            }
+            for v in [&mut o.joint_positions, &mut o.joint_velocities].into_iter().flatten() {
+                v.iter_mut().flatten().flatten().for_each(r);
+            }
+        }
+    }
+    let still = |o: &ObjectTrack| {
+        same(&o.positions)
+            && same(&o.orientations)
+            && o.linear_velocities.as_deref().is_none_or(same)
+            && o.angular_velocities.as_deref().is_none_or(same)
+            && o.joint_positions.as_deref().is_none_or(same)
+            && o.joint_velocities.as_deref().is_none_or(same)
+    };
+    let (unmoved, moved): (Vec<ObjectTrack>, Vec<ObjectTrack>) = std::mem::take(&mut t.objects).into_iter().partition(|o| t.samples > 1 && still(o));
+    t.unmoved = unmoved.iter().map(|o| o.object_id).collect();
+    t.objects = moved;
 }
 
 /// The summary a reply carries when the table went to a file.

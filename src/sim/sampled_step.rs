@@ -29,6 +29,20 @@ impl Sim {
     /// the log records them. A refusal (an unknown object, too many samples, a reply over the
     /// budget) is logged and changes nothing.
     pub fn step_sampled(&mut self, args: &Args, steps: u64, sampling: &Sampling, limits: &Limits, control: StepControl) -> Result<Stepped, Refusal> {
+        self.step_sampled_watched(args, steps, sampling, limits, control, &mut |_| {})
+    }
+
+    /// `step_sampled` with `watch` seeing the world after every step too (a sweep's peak
+    /// speeds), without changing what is sampled or logged.
+    pub fn step_sampled_watched(
+        &mut self,
+        args: &Args,
+        steps: u64,
+        sampling: &Sampling,
+        limits: &Limits,
+        control: StepControl,
+        watch: crate::world::StepObserver,
+    ) -> Result<Stepped, Refusal> {
         let every = match self.check_sampling(steps, sampling, limits) {
             Ok(every) => every,
             Err(why) => return Err(self.refuse("step_simulation", args, why)),
@@ -39,6 +53,7 @@ impl Sim {
         sampler.sample(self.world(), from);
         let mut cadence = fold::Cadence::new(every);
         let mut observe = |w: &World| {
+            watch(w);
             if cadence.step() {
                 sampler.sample(w, seq);
             }

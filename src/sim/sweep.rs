@@ -45,6 +45,31 @@ pub struct Request {
     pub observe: Observe,
     /// Keep the forks as ordinary simulations.
     pub keep: bool,
+    /// `detail: "full"`: unmoved objects reported too, samples not compacted.
+    pub full: bool,
+    /// Rank the variants by this object's metric.
+    pub rank_by: Option<(u32, Metric)>,
+}
+
+/// What rank_by compares (highest first).
+#[derive(Clone, Copy, Debug)]
+pub enum Metric {
+    /// Distance moved during the steps.
+    Displacement,
+    /// Highest speed after any step.
+    PeakSpeed,
+    /// Final height.
+    FinalZ,
+}
+
+impl Metric {
+    fn of(self, o: &SweptObject) -> f64 {
+        match self {
+            Metric::Displacement => o.displacement,
+            Metric::PeakSpeed => o.peak_speed,
+            Metric::FinalZ => o.position[2],
+        }
+    }
 }
 
 /// A step control per variant (progress and cancellation), made by the caller.
@@ -70,7 +95,7 @@ impl Registry {
         (workers, budget): (usize, usize),
     ) -> Result<Swept, Refusal> {
         let parent = self.get(id)?;
-        let Request { variants, steps, observe, keep } = req;
+        let Request { variants, steps, observe, keep, full, rank_by } = req;
         // What every fork copies, read once under the parent's lock; the forks themselves are
         // made by the workers, side by side, from the parent's file.
         let (source, slots) = {
@@ -94,11 +119,11 @@ impl Registry {
             variants.into_iter().enumerate().map(|(index, calls)| (index, calls, controls())).collect();
         let done = run_all(items, workers, |(index, calls, control)| {
             match self.fork_from(&source, None, uuid::Uuid::new_v4().to_string(), &fork_args) {
-                Ok((_, sim)) => run_variant(Running { index, sim, calls, control }, steps, &observe, self.limits()),
+                Ok((_, sim)) => run_variant(Running { index, sim, calls, control }, id, steps, &observe, self.limits()),
                 Err(why) => (None, Err(format!("variants[{index}] could not be forked: {why}"))),
             }
         });
-        let outcome = finish(done, keep, budget);
+        let outcome = finish(done, (keep, full, rank_by), budget);
         let mut p = lock_sim(&parent);
         let (swept, sims) = match outcome {
             Ok(ok) => ok,
@@ -184,17 +209,19 @@ fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R +
 }
 
 /// One variant's calls (as a batch) and steps, then what `observe` asks of it.
-fn run_variant(r: Running, steps: u64, observe: &Observe, limits: &crate::limits::Limits) -> (Option<Sim>, Result<SweptVariant, Refusal>) {
+fn run_variant(r: Running, parent: &str, steps: u64, observe: &Observe, limits: &crate::limits::Limits) -> (Option<Sim>, Result<SweptVariant, Refusal>) {
     let Running { index, mut sim, calls, mut control } = r;
+    let fork = sim.id().to_string();
     // A panic in the engine fails this variant (its fork is deleted with the others), not
     // the worker thread and with it the whole server request.
     let worked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         variant_work(&mut sim, calls, steps, observe, limits, &mut control)
     }))
     .unwrap_or_else(|_| Err("the engine failed while simulating it (an internal error); nothing was kept".into()));
+    // The fork is a throwaway the client never saw: a refusal names the parent instead.
     let out = worked
-        .map_err(|why| format!("variants[{index}]: {why}"))
-        .map(|(state_hash, objects, trajectory)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory });
+        .map_err(|why| format!("variants[{index}]: {}", why.replace(&fork, parent)))
+        .map(|(state_hash, objects, trajectory)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory, unmoved: vec![] });
     (Some(sim), out)
 }
 
@@ -216,6 +243,19 @@ fn variant_work(
         sim.batch(&sim_arguments(&id), calls, &unbounded_reply, &mut *control)?;
     }
     let mut trajectory = None;
+    let ids: Vec<u32> = match &observe.object_ids {
+        Some(ids) => ids.clone(),
+        None => sim.world().objects().map(|(id, _)| id).collect(),
+    };
+    let start: Vec<Option<[f64; 3]>> = ids.iter().map(|id| sim.world().object_state(*id).map(|s| s.position)).collect();
+    let mut peak = vec![0f64; ids.len()];
+    let mut watch = |w: &crate::world::World| {
+        for (p, id) in peak.iter_mut().zip(&ids) {
+            if let Some(s) = w.object_state(*id) {
+                *p = p.max(s.linear_velocity.iter().map(|v| v * v).sum::<f64>().sqrt());
+            }
+        }
+    };
     if steps > 0 {
         let mut a = sim_arguments(&id);
         a.insert("steps".into(), json!(steps));
@@ -230,12 +270,12 @@ fn variant_work(
                     object_ids: observe.object_ids.clone(),
                     include_velocities: observe.include_velocities,
                 };
-                let s = sim.step_sampled(&a, steps, &sampling, limits, &mut *control)?;
+                let s = sim.step_sampled_watched(&a, steps, &sampling, limits, &mut *control, &mut watch)?;
                 trajectory = s.trajectory.clone();
                 s.steps_taken
             }
             None => {
-                let out = sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps }), limits, &mut *control)?;
+                let out = sim.change_observed("step_simulation", &a, Ok(Command::StepSimulation { steps }), limits, &mut *control, &mut watch)?;
                 out.steps_taken().unwrap_or(steps)
             }
         };
@@ -244,17 +284,19 @@ fn variant_work(
         }
     }
     let w = sim.world();
-    let ids: Vec<u32> = observe.object_ids.clone().unwrap_or_else(|| w.objects().map(|(id, _)| id).collect());
     let mut objects = Vec::with_capacity(ids.len());
-    for object_id in ids {
+    for ((object_id, from), peak_speed) in ids.into_iter().zip(start).zip(peak) {
         let s = w.object_state(object_id).ok_or_else(|| format!("observe.object_ids: object {object_id} does not exist"))?;
         let v = observe.include_velocities;
+        let displacement = from.map_or(0.0, |f| (0..3).map(|k| (s.position[k] - f[k]).powi(2)).sum::<f64>().sqrt());
         objects.push(SweptObject {
             object_id,
             position: s.position,
             orientation: s.orientation,
             linear_velocity: v.then_some(s.linear_velocity),
             angular_velocity: v.then_some(s.angular_velocity),
+            displacement,
+            peak_speed,
         });
     }
     Ok((sim.state_hash().to_string(), objects, trajectory))
@@ -263,7 +305,11 @@ fn variant_work(
 /// The variants' results in order with their forks, or the first refusal (by variant index)
 /// with every fork to delete; an answer over the reply budget is refused too.
 #[allow(clippy::type_complexity)]
-fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, keep: bool, budget: usize) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
+fn finish(
+    done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>,
+    (keep, full, rank_by): (bool, bool, Option<(u32, Metric)>),
+    budget: usize,
+) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
     let mut sims = Vec::with_capacity(done.len());
     let mut variants = Vec::with_capacity(done.len());
     let mut first_refusal = None;
@@ -285,7 +331,33 @@ fn finish(done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>, keep: bool, b
             v.simulation_id = Some(sim.id().to_string());
         }
     }
-    let swept = Swept { variants };
+    let ranking = match rank_by {
+        None => None,
+        Some((id, metric)) => {
+            let mut scored = Vec::with_capacity(variants.len());
+            for v in &variants {
+                match v.objects.iter().find(|o| o.object_id == id) {
+                    Some(o) => scored.push((metric.of(o), v.index)),
+                    None => return Err((format!("rank_by.object_id: object {id} is not observed in variants[{}]", v.index), sims)),
+                }
+            }
+            // Highest first; ties keep the variants' order.
+            scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+            Some(scored.into_iter().map(|(_, i)| i).collect())
+        }
+    };
+    if !full {
+        for v in &mut variants {
+            let (unmoved, moved): (Vec<SweptObject>, Vec<SweptObject>) =
+                std::mem::take(&mut v.objects).into_iter().partition(|o| o.displacement == 0.0 && o.peak_speed == 0.0);
+            v.unmoved = unmoved.iter().map(|o| o.object_id).collect();
+            v.objects = moved;
+            if let Some(t) = &mut v.trajectory {
+                crate::seeing::trajectory::compact(t, None);
+            }
+        }
+    }
+    let swept = Swept { variants, ranking };
     let bytes = crate::sim::budget::reply_bytes("run_sweep", serde_json::to_value(&swept).unwrap_or_default());
     if bytes > budget {
         return Err((crate::sim::budget::over_budget("run_sweep", bytes as u64, budget), sims));

@@ -95,7 +95,7 @@ async fn a_saved_history_is_checked_in_every_field_the_new_log_adopts() {
         f
     };
     let cases: Vec<(&str, Value, &str)> = vec![
-        ("an edited root command", tamper(&good, "create_simulation", |c| c["gravity"] = json!([0, 0, -1.62])), "state hash"),
+        ("an edited root command", tamper(&good, "create_simulation", |c| c["gravity"] = json!([0, 0, -1.62])), "event 1 records a result hash"),
         ("a wrong result hash", edit("add_box", |e| e["result_hash"] = json!("0".repeat(64))), "result hash"),
         ("a root of another kind", edit("create_simulation", |e| e["kind"] = json!("x")), "kind"),
         ("a root with a parent", edit("create_simulation", |e| e["parent"] = json!(5)), "root event without a parent"),

@@ -21,6 +21,7 @@ fn sphere() -> Command {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass: 1.0,
         color: None,
+        collides: true,
     }
 }
 

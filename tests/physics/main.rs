@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod agent_calls;
 mod ik;
 mod link_state;
 mod mjcf;

@@ -58,6 +58,7 @@ fn ground(w: &mut World) {
             orientation: [0.0, 0.0, 0.0, 1.0],
             mass: 0.0,
             color: None,
+            collides: true,
         },
     );
 }
@@ -116,6 +117,7 @@ fn body(w: &mut World, half: [f32; 3], p: [f32; 3], mass: f32) -> u32 {
             orientation: [0.0, 0.0, 0.0, 1.0],
             mass,
             color: None,
+            collides: true,
         },
     );
     out["object_id"].as_u64().unwrap() as u32

@@ -35,6 +35,7 @@ fn add_box(sim: &SharedSim, z: f32, mass: f32) {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass,
         color: None,
+        collides: true,
     };
     lock_sim(sim).change("add_box", &Args::new(), Ok(cmd), &Limits::default(), &mut |_| true).expect("add_box");
 }
@@ -89,6 +90,8 @@ fn every_world_the_server_makes_steps_on_the_threads_pool() {
             steps: 5,
             observe: Observe { object_ids: None, include_velocities: false, every: None },
             keep: true,
+            full: true,
+            rank_by: None,
         };
         let swept = reg.sweep("a", &Args::new(), request, || Box::new(|_| true) as Control, (2, usize::MAX)).expect("sweep");
         for v in &swept.variants {
@@ -210,7 +213,7 @@ fn steps_called_from_rayon_workers_at_once_all_finish() {
         let (mut w, _) = World::create(&root).unwrap();
         for i in 0..30 {
             let position = [(i % 6) as f32 * 0.3, (i / 6) as f32 * 0.3, seed as f32];
-            let body = Command::AddBody { shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] }, position, orientation: [0.0, 0.0, 0.0, 1.0], mass: 1.0, color: None };
+            let body = Command::AddBody { shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] }, position, orientation: [0.0, 0.0, 0.0, 1.0], mass: 1.0, color: None, collides: true };
             w.apply(&body, &mut |_| true);
         }
         w

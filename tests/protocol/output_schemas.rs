@@ -115,6 +115,9 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("get_num_joints", json!({"sim_id": sim, "object_id": arm})).await;
     c.call("get_joint_info", json!({"sim_id": sim, "object_id": arm, "joint_index": 0})).await;
     c.call("set_joint_motor_control", json!({"sim_id": sim, "object_id": arm, "joint_index": 0, "control_mode": "POSITION_CONTROL", "target_position": 0.3})).await;
+    c.call("set_joint_motor_control_array", json!({"sim_id": sim, "object_id": arm, "joint_indices": [0, 1], "control_mode": "POSITION_CONTROL", "target_positions": [0.3, 0.1]})).await;
+    c.call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": ball, "collision_filter_group": 2, "collision_filter_mask": 1})).await;
+    c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": ball, "object_id_b": arm, "enable_collision": false})).await;
     c.call("step_simulation", json!({"sim_id": sim, "steps": 60})).await;
     c.call("step_simulation", json!({"sim_id": sim, "steps": 5, "sample_every": 2})).await;
     c.call("get_trajectory", json!({"sim_id": sim, "include_velocities": true})).await;

@@ -5,5 +5,6 @@
 mod common;
 
 mod batch;
+mod compact_replies;
 mod concurrent_clients;
 mod sweep;

@@ -130,7 +130,7 @@ async fn trajectory_equals_stepping_one_step_at_a_time_bit_for_bit() {
     assert_eq!(c.hash(&fork).await, c.hash(&sim).await);
 
     for every in [1u64, 4, 7, 20, 100] {
-        let t = c.call("get_trajectory", json!({"sim_id": sim, "from_seq": from, "to_seq": to, "every": every, "include_velocities": true})).await;
+        let t = c.call("get_trajectory", json!({"sim_id": sim, "detail": "full", "from_seq": from, "to_seq": to, "every": every, "include_velocities": true})).await;
         let steps0 = t["steps"][0].as_u64().unwrap();
         let n = t["samples"].as_u64().unwrap() as usize;
         let expected: Vec<u64> = (0..=45).filter(|k| k % every == 0).chain((45 % every != 0).then_some(45)).collect();
@@ -145,7 +145,7 @@ async fn trajectory_equals_stepping_one_step_at_a_time_bit_for_bit() {
         assert_eq!(t["seqs"][n - 1].as_u64(), Some(to));
     }
     // Defaults: the last step only, about 100 samples; a subset of objects, no velocities.
-    let t = c.call("get_trajectory", json!({"sim_id": sim, "object_ids": [objects[1]]})).await;
+    let t = c.call("get_trajectory", json!({"sim_id": sim, "detail": "full", "object_ids": [objects[1]]})).await;
     assert_eq!(t["from_seq"].as_u64(), Some(to - 1));
     assert_eq!(t["every"], 1);
     assert_eq!(t["samples"], 26);
@@ -171,7 +171,7 @@ async fn sampled_step_is_a_plain_step_with_get_trajectorys_samples() {
         plain_result.as_object_mut().unwrap().remove("trajectory");
         plain_result["simulation_id"] = stepped["simulation_id"].clone();
         assert_eq!(plain_result, stepped, "the step's own result is a plain step's");
-        let t = c.call("get_trajectory", json!({"sim_id": sim, "every": every})).await;
+        let t = c.call("get_trajectory", json!({"sim_id": sim, "detail": "full", "every": every})).await;
         assert_eq!(traj, t, "step_simulation's samples are get_trajectory's over that event");
         assert_eq!(t["objects"].as_array().unwrap().len(), objects.len());
     }
@@ -203,11 +203,11 @@ async fn fork_intervals_reach_inherited_events_and_survive_a_kill() {
     let fork = c.call("fork_simulation", json!({"sim_id": sim, "at_seq": at})).await["simulation_id"].as_str().unwrap().to_string();
     c.step(&fork, 40).await;
     let to = head(&c, &fork).await;
-    let args = json!({"sim_id": fork, "from_seq": from, "to_seq": to, "every": 6, "include_velocities": true});
+    let args = json!({"sim_id": fork, "detail": "full", "from_seq": from, "to_seq": to, "every": 6, "include_velocities": true});
     let t = c.call("get_trajectory", args.clone()).await;
     assert_eq!(t["samples"], 2 + 100 / 6);
     // The inherited part equals the parent's own trajectory over it.
-    let p = c.call("get_trajectory", json!({"sim_id": sim, "from_seq": from, "to_seq": at, "every": 6, "include_velocities": true})).await;
+    let p = c.call("get_trajectory", json!({"sim_id": sim, "detail": "full", "from_seq": from, "to_seq": at, "every": 6, "include_velocities": true})).await;
     let n = p["samples"].as_u64().unwrap() as usize - 1; // the parent's last sample is its end state
     for (col, track) in [("positions", 1), ("linear_velocities", 1)] {
         assert_eq!(t["objects"][track][col].as_array().unwrap()[..n], p["objects"][track][col].as_array().unwrap()[..n]);
@@ -273,7 +273,7 @@ async fn replay_trajectory_on_every_recorded_log_equals_get_trajectory() {
             let rows = csv_rows(&text);
             let first_seq: u64 = text.lines().nth(1).unwrap().split(',').nth(3).unwrap().parse().unwrap();
             let t = c
-                .try_call("get_trajectory", json!({"sim_id": sim, "from_seq": first_seq, "to_seq": info["head_seq"], "include_velocities": true}))
+                .try_call("get_trajectory", json!({"sim_id": sim, "detail": "full", "from_seq": first_seq, "to_seq": info["head_seq"], "include_velocities": true}))
                 .await;
             let Ok(t) = t else { continue };
             let tracks = t["objects"].as_array().unwrap();
@@ -331,7 +331,7 @@ async fn refusals_name_the_parameter_and_change_nothing() {
         ("get_trajectory", json!({"sim_id": sim, "every": -3}), "every"),
         ("get_trajectory", json!({"sim_id": sim, "object_ids": [77]}), "object_ids"),
         ("get_trajectory", json!({"sim_id": sim, "object_ids": many, "every": 1}), "too many samples"),
-        ("get_trajectory", json!({"sim_id": sim, "every": 1, "include_velocities": true}), "output_path"),
+        ("get_trajectory", json!({"sim_id": sim, "detail": "full", "every": 1, "include_velocities": true}), "output_path"),
         ("get_trajectory", json!({"sim_id": sim, "output_path": "t.txt"}), "output_path"),
         ("get_trajectory", json!({"sim_id": sim, "output_path": "../t.csv"}), "output_path"),
         ("step_simulation", json!({"sim_id": sim, "steps": 5, "sample_every": 0}), "sample_every"),

@@ -64,6 +64,7 @@ fn new_sim(reg: &Registry, id: &str) -> SharedSim {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass: 0.0,
         color: None,
+        collides: true,
     };
     lock_sim(&sim).change("add_box", &Args::new(), Ok(ground), &Limits::default(), &mut |_| true).expect("ground");
     sim
@@ -78,9 +79,11 @@ fn run(sim: &SharedSim, op: &Op) -> String {
     let cmd = match *op {
         Op::AddBox(position, mass) => Command::AddBody {
             shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] }, position, orientation: ident, mass, color: None,
+            collides: true,
         },
         Op::AddSphere(position) => Command::AddBody {
             shape: Shape::Sphere { radius: 0.1 }, position, orientation: ident, mass: 1.0, color: None,
+            collides: true,
         },
         Op::Step(steps) => Command::StepSimulation { steps },
         Op::Force(object_id, force) => Command::ApplyForce { object_id, force, position: None, link_index: -1 },

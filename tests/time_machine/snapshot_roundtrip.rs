@@ -34,6 +34,7 @@ fn pile() -> World {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass: 0.0,
         color: None,
+        collides: true,
     });
     let mut r = Lcg(7);
     for i in 0..200u32 {
@@ -52,6 +53,7 @@ fn pile() -> World {
             orientation: [0.0, 0.0, s, c],
             mass: 0.5 + r.next(),
             color: Some([r.next(), 0.5, 0.5, 1.0]),
+            collides: true,
         });
     }
     // Constraints of every kind, between bodies and to the world (#5).

@@ -22,6 +22,7 @@ fn a_long_history_keeps_a_logarithmic_number_of_snapshots() {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass: 1.0,
         color: None,
+        collides: true,
     };
     sim.change("add_sphere", &a, Ok(add), &l, &mut |_| true).unwrap();
     let n = (SNAPSHOT_EVERY_CHANGES as u64) * 140;

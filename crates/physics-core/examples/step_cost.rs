@@ -19,7 +19,7 @@ fn apply(w: &mut World, c: &Command) {
 }
 
 fn add_box(w: &mut World, half: f32, position: [f32; 3], orientation: [f32; 4], mass: f32) {
-    let body = Command::AddBody { shape: Shape::Box { half_extents: [half, half, half] }, position, orientation, mass, color: None };
+    let body = Command::AddBody { shape: Shape::Box { half_extents: [half, half, half] }, position, orientation, mass, color: None, collides: true };
     apply(w, &body);
 }
 
@@ -32,6 +32,7 @@ fn ground() -> World {
         orientation: [0.0, 0.0, 0.0, 1.0],
         mass: 0.0,
         color: None,
+        collides: true,
     };
     apply(&mut w, &ground);
     w

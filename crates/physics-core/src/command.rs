@@ -338,6 +338,10 @@ pub enum Command {
         mass: f32,
         /// RGBA color, if given.
         color: Option<[f32; 4]>,
+        /// Whether it takes part in contacts; false makes a marker (rays and the camera still
+        /// see it). Omitted when true, so events recorded before markers re-encode byte for byte.
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        collides: bool,
     },
     /// Teleport a body.
     SetObjectPose {
@@ -433,6 +437,36 @@ pub enum Command {
         joint_index: u32,
         /// The motor.
         motor: MotorSpec,
+    },
+    /// Set several joints' motors in one call (set_joint_motor_control_array): each as
+    /// `SetJointMotor` would, in order (a joint named twice keeps the last).
+    SetJointMotors {
+        /// The robot.
+        object_id: u32,
+        /// (PyBullet joint index, its motor), in the order given.
+        motors: Vec<(u32, MotorSpec)>,
+    },
+    /// PyBullet's collision filter group and mask of an object's base (−1) or link
+    /// (set_collision_filter_group_mask): two parts touch only when each one's group meets the
+    /// other's mask (bit sets).
+    SetCollisionFilter {
+        /// The object.
+        object_id: u32,
+        /// −1 = the base; ≥ 0 a link.
+        link_index: i32,
+        /// The groups it belongs to.
+        group: u32,
+        /// The groups it touches.
+        mask: u32,
+    },
+    /// Contacts between two parts (object, link) off or back on (set_collision_filter_pair).
+    SetCollisionPair {
+        /// One part: (object id, link index; −1 = the base).
+        a: (u32, i32),
+        /// The other part.
+        b: (u32, i32),
+        /// On (true) or off.
+        enable: bool,
     },
     /// Teleport one joint to a position and velocity (reset_joint_state, PyBullet's
     /// resetJointState); the links below it follow through forward kinematics.
@@ -561,6 +595,14 @@ pub struct ConstraintSpec {
     pub child_frame_orientation: [f32; 4],
 }
 
+fn yes() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
+}
+
 fn base_link() -> i32 {
     -1
 }
@@ -579,6 +621,19 @@ fn room_for_object(world: &World, limits: &Limits) -> Result<(), Refusal> {
 }
 
 /// `name` must hold finite numbers.
+/// A motor's own values: finite numbers, a maximum effort ≥ 0.
+fn motor_values(motor: &MotorSpec) -> Result<(), Refusal> {
+    finite("target_position", &[motor.target_position])?;
+    finite("target_velocity", &[motor.target_velocity])?;
+    finite("position_gain", &[motor.position_gain])?;
+    finite("velocity_gain", &[motor.velocity_gain])?;
+    match (motor.mode, motor.force) {
+        (_, None) => Ok(()),
+        (ControlMode::TorqueControl, Some(f)) => finite("force", &[f]),
+        (_, Some(f)) => non_negative("force", f),
+    }
+}
+
 fn finite(name: &str, v: &[f32]) -> Result<(), Refusal> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
@@ -743,7 +798,7 @@ impl Command {
                     _ => Ok(()),
                 }
             }
-            Command::AddBody { shape, position, orientation, mass, color } => {
+            Command::AddBody { shape, position, orientation, mass, color, .. } => {
                 for d in shape.dimensions() {
                     positive("dimensions", d)?;
                 }
@@ -776,17 +831,14 @@ impl Command {
                 change.fields().into_iter().filter_map(|(n, v)| v.map(|v| (n, v))).try_for_each(|(n, v)| non_negative(n, v))
             }
             Command::RemoveObject { .. } | Command::RemoveConstraint { .. } | Command::SetDebugVisualization { .. } => Ok(()),
-            Command::SetJointMotor { motor, .. } => {
-                finite("target_position", &[motor.target_position])?;
-                finite("target_velocity", &[motor.target_velocity])?;
-                finite("position_gain", &[motor.position_gain])?;
-                finite("velocity_gain", &[motor.velocity_gain])?;
-                match (motor.mode, motor.force) {
-                    (_, None) => Ok(()),
-                    (ControlMode::TorqueControl, Some(f)) => finite("force", &[f]),
-                    (_, Some(f)) => non_negative("force", f),
+            Command::SetJointMotor { motor, .. } => motor_values(motor),
+            Command::SetJointMotors { motors, .. } => {
+                if motors.is_empty() {
+                    return Err("joint_indices must name at least one joint".into());
                 }
+                motors.iter().try_for_each(|(_, m)| motor_values(m))
             }
+            Command::SetCollisionFilter { .. } | Command::SetCollisionPair { .. } => Ok(()),
             Command::ResetJointState { target_value, target_velocity, .. } => {
                 finite("target_value", &[*target_value])?;
                 finite("target_velocity", &[*target_velocity])
@@ -893,6 +945,24 @@ impl Command {
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 exists(*object_id)?;
                 world.check_motor(*object_id, *joint_index, motor)
+            }
+            Command::SetJointMotors { object_id, motors } => {
+                exists(*object_id)?;
+                motors.iter().try_for_each(|(j, m)| world.check_motor(*object_id, *j, m))
+            }
+            Command::SetCollisionFilter { object_id, link_index, .. } => {
+                exists(*object_id)?;
+                world.check_link(*object_id, *link_index)
+            }
+            Command::SetCollisionPair { a, b, .. } => {
+                for (name, (id, link)) in [("a", a), ("b", b)] {
+                    exists(*id)?;
+                    world.check_link(*id, *link).map_err(|why| format!("link_index_{name}: {why}"))?;
+                }
+                if a == b {
+                    return Err("object_id_a and object_id_b name the same part; a pair is two parts".into());
+                }
+                Ok(())
             }
             Command::ResetJointState { object_id, joint_index, .. } => {
                 exists(*object_id)?;

@@ -111,6 +111,10 @@ pub struct Trajectory {
     /// The file the whole table was written to (then the result is this summary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_path: Option<String>,
+    /// Objects left out of `objects` because every sample of theirs was bit-identical (at
+    /// rest or static throughout); `detail: "full"` lists them too.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unmoved: Vec<u32>,
 }
 
 /// One object's samples; null where the object does not exist at a sample.
@@ -265,6 +269,9 @@ pub struct Batched {
 pub struct Swept {
     /// The variants' outcomes.
     pub variants: Vec<SweptVariant>,
+    /// Variant indices, highest rank_by metric first (with rank_by).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ranking: Option<Vec<usize>>,
 }
 
 /// One variant of a sweep after its calls and steps.
@@ -282,6 +289,10 @@ pub struct SweptVariant {
     /// Poses sampled while stepping (when observe.every is given).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<Trajectory>,
+    /// Observed objects left out of `objects` because they did not move during the steps
+    /// (displacement and peak speed 0); `detail: "full"` lists them too.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unmoved: Vec<u32>,
 }
 
 /// An object's final state in a sweep's variant.
@@ -299,6 +310,10 @@ pub struct SweptObject {
     /// Angular velocity (rad/s), with observe.include_velocities.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angular_velocity: Option<[f64; 3]>,
+    /// Distance (m) from its position before the steps (after the variant's calls).
+    pub displacement: f64,
+    /// Highest speed (m/s) after any of the steps.
+    pub peak_speed: f64,
 }
 
 /// Result of get_simulation_info.

@@ -74,6 +74,9 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         }),
         "set_timestep" => change(tool, a, simulations::decide_timestep),
         "set_joint_motor_control" => change(tool, a, robots::decide_motor),
+        "set_joint_motor_control_array" => change(tool, a, robots::decide_motor_array),
+        "set_collision_filter_group_mask" => change(tool, a, objects::decide_filter),
+        "set_collision_filter_pair" => change(tool, a, objects::decide_pair),
         "reset_joint_state" => change(tool, a, mjcf::decide_reset),
         "create_constraint" => change(tool, a, constraints::decide_create),
         "remove_constraint" => change(tool, a, constraints::decide_remove),
@@ -137,6 +140,7 @@ fn steps_asked(a: &Args) -> u64 {
 /// and models parsed (before the simulation is locked).
 fn batch_calls(sandbox: &Sandbox, a: &Args) -> Result<Vec<Call>, Refusal> {
     let p: params::Batch = params::parse("batch", a)?;
+    crate::params::lenient::full_detail(p.detail.as_ref())?;
     let n = p.calls.len();
     if n == 0 || n > MAX_CALLS {
         return Err(format!("calls must hold 1 to {MAX_CALLS} calls; got {n}"));
@@ -146,8 +150,8 @@ fn batch_calls(sandbox: &Sandbox, a: &Args) -> Result<Vec<Call>, Refusal> {
 
 #[tool_router(router = batch_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Up to 10,000 calls in one request, all or nothing; each is its own event. Takes the
-    /// state-changing tools and get_object_state/joint_state/link_state/simulation_info.
+    /// Up to 10,000 calls, all or nothing, each its own event: the state-changing tools and
+    /// get_object_state/joint_state/link_state/simulation_info.
     #[tool(input_schema = schema_for_type::<params::Batch>())]
     async fn batch(
         &self,

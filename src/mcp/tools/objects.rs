@@ -5,8 +5,11 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use crate::params::lenient::{link_index, Color, NonNegative, Quat, Vec3};
-use crate::params::{self, AddBox, AddRound, AddSphere, ApplyForce, ApplyTorque, ChangeDynamics, ObjectRef, SetPose, SetVelocity};
+use crate::params::lenient::{link_index, Bool, Color, NonNegative, Quat, Vec3};
+use crate::params::{
+    self, AddBox, AddRound, AddSphere, ApplyForce, ApplyTorque, ChangeDynamics, CollisionFilterGroupMask, CollisionFilterPair,
+    ObjectRef, SetPose, SetVelocity,
+};
 use crate::mcp::PhysicsServer;
 use crate::command::{Command, DynamicsChange, Shape};
 use crate::outputs::{DynamicsChanged, DynamicsInfo, Message, ObjectAdded, ObjectState};
@@ -18,14 +21,23 @@ pub(super) fn quat_or_identity(q: Option<Quat>) -> [f32; 4] {
     q.map_or([0.0, 0.0, 0.0, 1.0], |q| q.0)
 }
 
-/// The parts every add_* call shares: position, orientation, mass, color.
-fn decide_add(shape: Shape, position: Vec3, orientation: Option<Quat>, mass: Option<NonNegative>, color: Option<Color>) -> Command {
+/// The parts every add_* call shares: where, how heavy, what colour, whether it collides.
+struct Placed {
+    position: Vec3,
+    orientation: Option<Quat>,
+    mass: Option<NonNegative>,
+    color: Option<Color>,
+    collides: Option<Bool>,
+}
+
+fn decide_add(shape: Shape, p: Placed) -> Command {
     Command::AddBody {
         shape,
-        position: position.0,
-        orientation: quat_or_identity(orientation),
-        mass: mass.map_or(1.0, |m| m.0),
-        color: color.map(|c| c.0),
+        position: p.position.0,
+        orientation: quat_or_identity(p.orientation),
+        mass: p.mass.map_or(1.0, |m| m.0),
+        color: p.color.map(|c| c.0),
+        collides: p.collides.is_none_or(|b| b.0),
     }
 }
 
@@ -37,21 +49,57 @@ pub(super) fn decide_box(p: AddBox) -> Result<Command, Refusal> {
             d
         ));
     }
-    Ok(decide_add(Shape::Box { half_extents: d }, p.position, p.orientation, p.mass, p.color))
+    let placed = Placed { position: p.position, orientation: p.orientation, mass: p.mass, color: p.color, collides: p.collides };
+    Ok(decide_add(Shape::Box { half_extents: d }, placed))
 }
 
 pub(super) fn decide_sphere(p: AddSphere) -> Result<Command, Refusal> {
-    Ok(decide_add(Shape::Sphere { radius: p.radius.0 }, p.position, p.orientation, p.mass, p.color))
+    let placed = Placed { position: p.position, orientation: p.orientation, mass: p.mass, color: p.color, collides: p.collides };
+    Ok(decide_add(Shape::Sphere { radius: p.radius.0 }, placed))
+}
+
+fn decide_round(p: AddRound, shape: fn(f32, f32) -> Shape) -> Command {
+    let placed = Placed { position: p.position, orientation: p.orientation, mass: p.mass, color: p.color, collides: p.collides };
+    decide_add(shape(p.radius.0, p.height.0), placed)
 }
 
 pub(super) fn decide_cylinder(p: AddRound) -> Result<Command, Refusal> {
-    let shape = Shape::Cylinder { radius: p.radius.0, height: p.height.0 };
-    Ok(decide_add(shape, p.position, p.orientation, p.mass, p.color))
+    Ok(decide_round(p, |radius, height| Shape::Cylinder { radius, height }))
 }
 
 pub(super) fn decide_capsule(p: AddRound) -> Result<Command, Refusal> {
-    let shape = Shape::Capsule { radius: p.radius.0, height: p.height.0 };
-    Ok(decide_add(shape, p.position, p.orientation, p.mass, p.color))
+    Ok(decide_round(p, |radius, height| Shape::Capsule { radius, height }))
+}
+
+/// A base or link index as the core numbers it (−1 = the base), checked as `link_index` is.
+fn part_index(link: Option<crate::params::lenient::Int<i64>>, name: &str) -> Result<i32, Refusal> {
+    let i = link.map_or(-1, |l| l.get());
+    i32::try_from(i).ok().filter(|i| *i >= -1).ok_or_else(|| format!("{name} must be -1 (the base) or a link index >= 0; got {i}"))
+}
+
+/// A 32-bit set as PyBullet takes it: 0 to 2^32 − 1, or a negative 32-bit int (−1 = all bits).
+fn bits(v: crate::params::lenient::Int<u32>, name: &str) -> Result<u32, Refusal> {
+    let i = v.get();
+    u32::try_from(i)
+        .or_else(|_| i32::try_from(i).map(|x| x as u32))
+        .map_err(|_| format!("{name} must be a 32-bit set of bits (0 to 4294967295, or -1 for all); got {i}"))
+}
+
+pub(super) fn decide_filter(p: CollisionFilterGroupMask) -> Result<Command, Refusal> {
+    Ok(Command::SetCollisionFilter {
+        object_id: p.object_id.0,
+        link_index: part_index(p.link_index, "link_index")?,
+        group: bits(p.collision_filter_group, "collision_filter_group")?,
+        mask: bits(p.collision_filter_mask, "collision_filter_mask")?,
+    })
+}
+
+pub(super) fn decide_pair(p: CollisionFilterPair) -> Result<Command, Refusal> {
+    Ok(Command::SetCollisionPair {
+        a: (p.object_id_a.0, part_index(p.link_index_a, "link_index_a")?),
+        b: (p.object_id_b.0, part_index(p.link_index_b, "link_index_b")?),
+        enable: p.enable_collision.0,
+    })
 }
 
 pub(super) fn decide_pose(p: SetPose) -> Result<Command, Refusal> {
@@ -205,5 +253,17 @@ impl PhysicsServer {
     )]
     async fn remove_object(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("remove_object", args, decide_remove).await
+    }
+
+    /// Two parts touch when each one's group meets the other's mask (bits; default 1, all).
+    #[tool(input_schema = schema_for_type::<params::CollisionFilterGroupMask>())]
+    async fn set_collision_filter_group_mask(&self, args: JsonObject) -> Result<Json<Message>, String> {
+        self.change("set_collision_filter_group_mask", args, decide_filter).await
+    }
+
+    /// Turn contacts between two parts off or on, whatever their masks.
+    #[tool(input_schema = schema_for_type::<params::CollisionFilterPair>())]
+    async fn set_collision_filter_pair(&self, args: JsonObject) -> Result<Json<Message>, String> {
+        self.change("set_collision_filter_pair", args, decide_pair).await
     }
 }

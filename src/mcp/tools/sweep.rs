@@ -15,7 +15,7 @@ use crate::mcp::PhysicsServer;
 use crate::sim::apply::call_refused;
 use crate::outputs::Swept;
 use crate::sim::lock_sim;
-use crate::sim::sweep::{Control, Observe, Request, MAX_VARIANTS};
+use crate::sim::sweep::{Control, Metric, Observe, Request, MAX_VARIANTS};
 use crate::value::{self, Args, Refusal};
 
 /// The sweep a call asks for, every variant's calls decided (a refusal names the variant
@@ -40,12 +40,25 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
             .map_err(|(i, tool, why)| format!("variants[{v}]: {}", call_refused(i, &tool, &why)))?;
         variants.push(planned);
     }
-    Ok(Request { variants, steps, observe, keep: p.keep.is_some_and(|b| b.0) })
+    let rank_by = match p.rank_by {
+        None => None,
+        Some(r) => Some((
+            r.object_id.0,
+            match r.metric.0.as_str() {
+                "displacement" => Metric::Displacement,
+                "peak_speed" => Metric::PeakSpeed,
+                "final_z" => Metric::FinalZ,
+                other => return Err(format!("rank_by.metric must be displacement, peak_speed or final_z; got {other:?}")),
+            },
+        )),
+    };
+    let full = crate::params::lenient::full_detail(p.detail.as_ref())?;
+    Ok(Request { variants, steps, observe, keep: p.keep.is_some_and(|b| b.0), full, rank_by })
 }
 
 #[tool_router(router = sweep_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Per variant: fork at the head, apply its calls, step, report. Runs in parallel; forks
+    /// Per variant: fork at the head, apply its calls, step, summarise. In parallel; forks
     /// are deleted unless keep.
     #[tool(input_schema = schema_for_type::<params::Sweep>())]
     async fn run_sweep(

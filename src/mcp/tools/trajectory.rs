@@ -41,9 +41,27 @@ fn opt_ids(v: Option<Vec<ObjectId>>) -> Option<Vec<u32>> {
     v.map(|ids| ids.into_iter().map(|i| i.0).collect())
 }
 
-/// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path.
-fn trajectory_args(a: &Args) -> Result<(Asked, (Request, Option<String>)), Refusal> {
+/// The decimals a compact trajectory is rounded to unless `precision` says otherwise.
+const DEFAULT_DECIMALS: u32 = 4;
+
+/// How the inline table is shortened: None for everything (`detail: "full"`), else the
+/// decimals to round to (None: exact).
+type Shortening = Option<Option<u32>>;
+
+/// What get_trajectory asks besides the interval: what to sample, output_path, shortening.
+type Asking = (Request, Option<String>, Shortening);
+
+/// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path, shortening.
+fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
     let p: GetTrajectory = params::parse("get_trajectory", a)?;
+    let precision = p
+        .precision
+        .map(|n| u32::try_from(n.get()).ok().filter(|n| *n <= 15).ok_or_else(|| format!("precision must be an integer from 0 to 15 (decimals); got {}", n.get())))
+        .transpose()?;
+    // Compact by default: 0.1 mm (and 1e-4 of a quaternion, ~0.01°) is finer than the questions
+    // a model asks of a trajectory (did it move, when did it land) at ~40 % of the bytes; "full"
+    // gives every bit.
+    let shortening = (!crate::params::lenient::full_detail(p.detail.as_ref())?).then_some(Some(precision.unwrap_or(DEFAULT_DECIMALS)));
     let interval = (opt_seq(p.from_seq, "from_seq")?, opt_seq(p.to_seq, "to_seq")?);
     let req = Request {
         every: opt_every(p.every, "every")?,
@@ -54,7 +72,7 @@ fn trajectory_args(a: &Args) -> Result<(Asked, (Request, Option<String>)), Refus
     if let Some(p) = &path {
         trajectory::is_jsonl(p, "output_path")?;
     }
-    Ok((interval, (req, path)))
+    Ok((interval, (req, path, shortening)))
 }
 
 /// The reply of get_trajectory: the table inline (within the reply budget) or in the file.
@@ -155,8 +173,12 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
     async fn get_trajectory(&self, args: JsonObject) -> Result<Json<Trajectory>, String> {
         let sandbox = self.reg.sandbox().clone();
-        self.look_back("get_trajectory", args, trajectory_args, move |(req, path), lent| {
-            let t = trajectory::sample_interval(lent, &req)?;
+        self.look_back("get_trajectory", args, trajectory_args, move |(req, path, shortening), lent| {
+            let mut t = trajectory::sample_interval(lent, &req)?;
+            // The inline table is what a model reads; a file keeps every sample.
+            if let (None, Some(precision)) = (&path, shortening) {
+                trajectory::compact(&mut t, precision);
+            }
             deliver(t, path, &sandbox)
         })
         .await

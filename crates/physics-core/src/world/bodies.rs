@@ -47,7 +47,8 @@ impl World {
                 orientation,
                 mass,
                 color,
-            } => BodyOutcome::Added(self.add_body(shape, *position, *orientation, *mass, *color)),
+                collides,
+            } => BodyOutcome::Added(self.add_body(shape, *position, *orientation, *mass, *color, *collides)),
             Command::SetObjectPose {
                 object_id,
                 position,
@@ -138,6 +139,7 @@ impl World {
                 }
                 self.tables.pending_wrench.remove(object_id);
                 self.tables.as_given.link_masses.retain(|(id, _), _| id != object_id);
+                self.tables.filters.forget(*object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
@@ -148,6 +150,9 @@ impl World {
             | Command::LoadUrdf { .. }
             | Command::LoadMjcf { .. }
             | Command::SetJointMotor { .. }
+            | Command::SetJointMotors { .. }
+            | Command::SetCollisionFilter { .. }
+            | Command::SetCollisionPair { .. }
             | Command::ResetJointState { .. }
             | Command::CreateConstraint { .. }
             | Command::RemoveConstraint { .. }
@@ -165,6 +170,7 @@ impl World {
         orientation: [f32; 4],
         mass: f32,
         color: Option<[f32; 4]>,
+        collides: bool,
     ) -> ObjectAdded {
         let body_type = if mass > 0.0 {
             RigidBodyType::Dynamic
@@ -175,14 +181,19 @@ impl World {
             .pose(Pose::from_parts(v3(position), quat(orientation)))
             .linear_damping(DEFAULT_DAMPING)
             .angular_damping(DEFAULT_DAMPING);
-        let collider = collider_for(shape)
+        let mut collider = collider_for(shape)
             .mass(if mass > 0.0 { mass } else { 1.0 })
             .friction(DEFAULT_FRICTION)
             .restitution(0.0)
             .friction_combine_rule(CoefficientCombineRule::Multiply)
             .restitution_combine_rule(CoefficientCombineRule::Multiply);
-        let (body, collider) = self.physics.insert(body, collider);
         let id = self.tables.next_object_id;
+        if !collides {
+            // A marker: in no group, touching none; rays and the camera still see it.
+            collider = collider.collision_groups(InteractionGroups::none());
+            self.tables.filters.markers.insert(id);
+        }
+        let (body, collider) = self.physics.insert(body, collider);
         self.tables.next_object_id += 1;
         self.tables.objects.insert(
             id,
@@ -304,7 +315,7 @@ impl World {
     }
 
     /// The body and colliders of an object's base (−1) or of one of its links.
-    fn part(&self, id: u32, link_index: i32) -> Option<(RigidBodyHandle, Vec<ColliderHandle>)> {
+    pub(super) fn part(&self, id: u32, link_index: i32) -> Option<(RigidBodyHandle, Vec<ColliderHandle>)> {
         let obj = self.tables.objects.get(&id)?;
         match (obj.kind.robot(), link_index) {
             (Some(robot), i) if i >= 0 => {

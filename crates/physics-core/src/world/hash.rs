@@ -153,6 +153,10 @@ pub(super) fn state_hash(w: &World) -> String {
     if !mjcf.is_empty() {
         bytes.extend(encode(&("mjcf", mjcf)));
     }
+    // The collision filters, pairs and markers likewise, only when the agent set any.
+    if !w.tables.filters.is_empty() {
+        bytes.extend(encode(&("filters", &w.tables.filters)));
+    }
     // Constraints likewise, behind a tag so they can never read as robots.
     if !w.tables.constraints.is_empty() {
         let views = super::constraints::hash_views(w);

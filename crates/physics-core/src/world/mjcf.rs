@@ -59,47 +59,16 @@ pub struct MjcfInfo {
     pub excluded: Vec<(RigidBodyHandle, RigidBodyHandle)>,
 }
 
-/// Every MJCF object's `<exclude>` pairs, as the contact filter of a step (rapier consults it
-/// only for colliders flagged with `FILTER_CONTACT_PAIRS`, i.e. those of excluded bodies).
-pub struct ExcludedPairs(BTreeSet<(Raw, Raw)>);
-
-/// A body handle's raw parts (handles are not `Ord`).
-type Raw = (u32, u32);
-
-impl ExcludedPairs {
-    /// The pairs of every MJCF object in the world.
-    pub(super) fn of(w: &World) -> ExcludedPairs {
-        let mut set = BTreeSet::new();
-        for obj in w.tables.objects.values() {
-            if let ObjectKind::Mjcf { mjcf, .. } = &obj.kind {
-                for (a, b) in &mjcf.excluded {
-                    set.insert((a.into_raw_parts(), b.into_raw_parts()));
-                    set.insert((b.into_raw_parts(), a.into_raw_parts()));
-                }
-            }
-        }
-        ExcludedPairs(set)
-    }
-
-    /// No pair: the plain step applies.
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-}
-
-impl PhysicsHooks for ExcludedPairs {
-    fn filter_contact_pair(&self, c: &PairFilterContext) -> Option<SolverFlags> {
-        match (c.rigid_body1, c.rigid_body2) {
-            (Some(a), Some(b)) if self.0.contains(&(a.into_raw_parts(), b.into_raw_parts())) => None,
-            _ => Some(SolverFlags::default()),
+/// Every MJCF object's `<exclude>` pairs (merged bodies by their link), for the step's
+/// contact filter (`filters::ContactFilter`).
+pub(super) fn excluded_body_pairs(w: &World) -> Vec<(RigidBodyHandle, RigidBodyHandle)> {
+    let mut out = Vec::new();
+    for obj in w.tables.objects.values() {
+        if let ObjectKind::Mjcf { mjcf, .. } = &obj.kind {
+            out.extend(mjcf.excluded.iter().copied());
         }
     }
-
-    fn filter_intersection_pair(&self, _: &PairFilterContext) -> bool {
-        true
-    }
-
-    fn modify_solver_contacts(&self, _: &mut ContactModificationContext) {}
+    out
 }
 
 /// A parsed and converted model, checked, ready to insert.

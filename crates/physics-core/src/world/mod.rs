@@ -8,6 +8,7 @@
 
 mod bodies;
 pub mod constraints;
+pub mod filters;
 mod hash;
 pub mod ik;
 pub mod mjcf;
@@ -217,6 +218,54 @@ pub struct Tables {
     pub constraints: BTreeMap<u32, constraints::Constraint>,
     /// Values as the client gave them (reported, not hashed).
     pub as_given: AsGiven,
+    /// Collision filters, pairs and markers the agent set (hashed when any).
+    pub filters: filters::Filters,
+}
+
+/// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
+/// with no filters, so version-3 snapshots are still folded on.
+#[derive(Deserialize)]
+struct TablesV3 {
+    objects: BTreeMap<u32, Object>,
+    next_object_id: u32,
+    next_constraint_id: u32,
+    time_s: f64,
+    steps: u64,
+    pending_wrench: BTreeSet<u32>,
+    viewer: Viewer,
+    constraints: BTreeMap<u32, constraints::Constraint>,
+    as_given: AsGiven,
+}
+
+/// `TablesV3`'s encoding of today's tables (those without filters), borrowed.
+#[derive(Serialize)]
+struct TablesV3Ref<'a> {
+    objects: &'a BTreeMap<u32, Object>,
+    next_object_id: u32,
+    next_constraint_id: u32,
+    time_s: f64,
+    steps: u64,
+    pending_wrench: &'a BTreeSet<u32>,
+    viewer: &'a Viewer,
+    constraints: &'a BTreeMap<u32, constraints::Constraint>,
+    as_given: &'a AsGiven,
+}
+
+impl From<TablesV3> for Tables {
+    fn from(t: TablesV3) -> Self {
+        Tables {
+            objects: t.objects,
+            next_object_id: t.next_object_id,
+            next_constraint_id: t.next_constraint_id,
+            time_s: t.time_s,
+            steps: t.steps,
+            pending_wrench: t.pending_wrench,
+            viewer: t.viewer,
+            constraints: t.constraints,
+            as_given: t.as_given,
+            filters: filters::Filters::default(),
+        }
+    }
 }
 
 /// The tables as snapshot version 2 encoded them (before `as_given`).
@@ -251,6 +300,7 @@ impl TablesV2 {
             pending_wrench: self.pending_wrench,
             viewer: self.viewer,
             constraints: self.constraints,
+            filters: filters::Filters::default(),
         }
     }
 }
@@ -499,6 +549,18 @@ impl World {
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 Outcome::Message(Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
+            Command::SetJointMotors { object_id, motors } => {
+                for (j, m) in motors {
+                    self.set_motor(*object_id, *j, m);
+                }
+                let joints: Vec<u32> = motors.iter().map(|(j, _)| *j).collect();
+                let mode = motors.first().map_or("", |(_, m)| m.mode.name());
+                Outcome::Message(Message::new(format!("Motors of joints {joints:?} of object {object_id} set to {mode}")))
+            }
+            Command::SetCollisionFilter { object_id, link_index, group, mask } => {
+                Outcome::Message(Message::new(self.set_collision_filter(*object_id, *link_index, *group, *mask)))
+            }
+            Command::SetCollisionPair { a, b, enable } => Outcome::Message(Message::new(self.set_collision_pair(*a, *b, *enable))),
             Command::ResetJointState { object_id, joint_index, target_value, target_velocity } => {
                 Outcome::Message(Message::new(self.reset_joint(*object_id, *joint_index, *target_value, *target_velocity)))
             }
@@ -537,7 +599,7 @@ impl World {
     fn step_here(&mut self, n: u64, control: StepControl, observe: StepObserver) -> u64 {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
-        let excluded = mjcf::ExcludedPairs::of(self);
+        let excluded = filters::ContactFilter::of(self);
         while taken < n {
             let watches = self.drive_motors();
             if excluded.is_empty() {
@@ -567,8 +629,27 @@ impl World {
         // Sized up front (≈ 4.5 KB per body in a settled pile): growing a multi-MB Vec by
         // doubling copies it several times, a sizeable part of the snapshot's cost.
         let hint = 64 * 1024 + 6 * 1024 * self.physics.bodies.len();
-        postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, &self.tables), Vec::with_capacity(hint))
-            .unwrap_or_default()
+        let out = Vec::with_capacity(hint);
+        let t = &self.tables;
+        // A world that never used the collision filters is encoded as version 3 was, byte for
+        // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
+        let encoded = if t.filters.is_empty() {
+            let v3 = TablesV3Ref {
+                objects: &t.objects,
+                next_object_id: t.next_object_id,
+                next_constraint_id: t.next_constraint_id,
+                time_s: t.time_s,
+                steps: t.steps,
+                pending_wrench: &t.pending_wrench,
+                viewer: &t.viewer,
+                constraints: &t.constraints,
+                as_given: &t.as_given,
+            };
+            postcard::to_extend(&(3u32, &self.physics, v3), out)
+        } else {
+            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t), out)
+        };
+        encoded.unwrap_or_default()
     }
 
     /// A working copy of this world that continues exactly as this one would (what
@@ -609,6 +690,11 @@ impl World {
                     postcard::from_bytes(bytes).map_err(bad)?;
                 (physics, tables)
             }
+            3 => {
+                let (_, physics, tables): (u32, PhysicsWorld, TablesV3) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                (physics, tables.into())
+            }
             2 => {
                 let (_, physics, tables): (u32, PhysicsWorld, TablesV2) =
                     postcard::from_bytes(bytes).map_err(bad)?;
@@ -632,11 +718,12 @@ impl World {
         })
     }
 
-    /// Whether a fold may start from these snapshot bytes: older versions restore (their
+    /// Whether a fold may start from these snapshot bytes: versions 1 and 2 restore (their
     /// hashes can be checked) but lack the values as given, so results computed on them could
-    /// differ from a fold from the root's; folds start at a current snapshot or the root.
+    /// differ from a fold from the root's; version 3 lacks only the filters, which it could not
+    /// have had, so it restores exactly; folds start at such a snapshot or the root.
     pub fn foldable_snapshot(bytes: &[u8]) -> bool {
-        postcard::take_from_bytes::<u32>(bytes).is_ok_and(|(v, _)| v == SNAPSHOT_VERSION)
+        postcard::take_from_bytes::<u32>(bytes).is_ok_and(|(v, _)| v == SNAPSHOT_VERSION || v == 3)
     }
 
     /// blake3 (hex) over the canonical encoding of everything `apply` can change.
@@ -645,9 +732,10 @@ impl World {
     }
 }
 
-/// Version of the snapshot encoding (2 added constraints to the tables, 3 the values as given;
-/// 1 and 2 still restore).
-pub const SNAPSHOT_VERSION: u32 = 3;
+/// Version of the snapshot encoding (2 added constraints to the tables, 3 the values as given,
+/// 4 the collision filters, written only for worlds that have any — others are written as 3;
+/// 1 to 3 still restore).
+pub const SNAPSHOT_VERSION: u32 = 4;
 
 impl From<bodies::BodyOutcome> for Outcome {
     fn from(o: bodies::BodyOutcome) -> Outcome {

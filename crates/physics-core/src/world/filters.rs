@@ -1,0 +1,158 @@
+//! Who touches whom, as the agent set it: PyBullet's collision filter group and mask per part
+//! (set_collision_filter_group_mask), pairs of parts whose contacts are off
+//! (set_collision_filter_pair), and markers — bodies that touch nothing (add_* with
+//! `collides: false`; rays and the camera still see them).
+//!
+//! Markers live in rapier's colliders (collision groups that meet nothing). Group/mask and
+//! disabled pairs are a contact-pair filter consulted during the step (`ContactFilter`), beside
+//! MJCF's `<exclude>`: PyBullet's rule needs every other part at its default (group 1, mask
+//! all), while rapier's default membership is every group, and changing that would change
+//! every world's hash. The table here records what was set, so the state hash covers it (only
+//! when anything was: worlds that never used these keep their hashes).
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use rapier3d::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::World;
+
+/// A part of an object: (object id, link index; −1 = the base).
+pub type Part = (u32, i32);
+
+/// What the collision filter tools set (empty unless used).
+#[derive(Serialize, Deserialize, Clone, Debug, Default, PartialEq)]
+pub struct Filters {
+    /// set_collision_filter_group_mask: part → (group, mask).
+    pub groups: BTreeMap<Part, (u32, u32)>,
+    /// Pairs whose contacts are off (each pair stored in order, smaller part first).
+    pub disabled_pairs: BTreeSet<(Part, Part)>,
+    /// Markers: objects made to touch nothing.
+    pub markers: BTreeSet<u32>,
+}
+
+impl Filters {
+    /// Whether nothing was set (then the state hash leaves the section out).
+    pub fn is_empty(&self) -> bool {
+        self.groups.is_empty() && self.disabled_pairs.is_empty() && self.markers.is_empty()
+    }
+
+    /// Forgets every entry of a removed object.
+    pub(super) fn forget(&mut self, id: u32) {
+        self.groups.retain(|(o, _), _| *o != id);
+        self.disabled_pairs.retain(|(a, b)| a.0 != id && b.0 != id);
+        self.markers.remove(&id);
+    }
+}
+
+/// PyBullet's default group and mask of a part nobody filtered.
+const DEFAULT_GROUP_MASK: (u32, u32) = (1, u32::MAX);
+
+/// PyBullet's test: two parts touch when each one's group meets the other's mask.
+fn touch((g1, m1): (u32, u32), (g2, m2): (u32, u32)) -> bool {
+    g1 & m2 != 0 && g2 & m1 != 0
+}
+
+impl World {
+    /// Asks the contact filter about a part's colliders from now on.
+    fn filter_contacts_of(&mut self, id: u32, link_index: i32) {
+        if let Some((_, colliders)) = self.part(id, link_index) {
+            for ch in colliders {
+                if let Some(c) = self.physics.colliders.get_mut(ch) {
+                    c.set_active_hooks(c.active_hooks() | ActiveHooks::FILTER_CONTACT_PAIRS);
+                }
+            }
+        }
+    }
+
+    /// Sets a part's collision group and mask, recording it.
+    pub(super) fn set_collision_filter(&mut self, id: u32, link_index: i32, group: u32, mask: u32) -> String {
+        self.filter_contacts_of(id, link_index);
+        self.tables.filters.groups.insert((id, link_index), (group, mask));
+        format!("Collision filter of object {id} link {link_index} set: group {group}, mask {mask}")
+    }
+
+    /// Turns contacts between two parts off (or back on), recording it. Their colliders ask the
+    /// contact filter of each step.
+    pub(super) fn set_collision_pair(&mut self, a: (u32, i32), b: (u32, i32), enable: bool) -> String {
+        let pair = if a <= b { (a, b) } else { (b, a) };
+        if enable {
+            self.tables.filters.disabled_pairs.remove(&pair);
+        } else {
+            self.tables.filters.disabled_pairs.insert(pair);
+            for (id, link) in [a, b] {
+                self.filter_contacts_of(id, link);
+            }
+        }
+        format!(
+            "Contacts between object {} link {} and object {} link {} {}",
+            a.0,
+            a.1,
+            b.0,
+            b.1,
+            if enable { "on" } else { "off" }
+        )
+    }
+
+    /// The rigid bodies of the disabled pairs, as a contact filter takes them.
+    pub(super) fn disabled_body_pairs(&self) -> Vec<(RigidBodyHandle, RigidBodyHandle)> {
+        self.tables
+            .filters
+            .disabled_pairs
+            .iter()
+            .filter_map(|(a, b)| Some((self.part(a.0, a.1)?.0, self.part(b.0, b.1)?.0)))
+            .collect()
+    }
+}
+
+/// The contact filter of a step: body pairs whose contacts are off (MJCF `<exclude>` and
+/// set_collision_filter_pair) and bodies' groups and masks (set_collision_filter_group_mask).
+/// rapier consults it only for pairs where a collider is flagged `FILTER_CONTACT_PAIRS`.
+pub struct ContactFilter {
+    off: BTreeSet<(Raw, Raw)>,
+    groups: BTreeMap<Raw, (u32, u32)>,
+}
+
+/// A body handle's raw parts (handles are not `Ord`).
+type Raw = (u32, u32);
+
+impl ContactFilter {
+    /// The pairs of `w`.
+    pub(super) fn of(w: &World) -> ContactFilter {
+        let mut off = BTreeSet::new();
+        for (a, b) in super::mjcf::excluded_body_pairs(w).into_iter().chain(w.disabled_body_pairs()) {
+            off.insert((a.into_raw_parts(), b.into_raw_parts()));
+            off.insert((b.into_raw_parts(), a.into_raw_parts()));
+        }
+        let groups = w
+            .tables
+            .filters
+            .groups
+            .iter()
+            .filter_map(|((id, link), gm)| Some((w.part(*id, *link)?.0.into_raw_parts(), *gm)))
+            .collect();
+        ContactFilter { off, groups }
+    }
+
+    /// No pair and no group: the plain step applies.
+    pub fn is_empty(&self) -> bool {
+        self.off.is_empty() && self.groups.is_empty()
+    }
+}
+
+impl PhysicsHooks for ContactFilter {
+    fn filter_contact_pair(&self, c: &PairFilterContext) -> Option<SolverFlags> {
+        let of = |b: Option<RigidBodyHandle>| b.and_then(|b| self.groups.get(&b.into_raw_parts()).copied()).unwrap_or(DEFAULT_GROUP_MASK);
+        let off = match (c.rigid_body1, c.rigid_body2) {
+            (Some(a), Some(b)) => self.off.contains(&(a.into_raw_parts(), b.into_raw_parts())),
+            _ => false,
+        };
+        (!off && touch(of(c.rigid_body1), of(c.rigid_body2))).then(SolverFlags::default)
+    }
+
+    fn filter_intersection_pair(&self, _: &PairFilterContext) -> bool {
+        true
+    }
+
+    fn modify_solver_contacts(&self, _: &mut ContactModificationContext) {}
+}

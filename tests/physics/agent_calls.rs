@@ -1,0 +1,137 @@
+//! The calls agents reach for, against what they must mean physically: a marker (`collides:
+//! false`) touches nothing yet rays and the camera see it; PyBullet's collision filters
+//! (group/mask and per pair) decide which parts touch; set_joint_motor_control_array is the
+//! single-joint calls made at once (the same state hash). Each is a logged change: undone,
+//! verified and replayed like any other.
+
+use crate::common;
+
+use common::{Client, Server};
+use serde_json::{json, Value};
+
+async fn z(c: &Client, sim: &str, id: u64) -> f64 {
+    c.state(sim, id).await["position"][2].as_f64().unwrap()
+}
+
+async fn sphere(c: &Client, sim: &str, x: f64, extra: Value) -> u64 {
+    let mut args = json!({"sim_id": sim, "radius": 0.1, "position": [x, 0, 1]});
+    args.as_object_mut().unwrap().extend(extra.as_object().unwrap().clone());
+    c.call("add_sphere", args).await["object_id"].as_u64().unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_marker_touches_nothing_but_rays_and_the_camera_see_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.ground(&sim).await;
+    let hash_before = c.hash(&sim).await;
+    // A static marker box right where a ball falls, and a ball beside it with no marker.
+    let marker = c
+        .call("add_box", json!({"sim_id": sim, "dimensions": [0.3, 0.3, 0.05], "position": [0, 0, 0.5], "mass": 0, "collides": false, "color": [1, 0, 0]}))
+        .await["object_id"]
+        .as_u64()
+        .unwrap();
+    let through = sphere(&c, &sim, 0.0, json!({})).await;
+    let blocked = c.call("add_box", json!({"sim_id": sim, "dimensions": [0.3, 0.3, 0.05], "position": [2, 0, 0.5], "mass": 0})).await["object_id"].as_u64().unwrap();
+    let stopped = sphere(&c, &sim, 2.0, json!({})).await;
+    c.step(&sim, 480).await;
+    // Resting on the ground (radius 0.1) below the marker; on the solid plate (top at 0.55) beside it.
+    assert!((z(&c, &sim, through).await - 0.1).abs() < 0.01, "the ball fell through the marker");
+    assert!((z(&c, &sim, stopped).await - 0.65).abs() < 0.01, "the ball rests on the solid plate");
+    let _ = blocked;
+    // A ray straight down through the marker hits it, at its top face.
+    let r = c.call("ray_test", json!({"sim_id": sim, "ray_from": [0.2, 0, 2], "ray_to": [0.2, 0, 0]})).await;
+    assert_eq!(r["object_id"].as_u64(), Some(marker), "{r}");
+    assert!((r["hit_position"][2].as_f64().unwrap() - 0.55).abs() < 1e-4, "{r}");
+    // The camera's segmentation sees it from above.
+    let view = c.call("compute_view_matrix", json!({"camera_eye_position": [0, 0, 3], "camera_target_position": [0, 0, 0], "camera_up_vector": [0, 1, 0]})).await["view_matrix"].clone();
+    let img = c.call("get_camera_image", json!({"sim_id": sim, "width": 64, "height": 48, "view_matrix": view, "include_segmentation": true})).await;
+    let seg = img["segmentation"].as_array().unwrap();
+    assert_eq!(seg[24 * 64 + 32].as_u64(), Some(marker), "the centre pixel is the marker");
+    // Undone, the marker is gone and the state is what it was.
+    c.call("undo", json!({"sim_id": sim, "count": 5})).await;
+    assert_eq!(c.hash(&sim).await, hash_before);
+    let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
+    assert_eq!(v["ok"], true, "{v}");
+    drop(c);
+    server.terminate();
+    common::assert_replays(&dir.path().join("data"), &sim);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn collision_filters_decide_which_parts_touch_as_pybullet_defines_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let ground = c.ground(&sim).await;
+    let masked = sphere(&c, &sim, -1.0, json!({})).await;
+    let paired = sphere(&c, &sim, 0.0, json!({})).await;
+    let plain = sphere(&c, &sim, 1.0, json!({})).await;
+    let hash_plain = c.hash(&sim).await;
+    // Group 2, mask 2: it meets the ground (group 1, mask all) only if 2 & all and 1 & 2 — no.
+    c.call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": masked, "collision_filter_group": 2, "collision_filter_mask": 2})).await;
+    c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": paired, "object_id_b": ground, "enable_collision": false})).await;
+    assert_ne!(c.hash(&sim).await, hash_plain, "filters are hashed state");
+    c.step(&sim, 240).await;
+    assert!(z(&c, &sim, masked).await < -0.5, "group 2 / mask 2 falls through the ground (group 1)");
+    assert!(z(&c, &sim, paired).await < -0.5, "the disabled pair falls through");
+    assert!((z(&c, &sim, plain).await - 0.1).abs() < 0.01, "the unfiltered ball rests on the ground");
+    // Bad parts are refused naming the parameter, changing nothing.
+    let head = c.hash(&sim).await;
+    let e = c.try_call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": plain, "object_id_b": plain, "enable_collision": false})).await.unwrap_err();
+    assert!(e.contains("same part"), "{e}");
+    let e = c.try_call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": plain, "link_index": 3, "collision_filter_group": 1, "collision_filter_mask": 1})).await.unwrap_err();
+    assert!(e.contains("link"), "{e}");
+    assert_eq!(c.hash(&sim).await, head);
+    // Undo the step and both filters: back to the plain world's hash; re-enabled, the pair rests.
+    c.call("undo", json!({"sim_id": sim, "count": 3})).await;
+    assert_eq!(c.hash(&sim).await, hash_plain);
+    c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": paired, "object_id_b": ground, "enable_collision": false})).await;
+    c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": ground, "object_id_b": paired, "enable_collision": true})).await;
+    c.step(&sim, 240).await;
+    assert!((z(&c, &sim, paired).await - 0.1).abs() < 0.01, "re-enabled, the pair touches again");
+    let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
+    assert_eq!(v["ok"], true, "{v}");
+    drop(c);
+    server.terminate();
+    common::assert_replays(&dir.path().join("data"), &sim);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_motor_array_is_the_single_joint_calls_made_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    server.copy_fixtures();
+    let c = server.client().await;
+    let mut hashes = Vec::new();
+    for array in [false, true] {
+        let sim = c.new_sim(json!({})).await;
+        let arm = c.call("load_urdf", json!({"sim_id": sim, "file_path": "iiwa14.urdf", "use_fixed_base": true})).await["object_id"].as_u64().unwrap();
+        let targets = [0.3, -0.4, 0.2, 1.0, -0.5, 0.6, 0.1];
+        if array {
+            c.call("set_joint_motor_control_array", json!({"sim_id": sim, "object_id": arm, "joint_indices": [0, 1, 2, 3, 4, 5, 6],
+                "control_mode": "POSITION_CONTROL", "target_positions": targets, "forces": [300, 300, 300, 300, 300, 300, 300]})).await;
+        } else {
+            for (j, t) in targets.iter().enumerate() {
+                c.call("set_joint_motor_control", json!({"sim_id": sim, "object_id": arm, "joint_index": j, "control_mode": "POSITION_CONTROL", "target_position": t, "force": 300})).await;
+            }
+        }
+        c.step(&sim, 480).await;
+        let j3 = c.call("get_joint_state", json!({"sim_id": sim, "object_id": arm, "joint_index": 3})).await;
+        assert!((j3["joint_position"].as_f64().unwrap() - 1.0).abs() < 0.05, "joint 3 reached its target: {j3}");
+        hashes.push(c.hash(&sim).await);
+        if array {
+            // One change: one undo takes every motor back.
+            let e = c.try_call("set_joint_motor_control_array", json!({"sim_id": sim, "object_id": arm, "joint_indices": [0, 1], "control_mode": "POSITION_CONTROL", "target_positions": [0.1]})).await.unwrap_err();
+            assert!(e.contains("target_positions must have one entry per joint index (2)"), "{e}");
+            let e = c.try_call("set_joint_motor_control_array", json!({"sim_id": sim, "object_id": arm, "joint_indices": [0, 99], "control_mode": "VELOCITY_CONTROL"})).await.unwrap_err();
+            assert!(e.contains("99"), "{e}");
+            let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
+            assert_eq!(v["ok"], true, "{v}");
+        }
+    }
+    assert_eq!(hashes[0], hashes[1], "seven single calls and one array call leave the same world");
+}
