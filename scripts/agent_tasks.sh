@@ -10,16 +10,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-MCP_VERSION=2.3.0
-venv="${PYTHON_SDK_VENV:-${CARGO_TARGET_DIR:-target}/python-sdk-venv}"
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/physics-mcp-agent-tasks.XXXXXX")
 who=agent_tasks
 source scripts/lib/server.sh
 
-if ! "$venv/bin/python" -c "import mcp, importlib.metadata as m; assert m.version('mcp') == '$MCP_VERSION'" 2>/dev/null; then
-  python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "mcp==$MCP_VERSION"
-fi
+source scripts/lib/python_sdk.sh
 
 # The fixtures where the tasks name them: tests/fixtures/… relative to the workspace.
 mkdir -p "$scratch/workspace/tests"

@@ -8,16 +8,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-MCP_VERSION=2.3.0
-venv="${PYTHON_SDK_VENV:-${CARGO_TARGET_DIR:-target}/python-sdk-venv}"
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/physics-mcp-python-sdk.XXXXXX")
 who=python_sdk_check
 source scripts/lib/server.sh
 
-if ! "$venv/bin/python" -c "import mcp, importlib.metadata as m; assert m.version('mcp') == '$MCP_VERSION'" 2>/dev/null; then
-  python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "mcp==$MCP_VERSION"
-fi
+source scripts/lib/python_sdk.sh
 
 start_server
 

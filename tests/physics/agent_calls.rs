@@ -19,6 +19,15 @@ async fn sphere(c: &Client, sim: &str, x: f64, extra: Value) -> u64 {
     c.call("add_sphere", args).await["object_id"].as_u64().unwrap()
 }
 
+/// The simulation verifies, and after the server stops its log replays to every hash.
+async fn verifies_and_replays(c: Client, server: Server, dir: &std::path::Path, sim: &str) {
+    let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
+    assert_eq!(v["ok"], true, "{v}");
+    drop(c);
+    server.terminate();
+    common::assert_replays(&dir.join("data"), sim);
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn a_marker_touches_nothing_but_rays_and_the_camera_see_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -53,11 +62,7 @@ async fn a_marker_touches_nothing_but_rays_and_the_camera_see_it() {
     // Undone, the marker is gone and the state is what it was.
     c.call("undo", json!({"sim_id": sim, "count": 5})).await;
     assert_eq!(c.hash(&sim).await, hash_before);
-    let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
-    assert_eq!(v["ok"], true, "{v}");
-    drop(c);
-    server.terminate();
-    common::assert_replays(&dir.path().join("data"), &sim);
+    verifies_and_replays(c, server, dir.path(), &sim).await;
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -93,11 +98,7 @@ async fn collision_filters_decide_which_parts_touch_as_pybullet_defines_them() {
     c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": ground, "object_id_b": paired, "enable_collision": true})).await;
     c.step(&sim, 240).await;
     assert!((z(&c, &sim, paired).await - 0.1).abs() < 0.01, "re-enabled, the pair touches again");
-    let v = c.call("verify_simulation", json!({"sim_id": sim})).await;
-    assert_eq!(v["ok"], true, "{v}");
-    drop(c);
-    server.terminate();
-    common::assert_replays(&dir.path().join("data"), &sim);
+    verifies_and_replays(c, server, dir.path(), &sim).await;
 }
 
 #[tokio::test(flavor = "multi_thread")]
