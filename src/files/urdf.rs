@@ -213,7 +213,7 @@ pub fn generate_revolute_joint(sandbox: &Sandbox, p: &params::GenerateRevolute) 
             .map_err(|why| format!("no free name under generated/: {why}"))?,
     };
     Ok(crate::outputs::GeneratedUrdf {
-        urdf_path: target.display().to_string(),
+        urdf_path: sandbox.shown(&target),
         parent_shape,
         child_shape,
         joint_type: "revolute".into(),

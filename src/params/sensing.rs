@@ -103,7 +103,7 @@ pub struct CameraImage {
     pub projection_matrix: Option<Matrix>,
     /// Ignored (PyBullet).
     pub renderer: Option<serde_json::Value>,
-    /// Add per-pixel depth (m).
+    /// Per-pixel depth (m); inline up to ~60k px, else output_path.
     pub include_depth: Option<Bool>,
     /// Add per-pixel object id (-1: none).
     pub include_segmentation: Option<Bool>,

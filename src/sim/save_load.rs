@@ -79,8 +79,8 @@ impl Sim {
         let json = serde_json::to_vec(&file).map_err(|e| e.to_string())?;
         write_owned(reg.sandbox(), &target, &user, &json, &SAVED_FILE, overwrite)?;
         Ok(Saved {
-            message: format!("Simulation {} saved to {}", self.id(), target.display()),
-            file_path: target.display().to_string(),
+            message: format!("Simulation {} saved to {}", self.id(), reg.sandbox().shown(&target)),
+            file_path: reg.sandbox().shown(&target),
             state_hash: self.state_hash.clone(),
         })
     }

@@ -182,7 +182,7 @@ async fn every_big_reply_fits_one_mebibyte_or_says_what_to_change() {
     valid("ray_test_batch", &summary);
     assert_eq!(summary["rays"], 16_384);
     assert!(summary.get("results").is_none(), "{summary}");
-    let file: Value = serde_json::from_slice(&std::fs::read(summary["output_path"].as_str().unwrap()).unwrap()).unwrap();
+    let file: Value = serde_json::from_slice(&std::fs::read(server.workspace.join(summary["output_path"].as_str().unwrap())).unwrap()).unwrap();
     let mut inline = Vec::new();
     for k in 0..4 {
         let part = json!({"sim_id": s, "rays_from": from[k * 4096..(k + 1) * 4096], "rays_to": to[k * 4096..(k + 1) * 4096]});
@@ -213,10 +213,12 @@ async fn every_big_reply_fits_one_mebibyte_or_says_what_to_change() {
     assert!(cam.get("depth").is_none() && cam.get("segmentation").is_none(), "{cam}");
     valid("get_camera_image", &cam);
     assert!(r.result["content"].as_array().unwrap().iter().all(|c| c["type"] != "image"), "no inline image with output_path");
-    let png = std::fs::read(cam["png_path"].as_str().unwrap()).unwrap();
+    // Paths come back as the user names them: relative to the workspace.
+    let at = |k: &str| server.workspace.join(cam[k].as_str().unwrap()).display().to_string();
+    let png = std::fs::read(at("png_path")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    let seg = npy_words(cam["segmentation_path"].as_str().unwrap(), "<i4", (1024, 1024));
-    let depth = npy_words(cam["depth_path"].as_str().unwrap(), "<f4", (1024, 1024));
+    let seg = npy_words(&at("segmentation_path"), "<i4", (1024, 1024));
+    let depth = npy_words(&at("depth_path"), "<f4", (1024, 1024));
     let mut counts = std::collections::BTreeMap::<i32, u64>::new();
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
     for (id, d) in seg.iter().zip(&depth) {
@@ -245,13 +247,13 @@ async fn every_big_reply_fits_one_mebibyte_or_says_what_to_change() {
     let mut to_file = small;
     to_file["output_path"] = json!("out/small.png");
     let files = c.call("get_camera_image", to_file).await.outcome().unwrap().clone();
-    let depth = npy_words(files["depth_path"].as_str().unwrap(), "<f4", (32, 48));
+    let depth = npy_words(&server.workspace.join(files["depth_path"].as_str().unwrap()).display().to_string(), "<f4", (32, 48));
     let want: Vec<[u8; 4]> = inline["depth"].as_array().unwrap().iter().map(|v| (v.as_f64().unwrap() as f32).to_le_bytes()).collect();
     assert_eq!(depth, want, "depth.npy holds the inline depth, bit for bit");
-    let seg = npy_words(files["segmentation_path"].as_str().unwrap(), "<i4", (32, 48));
+    let seg = npy_words(&server.workspace.join(files["segmentation_path"].as_str().unwrap()).display().to_string(), "<i4", (32, 48));
     let want: Vec<[u8; 4]> = inline["segmentation"].as_array().unwrap().iter().map(|v| (v.as_i64().unwrap() as i32).to_le_bytes()).collect();
     assert_eq!(seg, want, "seg.npy holds the inline segmentation");
-    let png = std::fs::read(files["png_path"].as_str().unwrap()).unwrap();
+    let png = std::fs::read(server.workspace.join(files["png_path"].as_str().unwrap())).unwrap();
     use base64::Engine;
     assert_eq!(base64::engine::general_purpose::STANDARD.encode(png), inline_png.as_str().unwrap(), "the .png is the inline image");
     assert!(files["depth_path"].as_str().unwrap().ends_with("out/small.depth.npy"));

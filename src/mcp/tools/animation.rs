@@ -123,7 +123,7 @@ fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(A
         to_seq: lent.interval.to_seq,
         every,
         steps: lent.interval_steps(),
-        output_path: asked.output.as_ref().map(|(user, _)| user.clone()),
+        output_path: asked.output.as_ref().map(|(_, path)| sandbox.shown(path)),
     };
     if let Some((user, path)) = &asked.output {
         write::create_new(sandbox, path, "output_path", user, &anim.gif)?;

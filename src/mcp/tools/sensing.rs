@@ -167,7 +167,7 @@ fn ray_batch_to(cx: &reads::ReadContext, p: &RayTestBatch, max: usize, budget: u
         Some(target) => {
             let bytes = serde_json::to_vec(&batch).map_err(|e| format!("Internal error: {e}"))?;
             write::create_new(sandbox, &target, "output_path", &sandbox.shown(&target), &bytes)?;
-            Some(target.display().to_string())
+            Some(sandbox.shown(&target))
         }
         None => None,
     };
@@ -232,7 +232,7 @@ fn camera_image_to(cx: &reads::ReadContext, p: &params::CameraImage, max_px: usi
         return Ok(CameraOut { rendered, files: None });
     };
     let (w, h) = (rendered.summary.width as usize, rendered.summary.height as usize);
-    let show = |p: &std::path::Path| p.display().to_string();
+    let show = |p: &std::path::Path| sandbox.shown(p);
     let depth = match (&depth_at, &rendered.summary.depth) {
         (Some(at), Some(d)) => Some((at, npy::encode(h, w, &d.iter().map(|v| *v as f32).collect::<Vec<f32>>()))),
         _ => None,

@@ -84,7 +84,7 @@ fn deliver(t: Trajectory, path: Option<String>, sandbox: &Sandbox) -> Result<Tra
     let bytes = trajectory::file_bytes(&t, &user, "output_path")?;
     let target = write::new_output(sandbox, "output_path", &user)?;
     write::create_new(sandbox, &target, "output_path", &user, &bytes)?;
-    Ok(trajectory::summary(t, target.display().to_string()))
+    Ok(trajectory::summary(t, sandbox.shown(&target)))
 }
 
 impl PhysicsServer {
