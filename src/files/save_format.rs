@@ -356,6 +356,14 @@ pub fn world_from_history(
     limits: &Limits,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(World, Vec<Event>), Refusal> {
+    // The new log adopts the blobs as they are, also those only events before a trusted
+    // snapshot use (never refolded here): each must be the bytes its name hashes.
+    for (hash, b64) in &h.blobs {
+        let bytes = base64::engine::general_purpose::STANDARD.decode(b64).map_err(|_| bad(format!("blob {hash} is not base64")))?;
+        if crate::digest::content_hash(&bytes) != *hash {
+            return Err(bad(format!("blob {hash} does not match its hash")));
+        }
+    }
     if let Some(e) = h.events.iter().find(|e| e.kind != "root" && e.kind != "change") {
         return Err(bad(format!("event {} has kind {:?} (root or change expected)", e.seq, e.kind)));
     }

@@ -241,7 +241,17 @@ fn checkpoint_in_background(path: PathBuf, busy: Arc<AtomicBool>) {
     if busy.swap(true, Ordering::AcqRel) {
         return;
     }
-    std::thread::spawn(move || {
+    /// Clears the busy flag however the checkpointer ends (a panic included), so a log that
+    /// waits for it never waits for ever.
+    struct Done(Arc<AtomicBool>);
+    impl Drop for Done {
+        fn drop(&mut self) {
+            self.0.store(false, Ordering::Release);
+        }
+    }
+    let done = Done(busy.clone());
+    let spawned = std::thread::Builder::new().name("checkpoint".into()).spawn(move || {
+        let _done = done;
         let flags = rusqlite::OpenFlags::SQLITE_OPEN_READ_WRITE | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX;
         if let Ok(conn) = Connection::open_with_flags(&path, flags) {
             crate::crash_point!("checkpoint");
@@ -249,8 +259,10 @@ fn checkpoint_in_background(path: PathBuf, busy: Arc<AtomicBool>) {
                 tracing::warn!("checkpoint of {} failed: {e}", path.display());
             }
         }
-        busy.store(false, Ordering::Release);
     });
+    if spawned.is_err() {
+        busy.store(false, Ordering::Release);
+    }
 }
 
 fn open_conn(path: &Path, sync: SyncMode) -> Result<Connection, StoreError> {

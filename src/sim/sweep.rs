@@ -221,12 +221,13 @@ fn run_variant(r: Running, parent: &str, steps: u64, observe: &Observe, limits: 
     // The fork is a throwaway the client never saw: a refusal names the parent instead.
     let out = worked
         .map_err(|why| format!("variants[{index}]: {}", why.replace(&fork, parent)))
-        .map(|(state_hash, objects, trajectory)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory, unmoved: vec![] });
+        .map(|(state_hash, objects, trajectory, unmoved)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory, unmoved });
     (Some(sim), out)
 }
 
-/// What a variant reports: (state hash, objects, trajectory).
-type Report = (String, Vec<SweptObject>, Option<crate::outputs::Trajectory>);
+/// What a variant reports: (state hash, objects, trajectory, the objects that did not move at
+/// all: no speed, no spin, the same pose and joint positions at the end).
+type Report = (String, Vec<SweptObject>, Option<crate::outputs::Trajectory>, Vec<u32>);
 
 fn variant_work(
     sim: &mut Sim,
@@ -248,11 +249,14 @@ fn variant_work(
         None => sim.world().objects().map(|(id, _)| id).collect(),
     };
     let start: Vec<Option<[f64; 3]>> = ids.iter().map(|id| sim.world().object_state(*id).map(|s| s.position)).collect();
+    let start_poses: Vec<Option<Vec<f64>>> = ids.iter().map(|id| pose_key(sim.world(), *id)).collect();
     let mut peak = vec![0f64; ids.len()];
+    let mut spun = vec![false; ids.len()];
     let mut watch = |w: &crate::world::World| {
-        for (p, id) in peak.iter_mut().zip(&ids) {
+        for ((p, turning), id) in peak.iter_mut().zip(spun.iter_mut()).zip(&ids) {
             if let Some(s) = w.object_state(*id) {
                 *p = p.max(s.linear_velocity.iter().map(|v| v * v).sum::<f64>().sqrt());
+                *turning |= s.angular_velocity.iter().any(|v| *v != 0.0);
             }
         }
     };
@@ -285,7 +289,11 @@ fn variant_work(
     }
     let w = sim.world();
     let mut objects = Vec::with_capacity(ids.len());
-    for ((object_id, from), peak_speed) in ids.into_iter().zip(start).zip(peak) {
+    let mut still = Vec::new();
+    for ((((object_id, from), peak_speed), turned), before) in ids.into_iter().zip(start).zip(peak).zip(spun).zip(start_poses) {
+        if peak_speed == 0.0 && !turned && before.is_some() && before == pose_key(w, object_id) {
+            still.push(object_id);
+        }
         let s = w.object_state(object_id).ok_or_else(|| format!("observe.object_ids: object {object_id} does not exist"))?;
         let v = observe.include_velocities;
         let displacement = from.map_or(0.0, |f| (0..3).map(|k| (s.position[k] - f[k]).powi(2)).sum::<f64>().sqrt());
@@ -299,7 +307,17 @@ fn variant_work(
             peak_speed,
         });
     }
-    Ok((sim.state_hash().to_string(), objects, trajectory))
+    Ok((sim.state_hash().to_string(), objects, trajectory, still))
+}
+
+/// An object's pose as numbers — base position and orientation, and a robot's joint positions
+/// — to tell whether it moved at all (a fixed-base arm swings without moving its base).
+fn pose_key(w: &crate::world::World, id: u32) -> Option<Vec<f64>> {
+    let s = w.object_state(id)?;
+    let mut key: Vec<f64> = s.position.iter().chain(&s.orientation).copied().collect();
+    let joints = w.objects().find(|(i, _)| *i == id).and_then(|(_, o)| o.kind.robot()).map_or(0, |r| r.links.len());
+    key.extend((0..joints).filter_map(|j| w.joint_state(id, j)).map(|j| j.joint_position));
+    Some(key)
 }
 
 /// The variants' results in order with their forks, or the first refusal (by variant index)
@@ -346,12 +364,14 @@ fn finish(
             Some(scored.into_iter().map(|(_, i)| i).collect())
         }
     };
+    if full {
+        variants.iter_mut().for_each(|v| v.unmoved.clear());
+    }
     if !full {
         for v in &mut variants {
-            let (unmoved, moved): (Vec<SweptObject>, Vec<SweptObject>) =
-                std::mem::take(&mut v.objects).into_iter().partition(|o| o.displacement == 0.0 && o.peak_speed == 0.0);
-            v.unmoved = unmoved.iter().map(|o| o.object_id).collect();
-            v.objects = moved;
+            let still = std::mem::take(&mut v.unmoved);
+            v.objects.retain(|o| !still.contains(&o.object_id));
+            v.unmoved = still;
             if let Some(t) = &mut v.trajectory {
                 crate::seeing::trajectory::compact(t, None);
             }

@@ -240,7 +240,7 @@ async fn deep_huge_and_extreme_models_are_refused_and_models_at_the_bounds_work(
         ("load_mjcf", "negative_cylinder.xml", "size [-1.0, 0.5]"),
         ("load_mjcf", "far_body.xml", "has pos"),
         ("load_urdf", "long_cylinder.urdf", "cylinder length of 1000000"),
-        ("load_mjcf", "entities.xml", "declares XML entities"),
+        ("load_mjcf", "entities.xml", "declarations (entities)"),
     ];
     for (tool, file, says) in refused {
         let why = c.try_call(tool, json!({"sim_id": sim, "file_path": file})).await.expect_err(file);

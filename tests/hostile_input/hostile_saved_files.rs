@@ -81,6 +81,7 @@ async fn a_saved_history_is_checked_in_every_field_the_new_log_adopts() {
     let sim = c.new_sim(json!({})).await;
     c.ground(&sim).await;
     c.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]})).await;
+    c.call("load_urdf", json!({"sim_id": sim, "file_path": "plane.urdf", "position": [0, 0, -2]})).await;
     c.step(&sim, 10).await;
     c.call("save_simulation", json!({"sim_id": sim, "file_path": "good.json"})).await;
     let good: Value = serde_json::from_slice(&std::fs::read(server.workspace.join("good.json")).unwrap()).unwrap();
@@ -99,6 +100,14 @@ async fn a_saved_history_is_checked_in_every_field_the_new_log_adopts() {
         ("a wrong result hash", edit("add_box", |e| e["result_hash"] = json!("0".repeat(64))), "result hash"),
         ("a root of another kind", edit("create_simulation", |e| e["kind"] = json!("x")), "kind"),
         ("a root with a parent", edit("create_simulation", |e| e["parent"] = json!(5)), "root event without a parent"),
+        ("an edited model (a blob whose bytes are not its name's)", {
+            let mut f = good.clone();
+            let blobs = f["history"]["blobs"].as_object_mut().unwrap();
+            let key = blobs.keys().next().expect("the URDF is a blob").clone();
+            use base64::Engine as _;
+            blobs[&key] = json!(base64::engine::general_purpose::STANDARD.encode(b"<robot name=\"edited\"><link name=\"l\"/></robot>"));
+            f
+        }, "does not match its hash"),
     ];
     for (what, file, says) in &cases {
         std::fs::write(server.workspace.join("bad.json"), file.to_string()).unwrap();

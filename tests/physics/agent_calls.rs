@@ -96,8 +96,12 @@ async fn collision_filters_decide_which_parts_touch_as_pybullet_defines_them() {
     assert_eq!(c.hash(&sim).await, hash_plain);
     c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": paired, "object_id_b": ground, "enable_collision": false})).await;
     c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": ground, "object_id_b": paired, "enable_collision": true})).await;
+    // A pair enabled explicitly touches whatever the masks say (PyBullet's pair filter wins).
+    c.call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": masked, "collision_filter_group": 2, "collision_filter_mask": 2})).await;
+    c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": masked, "object_id_b": ground, "enable_collision": true})).await;
     c.step(&sim, 240).await;
     assert!((z(&c, &sim, paired).await - 0.1).abs() < 0.01, "re-enabled, the pair touches again");
+    assert!((z(&c, &sim, masked).await - 0.1).abs() < 0.01, "an enabled pair overrides the masks");
     verifies_and_replays(c, server, dir.path(), &sim).await;
 }
 

@@ -886,7 +886,12 @@ impl Command {
                     continue;
                 }
                 let bytes = src.blob(&b.hash).ok_or_else(|| format!("blob {} is missing", b.hash))?;
-                *b = Blob::new(bytes);
+                // Content-addressed: bytes that hash to something else are not this blob.
+                let fresh = Blob::new(bytes);
+                if fresh.hash != b.hash {
+                    return Err(format!("blob {} does not match its hash", b.hash));
+                }
+                *b = fresh;
             }
             let loaded = self.blobs().iter().all(|b| b.is_loaded());
             if !loaded {

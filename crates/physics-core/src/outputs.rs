@@ -289,8 +289,9 @@ pub struct SweptVariant {
     /// Poses sampled while stepping (when observe.every is given).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<Trajectory>,
-    /// Observed objects left out of `objects` because they did not move during the steps
-    /// (displacement and peak speed 0); `detail: "full"` lists them too.
+    /// Observed objects left out of `objects` because they did not move at all during the
+    /// steps (no speed, no spin, the same pose and joint positions); `detail: "full"` lists
+    /// them too.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub unmoved: Vec<u32>,
 }
@@ -310,7 +311,8 @@ pub struct SweptObject {
     /// Angular velocity (rad/s), with observe.include_velocities.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angular_velocity: Option<[f64; 3]>,
-    /// Distance (m) from its position before the steps (after the variant's calls).
+    /// Net distance (m) from its position before the steps (after the variant's calls) to
+    /// its final one.
     pub displacement: f64,
     /// Highest speed (m/s) after any of the steps.
     pub peak_speed: f64,

@@ -25,8 +25,9 @@ pub type Part = (u32, i32);
 pub struct Filters {
     /// set_collision_filter_group_mask: part → (group, mask).
     pub groups: BTreeMap<Part, (u32, u32)>,
-    /// Pairs whose contacts are off (each pair stored in order, smaller part first).
-    pub disabled_pairs: BTreeSet<(Part, Part)>,
+    /// set_collision_filter_pair: pairs whose contacts are forced off (false) or on (true),
+    /// whatever their groups and masks, as PyBullet's filter does (smaller part first).
+    pub pairs: BTreeMap<(Part, Part), bool>,
     /// Markers: objects made to touch nothing.
     pub markers: BTreeSet<u32>,
 }
@@ -34,13 +35,13 @@ pub struct Filters {
 impl Filters {
     /// Whether nothing was set (then the state hash leaves the section out).
     pub fn is_empty(&self) -> bool {
-        self.groups.is_empty() && self.disabled_pairs.is_empty() && self.markers.is_empty()
+        self.groups.is_empty() && self.pairs.is_empty() && self.markers.is_empty()
     }
 
     /// Forgets every entry of a removed object.
     pub(super) fn forget(&mut self, id: u32) {
         self.groups.retain(|(o, _), _| *o != id);
-        self.disabled_pairs.retain(|(a, b)| a.0 != id && b.0 != id);
+        self.pairs.retain(|(a, b), _| a.0 != id && b.0 != id);
         self.markers.remove(&id);
     }
 }
@@ -72,17 +73,13 @@ impl World {
         format!("Collision filter of object {id} link {link_index} set: group {group}, mask {mask}")
     }
 
-    /// Turns contacts between two parts off (or back on), recording it. Their colliders ask the
+    /// Forces contacts between two parts off or on, recording it. Their colliders ask the
     /// contact filter of each step.
     pub(super) fn set_collision_pair(&mut self, a: (u32, i32), b: (u32, i32), enable: bool) -> String {
         let pair = if a <= b { (a, b) } else { (b, a) };
-        if enable {
-            self.tables.filters.disabled_pairs.remove(&pair);
-        } else {
-            self.tables.filters.disabled_pairs.insert(pair);
-            for (id, link) in [a, b] {
-                self.filter_contacts_of(id, link);
-            }
+        self.tables.filters.pairs.insert(pair, enable);
+        for (id, link) in [a, b] {
+            self.filter_contacts_of(id, link);
         }
         format!(
             "Contacts between object {} link {} and object {} link {} {}",
@@ -94,22 +91,23 @@ impl World {
         )
     }
 
-    /// The rigid bodies of the disabled pairs, as a contact filter takes them.
-    pub(super) fn disabled_body_pairs(&self) -> Vec<(RigidBodyHandle, RigidBodyHandle)> {
+    /// The rigid bodies of the pairs set, with whether they touch, as a contact filter takes them.
+    pub(super) fn body_pairs(&self) -> Vec<((RigidBodyHandle, RigidBodyHandle), bool)> {
         self.tables
             .filters
-            .disabled_pairs
+            .pairs
             .iter()
-            .filter_map(|(a, b)| Some((self.part(a.0, a.1)?.0, self.part(b.0, b.1)?.0)))
+            .filter_map(|((a, b), on)| Some(((self.part(a.0, a.1)?.0, self.part(b.0, b.1)?.0), *on)))
             .collect()
     }
 }
 
-/// The contact filter of a step: body pairs whose contacts are off (MJCF `<exclude>` and
-/// set_collision_filter_pair) and bodies' groups and masks (set_collision_filter_group_mask).
-/// rapier consults it only for pairs where a collider is flagged `FILTER_CONTACT_PAIRS`.
+/// The contact filter of a step: body pairs whose contacts are forced off or on (MJCF
+/// `<exclude>`, then set_collision_filter_pair, which wins) and bodies' groups and masks
+/// (set_collision_filter_group_mask), which decide the other pairs. rapier consults it only for
+/// pairs where a collider is flagged `FILTER_CONTACT_PAIRS`.
 pub struct ContactFilter {
-    off: BTreeSet<(Raw, Raw)>,
+    pairs: BTreeMap<(Raw, Raw), bool>,
     groups: BTreeMap<Raw, (u32, u32)>,
 }
 
@@ -119,10 +117,11 @@ type Raw = (u32, u32);
 impl ContactFilter {
     /// The pairs of `w`.
     pub(super) fn of(w: &World) -> ContactFilter {
-        let mut off = BTreeSet::new();
-        for (a, b) in super::mjcf::excluded_body_pairs(w).into_iter().chain(w.disabled_body_pairs()) {
-            off.insert((a.into_raw_parts(), b.into_raw_parts()));
-            off.insert((b.into_raw_parts(), a.into_raw_parts()));
+        let mut pairs = BTreeMap::new();
+        let excluded = super::mjcf::excluded_body_pairs(w).into_iter().map(|p| (p, false));
+        for ((a, b), on) in excluded.chain(w.body_pairs()) {
+            pairs.insert((a.into_raw_parts(), b.into_raw_parts()), on);
+            pairs.insert((b.into_raw_parts(), a.into_raw_parts()), on);
         }
         let groups = w
             .tables
@@ -131,23 +130,23 @@ impl ContactFilter {
             .iter()
             .filter_map(|((id, link), gm)| Some((w.part(*id, *link)?.0.into_raw_parts(), *gm)))
             .collect();
-        ContactFilter { off, groups }
+        ContactFilter { pairs, groups }
     }
 
     /// No pair and no group: the plain step applies.
     pub fn is_empty(&self) -> bool {
-        self.off.is_empty() && self.groups.is_empty()
+        self.pairs.is_empty() && self.groups.is_empty()
     }
 }
 
 impl PhysicsHooks for ContactFilter {
     fn filter_contact_pair(&self, c: &PairFilterContext) -> Option<SolverFlags> {
         let of = |b: Option<RigidBodyHandle>| b.and_then(|b| self.groups.get(&b.into_raw_parts()).copied()).unwrap_or(DEFAULT_GROUP_MASK);
-        let off = match (c.rigid_body1, c.rigid_body2) {
-            (Some(a), Some(b)) => self.off.contains(&(a.into_raw_parts(), b.into_raw_parts())),
-            _ => false,
+        let forced = match (c.rigid_body1, c.rigid_body2) {
+            (Some(a), Some(b)) => self.pairs.get(&(a.into_raw_parts(), b.into_raw_parts())).copied(),
+            _ => None,
         };
-        (!off && touch(of(c.rigid_body1), of(c.rigid_body2))).then(SolverFlags::default)
+        forced.unwrap_or_else(|| touch(of(c.rigid_body1), of(c.rigid_body2))).then(SolverFlags::default)
     }
 
     fn filter_intersection_pair(&self, _: &PairFilterContext) -> bool {

@@ -29,10 +29,12 @@ pub fn check(xml: &str, what: &str) -> Result<(), Refusal> {
         } else if rest.starts_with(b"<![CDATA[") {
             i = skip_past(i + 9, b"]]>");
         } else if rest.starts_with(b"<!") {
-            // A DOCTYPE: a plain one is harmless; one declaring entities is not a model's.
+            // A DOCTYPE: a bare one (`<!DOCTYPE robot>`) is harmless. One with a quoted
+            // identifier could hide a `>` (and then a comment swallowing the model) from this
+            // scan, one with `[` declares entities: models use neither.
             let end = skip_past(i + 2, b">");
-            if b[i..end].windows(8).any(|w| w.eq_ignore_ascii_case(b"<!ENTITY")) || b[i..end].contains(&b'[') {
-                return Err(format!("{what} declares XML entities (a DOCTYPE with an internal subset), which models do not use"));
+            if b[i..end].iter().any(|c| matches!(c, b'"' | b'\'' | b'[')) {
+                return Err(format!("{what} has a DOCTYPE with an identifier or declarations (entities), which models do not use"));
             }
             i = end;
         } else if rest.starts_with(b"<?") {
@@ -88,8 +90,12 @@ mod tests {
     }
 
     #[test]
-    fn entities_are_refused() {
+    fn entities_and_quoted_doctypes_are_refused() {
         let e = check(r#"<?xml version="1.0"?><!DOCTYPE m [<!ENTITY l "lol">]><m>&l;</m>"#, "file_path").unwrap_err();
         assert!(e.contains("entities"), "{e}");
+        // A quoted `>` would end the DOCTYPE early for a scan that ignored quotes, and the
+        // comment it opens would hide thousands of levels.
+        let deep = format!(r#"<!DOCTYPE m SYSTEM "><!--"><m>{}{}<!-- --></m>"#, "<a>".repeat(5000), "</a>".repeat(5000));
+        assert!(check(&deep, "file_path").is_err());
     }
 }
