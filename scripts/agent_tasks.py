@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What an agent spends on realistic tasks: calls and reply text (issue #24).
+"""What an agent spends on realistic tasks: calls and reply text, against the budget targets below.
 
     python scripts/agent_tasks.py URL [--report] [--enforce-targets] [--calls]
 
@@ -38,7 +38,7 @@ Counts of calls and bytes are deterministic: fixed positions and seeds, fixed st
 call whose presence or size depends on wall time, and the number of calls never depends on an
 outcome (a failed outcome check is recorded, the task goes on).
 
-The budget targets (issue #24) are checked on "the five tasks" — tower look-back (1), 100-box
+The budget targets are checked on "the five tasks" — tower look-back (1), 100-box
 pile (2), sweep (3), robots (4 and 5: KUKA and the wheeled base), timeline ops (6) — together:
 at most 40 calls and 120 KB of reply text; and no single default reply over 32 KB, checked over
 every task. Each target prints PASS or FAIL.

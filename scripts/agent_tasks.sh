@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What an agent spends (issue #24): the Python `mcp` SDK (pinned, from PyPI, in a venv) runs
+# What an agent spends: the Python `mcp` SDK (pinned, from PyPI, in a venv) runs
 # scripts/agent_tasks.py's nine tasks against a server with a copy of tests/fixtures in its
 # workspace, and prints per task the calls, the reply bytes a model reads and whether the
 # physical outcome is right, then the issue's budget targets. Arguments go to the script:

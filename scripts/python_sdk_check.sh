@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The Python `mcp` SDK (pinned, from PyPI, in a venv) against the release server (issue #12,
-# `.ci/run`): runs scripts/python_sdk_check.py and fails on its failure or on any line it
+# The Python `mcp` SDK (pinned, from PyPI, in a venv) against the release server
+# (`.ci/run`): runs scripts/python_sdk_check.py and fails on its failure or on any line it
 # writes to stderr (the SDK reports protocol trouble as warnings, not errors).
 #
 #   scripts/python_sdk_check.sh

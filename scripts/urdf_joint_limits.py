@@ -1,6 +1,6 @@
 """Writes tests/fixtures/pybullet_joint_limits.json: what pybullet 3.2.7 reports and does for
 tests/fixtures/joint_limits.urdf, revolute and prismatic joints whose <limit> leaves out lower
-and/or upper — the reference for load_urdf's limits (issue #16).
+and/or upper — the reference for load_urdf's limits.
 
 For each joint: getJointInfo's lower/upper, and the position a velocity motor reaches in 1 s
 (240 steps, no gravity) driving it up (+1) and, from a fresh load, down (-1). A limit that is

@@ -183,8 +183,13 @@ pub fn int_or<S>(v: Option<Int<S>>, default: i64) -> i64 {
 
 /// `link_index`: −1 (the base, the default) or a link index; the world checks the range.
 pub fn link_index(v: Option<Int<i64>>) -> Result<i32, Refusal> {
+    link_index_named(v, "link_index")
+}
+
+/// `link_index` for a parameter of another name (`link_index_a`, `link_index_b`).
+pub fn link_index_named(v: Option<Int<i64>>, name: &str) -> Result<i32, Refusal> {
     let i = int_or(v, -1);
-    i32::try_from(i).map_err(|_| format!("link_index must be -1 (base) or a link index; got {i}"))
+    i32::try_from(i).map_err(|_| format!("{name} must be -1 (base) or a link index; got {i}"))
 }
 
 /// How much of a result a model asked for (`detail`, one meaning on every tool that has it):

@@ -248,7 +248,6 @@ fn variant_work(
         Some(ids) => ids.clone(),
         None => sim.world().objects().map(|(id, _)| id).collect(),
     };
-    let start: Vec<Option<[f64; 3]>> = ids.iter().map(|id| sim.world().object_state(*id).map(|s| s.position)).collect();
     let start_poses: Vec<Option<Vec<f64>>> = ids.iter().map(|id| pose_key(sim.world(), *id)).collect();
     let mut peak = vec![0f64; ids.len()];
     let mut spun = vec![false; ids.len()];
@@ -290,13 +289,14 @@ fn variant_work(
     let w = sim.world();
     let mut objects = Vec::with_capacity(ids.len());
     let mut still = Vec::new();
-    for ((((object_id, from), peak_speed), turned), before) in ids.into_iter().zip(start).zip(peak).zip(spun).zip(start_poses) {
+    for (((object_id, peak_speed), turned), before) in ids.into_iter().zip(peak).zip(spun).zip(start_poses) {
         if peak_speed == 0.0 && !turned && before.is_some() && before == pose_key(w, object_id) {
             still.push(object_id);
         }
         let s = w.object_state(object_id).ok_or_else(|| format!("observe.object_ids: object {object_id} does not exist"))?;
         let v = observe.include_velocities;
-        let displacement = from.map_or(0.0, |f| (0..3).map(|k| (s.position[k] - f[k]).powi(2)).sum::<f64>().sqrt());
+        // The pose key starts with the base position.
+        let displacement = before.as_ref().map_or(0.0, |f| (0..3).map(|k| (s.position[k] - f[k]).powi(2)).sum::<f64>().sqrt());
         objects.push(SweptObject {
             object_id,
             position: s.position,

@@ -5,7 +5,7 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
-use crate::params::lenient::{link_index, Bool, Color, NonNegative, Quat, Vec3};
+use crate::params::lenient::{link_index, link_index_named, Bool, Color, NonNegative, Quat, Vec3};
 use crate::params::{
     self, AddBox, AddRound, AddSphere, ApplyForce, ApplyTorque, ChangeDynamics, CollisionFilterGroupMask, CollisionFilterPair,
     ObjectRef, SetPose, SetVelocity,
@@ -71,12 +71,6 @@ pub(super) fn decide_capsule(p: AddRound) -> Result<Command, Refusal> {
     Ok(decide_round(p, |radius, height| Shape::Capsule { radius, height }))
 }
 
-/// A base or link index as the core numbers it (−1 = the base), checked as `link_index` is.
-fn part_index(link: Option<crate::params::lenient::Int<i64>>, name: &str) -> Result<i32, Refusal> {
-    let i = link.map_or(-1, |l| l.get());
-    i32::try_from(i).ok().filter(|i| *i >= -1).ok_or_else(|| format!("{name} must be -1 (the base) or a link index >= 0; got {i}"))
-}
-
 /// A 32-bit set as PyBullet takes it: 0 to 2^32 − 1, or a negative 32-bit int (−1 = all bits).
 fn bits(v: crate::params::lenient::Int<u32>, name: &str) -> Result<u32, Refusal> {
     let i = v.get();
@@ -88,7 +82,7 @@ fn bits(v: crate::params::lenient::Int<u32>, name: &str) -> Result<u32, Refusal>
 pub(super) fn decide_filter(p: CollisionFilterGroupMask) -> Result<Command, Refusal> {
     Ok(Command::SetCollisionFilter {
         object_id: p.object_id.0,
-        link_index: part_index(p.link_index, "link_index")?,
+        link_index: link_index(p.link_index)?,
         group: bits(p.collision_filter_group, "collision_filter_group")?,
         mask: bits(p.collision_filter_mask, "collision_filter_mask")?,
     })
@@ -96,8 +90,8 @@ pub(super) fn decide_filter(p: CollisionFilterGroupMask) -> Result<Command, Refu
 
 pub(super) fn decide_pair(p: CollisionFilterPair) -> Result<Command, Refusal> {
     Ok(Command::SetCollisionPair {
-        a: (p.object_id_a.0, part_index(p.link_index_a, "link_index_a")?),
-        b: (p.object_id_b.0, part_index(p.link_index_b, "link_index_b")?),
+        a: (p.object_id_a.0, link_index_named(p.link_index_a, "link_index_a")?),
+        b: (p.object_id_b.0, link_index_named(p.link_index_b, "link_index_b")?),
         enable: p.enable_collision.0,
     })
 }
