@@ -222,7 +222,7 @@ pub fn fold_decoded(
                 }
             }
             cmd.validate(world, limits).map_err(|why| FoldError::Refused { seq: e.seq, why })?;
-            Some(world.apply_observed(&cmd, control, observe))
+            Some(world.apply_observed(&cmd, control, observe).land(e.seq, world.current_time()))
         }
     };
     if verify {
@@ -262,7 +262,9 @@ pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Outcome)
     let refused = |why: String| FoldError::Refused { seq: e.seq, why };
     let root = decode(e, blobs)?.ok_or_else(|| refused("it has no command".into()))?;
     root.validate_values().map_err(refused)?;
-    World::create(&root).ok_or_else(|| refused("the chain does not start with create_simulation".into()))
+    let (world, result) = World::create(&root).ok_or_else(|| refused("the chain does not start with create_simulation".into()))?;
+    let result = result.land(e.seq, world.current_time());
+    Ok((world, result))
 }
 
 /// The `gui` flag a root command carries (None for any other command).

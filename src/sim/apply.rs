@@ -310,7 +310,7 @@ fn work_out(
                     _ => None,
                 };
                 blobs.extend(cmd.blobs().into_iter().cloned());
-                let result = world.apply_observed(&cmd, &mut *control, &mut *observe);
+                let result = world.apply_observed(&cmd, &mut *control, &mut *observe).land(seq, world.current_time());
                 let cancelled = asked.is_some_and(|a| result.steps_taken().is_some_and(|t| t < a));
                 if cancelled && !alone {
                     return Err(format!("The batch was cancelled at calls[{i}] ({}) and changed nothing", call.tool));

@@ -180,6 +180,7 @@ impl Sim {
     ) -> Result<(Sim, Outcome), String> {
         let (world, result) = World::create(&root).ok_or("not a root command")?;
         let mut log = Log::create(path, world.simulation_id(), sync).map_err(|e| e.to_string())?;
+        let result = result.land(log.next_seq(), world.current_time());
         let args_json = log.store_arguments(serde_json::to_string(args).unwrap_or_default());
         let result_json = result.to_value().to_string();
         let snapshot = world.snapshot();

@@ -140,3 +140,58 @@ async fn a_motor_array_is_the_single_joint_calls_made_at_once() {
     }
     assert_eq!(hashes[0], hashes[1], "seven single calls and one array call leave the same world");
 }
+
+/// Every state-changing result says where it landed — the event it became (`head_seq`, the
+/// head right after it, as get_simulation_info reports) and the simulated time after it — so
+/// an agent names an interval for get_trajectory from two results, without get_history. The
+/// recorded results hold them (event version 3): verify and replay re-check them.
+#[tokio::test(flavor = "multi_thread")]
+async fn every_change_says_where_it_landed_and_names_an_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let created = c.call("create_simulation", json!({})).await;
+    let sim = created["simulation_id"].as_str().unwrap().to_string();
+    assert_eq!((created["head_seq"].as_u64(), created["time"].as_f64()), (Some(1), Some(0.0)), "{created}");
+    let calls = [
+        ("add_box", json!({"dimensions": [5, 5, 0.05], "position": [0, 0, -0.05], "mass": 0})),
+        ("add_sphere", json!({"radius": 0.1, "position": [0, 0, 1]})),
+        ("step_simulation", json!({"steps": 30})),
+        ("set_timestep", json!({"timestep": 0.01})),
+        ("change_dynamics", json!({"object_id": 1, "restitution": 0.5})),
+        ("set_camera", json!({"distance": 3, "yaw": 30, "pitch": -20, "target": [0, 0, 0]})),
+        ("step_simulation", json!({"steps": 20})),
+    ];
+    let mut landed = Vec::new();
+    for (tool, mut args) in calls {
+        args["sim_id"] = json!(sim);
+        let r = c.call(tool, args).await;
+        let info = c.call("get_simulation_info", json!({"sim_id": sim})).await;
+        assert_eq!(r["head_seq"], info["head_seq"], "{tool}: {r}");
+        assert_eq!(r["time"], info["current_time"], "{tool}: {r}");
+        landed.push((r["head_seq"].as_u64().unwrap(), r["time"].as_f64().unwrap()));
+    }
+    // Seqs ascend (reads between them take seqs too) and time moves only with steps.
+    assert!(landed.windows(2).all(|w| w[1].0 > w[0].0), "{landed:?}");
+    assert_eq!(landed[2].1, landed[1].1 + 30.0 / 240.0, "{landed:?}");
+    assert_eq!(landed[6].1, landed[5].1 + 20.0 * 0.01, "{landed:?}");
+    // The interval from the sphere's arrival to the last step, named from the results alone.
+    let (from, to) = (landed[1].0, landed[6].0);
+    let t = c.call("get_trajectory", json!({"sim_id": sim, "from_seq": from, "to_seq": to, "object_ids": [1]})).await;
+    assert_eq!((t["from_seq"].as_u64(), t["to_seq"].as_u64()), (Some(from), Some(to)), "{t}");
+    assert_eq!(t["times"].as_array().unwrap().last().unwrap().as_f64(), Some(landed[6].1), "{t}");
+    // A batch's calls each say their own event; the last is the batch's head.
+    let b = c
+        .call("batch", json!({"sim_id": sim, "detail": "full", "calls": [
+            {"tool": "add_box", "arguments": {"dimensions": [0.1, 0.1, 0.1], "position": [1, 0, 1]}},
+            {"tool": "get_simulation_info", "arguments": {}},
+            {"tool": "step_simulation", "arguments": {"steps": 2}}]}))
+        .await;
+    let (first, last) = (b["results"][0]["head_seq"].as_u64().unwrap(), b["results"][2]["head_seq"].as_u64().unwrap());
+    assert_eq!((last, b["head_seq"].as_u64().unwrap()), (first + 2, last), "{b}");
+    // After an undo, a new change lands past every event so far, on the undone-to head.
+    let undone = c.call("undo", json!({"sim_id": sim})).await;
+    let r = c.call("apply_force", json!({"sim_id": sim, "object_id": 1, "force": [1, 0, 0]})).await;
+    assert!(r["head_seq"].as_u64().unwrap() > last + 1, "{r} after {undone}");
+    verifies_and_replays(c, server, dir.path(), &sim).await;
+}

@@ -20,7 +20,8 @@ use crate::world::World;
 /// can be upcast. `replay` re-checks result hashes only for events of this version.
 /// 2: values reported as set (mass, timestep, time as PyBullet computes it); a cancelled
 /// step records the steps it took.
-pub const EVENT_VERSION: u32 = 2;
+/// 3: every state-changing result says where it landed (`head_seq`, `time`: `outputs::Landed`).
+pub const EVENT_VERSION: u32 = 3;
 
 /// A primitive collision shape with its dimensions (PyBullet conventions: box half-extents,
 /// cylinder full height, capsule cylindrical-part height; cylinders/capsules along local z).

@@ -6,17 +6,34 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+/// Where a state-changing call landed in its simulation's log: the event it became (the head
+/// after it) and the simulated time after it, so an agent can name an interval for
+/// get_trajectory or render_animation without get_history (docs/tools.md "An agent's budget").
+/// The world knows no seqs, so the log sets it (`Outcome::land`); it is recorded and hashed
+/// with the result from event version 3 on.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, Copy, PartialEq)]
+pub struct Landed {
+    /// The event this call became: the head after it.
+    pub head_seq: u64,
+    /// Simulated time after it, in seconds.
+    pub time: f64,
+}
+
 /// A plain confirmation for tools whose old result was a bare string.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct Message {
     /// What happened, in one sentence.
     pub message: String,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 impl Message {
     /// A message result.
     pub fn new(message: impl Into<String>) -> Self {
         Self {
+            landed: None,
             message: message.into(),
         }
     }
@@ -34,6 +51,9 @@ pub struct Created {
     /// Where the viewer page is, when gui is on.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub viewer_url: Option<String>,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// One row of list_simulations.
@@ -81,6 +101,9 @@ pub struct Stepped {
     /// recorded result or its hash, so the step event is exactly a plain step's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<Trajectory>,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// Result of get_trajectory (and step_simulation's `trajectory`): samples of an interval of
@@ -147,6 +170,9 @@ pub struct TimestepSet {
     pub message: String,
     /// The new timestep in seconds.
     pub timestep: f64,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// Result of add_box / add_sphere / add_cylinder / add_capsule.
@@ -158,6 +184,9 @@ pub struct ObjectAdded {
     pub shape: String,
     /// Where it was placed.
     pub position: [f64; 3],
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// Result of get_object_state.
@@ -199,6 +228,9 @@ pub struct DynamicsChanged {
     pub message: String,
     /// Names of the properties that were set.
     pub changed: Vec<String>,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// Result of get_dynamics_info: the values in force.
@@ -498,6 +530,9 @@ pub struct UrdfLoaded {
     pub position: [f64; 3],
     /// Number of joints (fixed ones included, as PyBullet counts).
     pub num_joints: usize,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// One MJCF body and the link that carries its frame (load_mjcf's `bodies`).
@@ -525,6 +560,9 @@ pub struct MjcfLoaded {
     pub bodies: Vec<MjcfBodyLink>,
     /// What of the file is not simulated, one sentence each.
     pub ignored: Vec<String>,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// Result of get_num_joints.
@@ -611,6 +649,9 @@ pub struct ConstraintCreated {
     pub constraint_id: u32,
     /// fixed, prismatic, spherical or revolute.
     pub joint_type: String,
+    /// Where the call landed (event version 3 on): the head after it and the time.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// One ray's result (PyBullet's rayTest fields; a miss has object_id −1, hit_fraction 1 and
@@ -764,6 +805,24 @@ impl Outcome {
     /// logged text, as it always was).
     pub fn to_value(&self) -> serde_json::Value {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// The result as recorded for event `seq` of version 3 on: with where it landed (`Landed`),
+    /// `time` being the world's simulated time after it.
+    pub fn land(mut self, seq: u64, time: f64) -> Outcome {
+        let landed = Some(Landed { head_seq: seq, time });
+        match &mut self {
+            Outcome::Created(r) => r.landed = landed,
+            Outcome::Stepped(r) => r.landed = landed,
+            Outcome::TimestepSet(r) => r.landed = landed,
+            Outcome::ObjectAdded(r) => r.landed = landed,
+            Outcome::DynamicsChanged(r) => r.landed = landed,
+            Outcome::UrdfLoaded(r) => r.landed = landed,
+            Outcome::ConstraintCreated(r) => r.landed = landed,
+            Outcome::MjcfLoaded(r) => r.landed = landed,
+            Outcome::Message(r) => r.landed = landed,
+        }
+        self
     }
 
     /// The steps a step_simulation took (None for other results).

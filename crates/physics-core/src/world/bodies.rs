@@ -117,6 +117,7 @@ impl World {
             } => {
                 self.change_dynamics(*object_id, *link_index, change);
                 BodyOutcome::Changed(DynamicsChanged {
+                    landed: None,
                     message: format!("Dynamics of object {object_id} changed"),
                     changed: change.names().into_iter().map(String::from).collect(),
                 })
@@ -209,6 +210,7 @@ impl World {
             },
         );
         ObjectAdded {
+            landed: None,
             object_id: id,
             shape: shape.name().to_string(),
             position: r32s(position),

@@ -94,6 +94,7 @@ impl World {
         let handle = self.physics.insert_impulse_joint(parent, child, joint(spec));
         self.tables.constraints.insert(id, Constraint { spec: spec.clone(), joint: handle, anchor });
         ConstraintCreated {
+            landed: None,
             message: format!("Constraint {id} ({}) created", spec.joint_type.name()),
             constraint_id: id,
             joint_type: spec.joint_type.name().to_string(),

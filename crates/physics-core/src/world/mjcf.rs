@@ -674,6 +674,7 @@ impl World {
             self.apply_mjcf_qpos(id, pose, &qpos_dofs, &qpos);
         }
         MjcfLoaded {
+            landed: None,
             object_id: id,
             file_path: file_path.to_string(),
             position: r32s(pose.translation.to_array()),

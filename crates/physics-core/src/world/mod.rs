@@ -382,6 +382,7 @@ impl World {
             scene: OnceLock::new(),
         };
         let out = Created {
+            landed: None,
             simulation_id: simulation_id.clone(),
             gravity: r32s(*gravity),
             gui_enabled: *gui,
@@ -497,6 +498,7 @@ impl World {
             Command::StepSimulation { steps } => {
                 let taken = self.step(*steps, control, observe);
                 Outcome::Stepped(Stepped {
+                    landed: None,
                     simulation_id: self.simulation_id.clone(),
                     steps_taken: taken,
                     current_time: self.current_time(),
@@ -510,6 +512,7 @@ impl World {
                 (g.timestep_s, g.time_at_timestep_s, g.steps_at_timestep) = (given, now, steps);
                 self.physics.integration_parameters.dt = *timestep;
                 Outcome::TimestepSet(TimestepSet {
+                    landed: None,
                     message: format!("Timestep set to {given} s"),
                     timestep: given,
                 })

@@ -241,6 +241,7 @@ impl World {
             },
         );
         UrdfLoaded {
+            landed: None,
             object_id: id,
             file_path: file_path.to_string(),
             position: r32s(pose.translation.to_array()),
