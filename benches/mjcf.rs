@@ -17,7 +17,7 @@ fn fixture(name: &str) -> Vec<u8> {
 }
 
 fn world_with(name: &str, bytes: &[u8]) -> World {
-    let root = Command::CreateSimulation { simulation_id: "mjcf".into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    let root = Command::CreateSimulation { simulation_id: "mjcf".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
     let (mut w, _) = World::create(&root).unwrap();
     let load = Command::LoadMjcf {
         file_path: name.into(),

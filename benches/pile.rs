@@ -59,7 +59,7 @@ pub fn raw_pile() -> Vec<Command> {
 }
 
 pub fn root(id: &str) -> Command {
-    Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false }
+    Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }
 }
 
 /// The pile, built through `World::create` and `World::apply` as the server builds it.

@@ -267,6 +267,16 @@ pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Outcome)
     Ok((world, result))
 }
 
+/// The label a root command gives its simulation (None for any other command, or no label).
+pub fn root_name(cmd: &Command) -> Option<String> {
+    match cmd {
+        Command::CreateSimulation { name, .. }
+        | Command::ForkSimulation { name, .. }
+        | Command::LoadSimulation { name, .. } => name.clone(),
+        _ => None,
+    }
+}
+
 /// The `gui` flag a root command carries (None for any other command).
 pub fn root_gui(cmd: &Command) -> Option<bool> {
     match cmd {
@@ -560,7 +570,7 @@ mod tests {
 
     /// Positions of object 1 after each of `n` single steps on a fresh fold of `cmds`.
     fn stepwise(cmds: &[Command]) -> Vec<[f64; 3]> {
-        let mut w = World::create(&Command::CreateSimulation { simulation_id: "r".into(), gravity: [0.0, 0.0, -9.81], gui: false }).unwrap().0;
+        let mut w = World::create(&Command::CreateSimulation { simulation_id: "r".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }).unwrap().0;
         let mut out = vec![];
         for c in cmds {
             match c {
@@ -588,7 +598,7 @@ mod tests {
             sync: SyncMode::Normal,
         })
         .unwrap();
-        reg.create(Command::CreateSimulation { simulation_id: "s".into(), gravity: [0.0, 0.0, -9.81], gui: false }, &Args::new()).unwrap();
+        reg.create(Command::CreateSimulation { simulation_id: "s".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }, &Args::new()).unwrap();
         let cmds = vec![
             body(-0.5, 0.0),
             body(2.0, 1.0),

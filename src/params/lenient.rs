@@ -201,3 +201,9 @@ pub fn full_detail(detail: Option<&Text>) -> Result<bool, Refusal> {
         Some(other) => Err(format!("detail must be \"compact\" or \"full\"; got {other:?}")),
     }
 }
+
+/// A simulation's optional label (`name` on create, fork and load), checked as the log will
+/// hold it (`value::label`).
+pub fn label(name: Option<Text>) -> Result<Option<String>, Refusal> {
+    name.map(|t| crate::value::label("name", &t.0).map(str::to_string)).transpose()
+}

@@ -15,7 +15,7 @@ pub struct LoadMjcf {
     pub file_path: Text,
     /// World position of the model's frame (default 0).
     pub position: Option<Vec3>,
-    /// [x, y, z, w] of the model's frame (default identity).
+    /// Model frame (default identity).
     pub orientation: Option<Quat>,
     /// Fix a free-joint root body to the world (default false).
     pub use_fixed_base: Option<Bool>,

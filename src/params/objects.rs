@@ -21,7 +21,7 @@ pub struct AddBox {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
-    /// false: touches nothing; rays and camera see it.
+    /// false: touches nothing, still seen.
     pub collides: Option<Bool>,
 }
 
@@ -41,7 +41,7 @@ pub struct AddSphere {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
-    /// false: touches nothing; rays and camera see it.
+    /// false: touches nothing, still seen.
     pub collides: Option<Bool>,
 }
 
@@ -63,7 +63,7 @@ pub struct AddRound {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
-    /// false: touches nothing; rays and camera see it.
+    /// false: touches nothing, still seen.
     pub collides: Option<Bool>,
 }
 

@@ -25,4 +25,6 @@ pub struct Load {
     pub file_path: Text,
     /// Web viewer (default false).
     pub gui: Option<Bool>,
+    /// A label.
+    pub name: Option<Text>,
 }

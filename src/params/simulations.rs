@@ -18,6 +18,8 @@ pub struct CreateSimulation {
     pub gravity: Option<Gravity>,
     /// Web viewer (default false).
     pub gui: Option<Bool>,
+    /// A label.
+    pub name: Option<Text>,
 }
 
 /// Parameters naming just a simulation.

@@ -35,4 +35,6 @@ pub struct Fork {
     pub sim_id: Text,
     /// Default: the head.
     pub at_seq: Option<Int<u64>>,
+    /// A label.
+    pub name: Option<Text>,
 }

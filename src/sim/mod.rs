@@ -485,10 +485,12 @@ pub(crate) fn rebuild_at(
         None => chain.iter().rev().find(|e| e.kind == Kind::Root).and_then(|e| fold::decode(e, &NoBlobs).ok().flatten()),
     };
     let gui = own_root.as_ref().and_then(fold::root_gui).unwrap_or(false);
-    let mut world = match start {
+    let name = own_root.as_ref().and_then(fold::root_name);
+    let world = match start {
         Some(bytes) => World::restore(id, gui, &bytes).map_err(StoreError::Corrupt)?,
         None => fold::create_root(first, log)?.0.with_identity(id, gui),
     };
+    let mut world = world.with_name(name);
     fold::check_hash(&world, first)?;
     let verify = if verify_each { Verify::Each } else { Verify::Only(target) };
     let folded = fold::fold(&mut world, &chain[1..], log, &Limits::unbounded(), verify, &mut |_, _, _| Ok(()))?;
@@ -757,6 +759,7 @@ impl Registry {
             }
             simulations.push(SimulationSummary {
                 simulation_id: s.id().to_string(),
+                name: s.world().name().map(str::to_string),
                 objects: s.world().object_count(),
                 simulation_time: s.world().current_time(),
             });

@@ -132,6 +132,7 @@ pub fn simulation_info(cx: &ReadContext) -> Result<SimulationInfo, Refusal> {
     let w = cx.world;
     Ok(SimulationInfo {
         simulation_id: w.simulation_id().to_string(),
+        name: w.name().map(str::to_string),
         gravity: r32s(w.gravity()),
         timestep: w.timestep_given(),
         current_time: w.current_time(),

@@ -100,7 +100,7 @@ impl Registry {
     ) -> Result<Loaded, Refusal> {
         let slot = self.reserve()?;
         let p: params::Load = params::parse("load_simulation", args)?;
-        let (user, gui) = (p.file_path.0, p.gui.is_some_and(|g| g.0));
+        let (user, gui, name) = (p.file_path.0, p.gui.is_some_and(|g| g.0), crate::params::lenient::label(p.name)?);
         let mut reader = Reader::with_budget(self.sandbox(), MAX_SAVE_BYTES + crate::files::read::REQUEST_FILE_BYTES);
         let (_, bytes) = reader.read(&user, &format!("file_path {user}"), MAX_SAVE_BYTES)?;
         let file: SaveFile = serde_json::from_slice(&bytes)
@@ -116,19 +116,19 @@ impl Registry {
                         "The file's readable fields disagree with its history: {fields} (remove \"history\" to load the readable fields alone)"
                     ));
                 }
-                let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui };
-                let out = Loaded { simulation_id: new_id.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None };
+                let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui, name: name.clone() };
+                let out = Loaded { simulation_id: new_id.clone(), name: name.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None };
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
                 self.adopt((&chain, &crate::files::save_format::SavedBlobs(&h.blobs), None), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
             }
-            None => self.load_readable(&file, &new_id, gui, args, &mut reader)?,
+            None => self.load_readable(&file, &new_id, (gui, name.clone()), args, &mut reader)?,
         };
-        let out = Loaded { simulation_id: new_id, file_path: user, state_hash: sim.state_hash().to_string(), viewer_url: None };
+        let out = Loaded { simulation_id: new_id, name, file_path: user, state_hash: sim.state_hash().to_string(), viewer_url: None };
         slot.fill(sim);
         Ok(out)
     }
 
-    fn load_readable(&self, file: &SaveFile, id: &str, gui: bool, args: &Args, reader: &mut Reader) -> Result<Sim, Refusal> {
+    fn load_readable(&self, file: &SaveFile, id: &str, (gui, name): (bool, Option<String>), args: &Args, reader: &mut Reader) -> Result<Sim, Refusal> {
         let path = self.path_for(id);
         // Built under a partial name and renamed when complete: a kill mid-load leaves nothing.
         let partial = crate::log::sqlite::partial_path(&path);
@@ -137,8 +137,8 @@ impl Registry {
             match &mut sim {
                 None => {
                     let mut root = cmd;
-                    if let Command::CreateSimulation { gui: g, .. } = &mut root {
-                        *g = gui;
+                    if let Command::CreateSimulation { gui: g, name: n, .. } = &mut root {
+                        (*g, *n) = (gui, name.clone());
                     }
                     sim = Some(Sim::create_unpublished(&partial, tool, root, args, self.config().sync)?.0);
                 }

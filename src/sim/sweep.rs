@@ -118,7 +118,7 @@ impl Registry {
         let items: Vec<(usize, Vec<Call>, Control)> =
             variants.into_iter().enumerate().map(|(index, calls)| (index, calls, controls())).collect();
         let done = run_all(items, workers, |(index, calls, control)| {
-            match self.fork_from(&source, None, uuid::Uuid::new_v4().to_string(), &fork_args) {
+            match self.fork_from(&source, None, (uuid::Uuid::new_v4().to_string(), None), &fork_args) {
                 Ok((_, sim)) => run_variant(Running { index, sim, calls, control }, id, steps, &observe, self.limits()),
                 Err(why) => (None, Err(format!("variants[{index}] could not be forked: {why}"))),
             }

@@ -308,13 +308,13 @@ impl ForkSource {
 impl Registry {
     /// fork_simulation: a new simulation holding `parent`'s chain up to `at_seq` (default:
     /// its head), inherited, then its own root. The parent records the call as a read.
-    pub fn fork(&self, parent_id: &str, at_seq: Option<u64>, new_id: String, args: &Args) -> Result<Forked, Refusal> {
+    pub fn fork(&self, parent_id: &str, at_seq: Option<u64>, (new_id, name): (String, Option<String>), args: &Args) -> Result<Forked, Refusal> {
         let parent = self.get(parent_id)?;
         let mut p = lock_sim(&parent);
         p.ensure_live()?;
         // Lock order: the parent, then the table (for the slot); no table lock across I/O.
         let result = self.reserve().and_then(|slot| {
-            let (forked, sim) = self.fork_unpublished(&p, at_seq, new_id, args)?;
+            let (forked, sim) = self.fork_unpublished(&p, at_seq, (new_id, name), args)?;
             let path = self.path_for(sim.id());
             slot.fill(sim.publish(&path)?);
             Ok(forked)
@@ -332,11 +332,11 @@ impl Registry {
         &self,
         p: &Sim,
         at_seq: Option<u64>,
-        new_id: String,
+        new: (String, Option<String>),
         args: &Args,
     ) -> Result<(Forked, Sim), Refusal> {
         let source = ForkSource::of(p, at_seq)?;
-        self.fork_from(&source, Some(p.log()), new_id, args)
+        self.fork_from(&source, Some(p.log()), new, args)
     }
 
     /// A fork made from `source` (unpublished, as `fork_unpublished`). The chain's blobs and
@@ -346,7 +346,7 @@ impl Registry {
         &self,
         source: &ForkSource,
         parent: Option<&dyn EventLog>,
-        new_id: String,
+        (new_id, name): (String, Option<String>),
         args: &Args,
     ) -> Result<(Forked, Sim), Refusal> {
         let opened;
@@ -362,9 +362,11 @@ impl Registry {
             parent_id: source.parent_id.clone(),
             at_seq: source.at,
             gui: source.gui,
+            name: name.clone(),
         };
         let out = Forked {
             simulation_id: new_id,
+            name,
             parent_id: source.parent_id.clone(),
             at_seq: source.at,
             state_hash: source.state_hash.clone(),

@@ -29,7 +29,7 @@ fn sphere() -> Command {
 /// returns the log's path once the registry has closed it.
 fn make_log(dir: &Path, id: &str) -> PathBuf {
     let reg = Registry::open(config(dir)).unwrap();
-    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
     reg.create(root, &Args::new()).unwrap();
     let shared = reg.get(id).unwrap();
     {
@@ -98,7 +98,7 @@ fn an_unknown_event_kind_is_corruption_and_the_file_is_skipped() {
 fn a_destroyed_simulation_refuses_late_writers_and_stays_deleted() {
     let dir = tempfile::tempdir().unwrap();
     let reg = std::sync::Arc::new(Registry::open(config(dir.path())).unwrap());
-    let root = Command::CreateSimulation { simulation_id: "gone".into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    let root = Command::CreateSimulation { simulation_id: "gone".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
     reg.create(root, &Args::new()).unwrap();
     let (a, l) = (Args::new(), Limits::default());
     // A handle taken before the destroy, as a request in flight holds one.
@@ -133,7 +133,7 @@ fn a_destroyed_simulation_refuses_late_writers_and_stays_deleted() {
     assert_eq!(sim.save(&save, &reg).unwrap_err(), not_found);
     sim.flush();
     drop(sim);
-    assert_eq!(reg.fork("gone", None, "child".into(), &a).unwrap_err(), not_found);
+    assert_eq!(reg.fork("gone", None, ("child".into(), None), &a).unwrap_err(), not_found);
     drop(late);
     assert!(files_of(&data, "gone").is_empty(), "late writers recreated {:?}", files_of(&data, "gone"));
     assert!(!reg.config().workspace.join("late.json").exists());

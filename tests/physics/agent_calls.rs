@@ -195,3 +195,57 @@ async fn every_change_says_where_it_landed_and_names_an_interval() {
     assert!(r["head_seq"].as_u64().unwrap() > last + 1, "{r} after {undone}");
     verifies_and_replays(c, server, dir.path(), &sim).await;
 }
+
+/// A simulation's optional `name` (create, fork, load) is shown wherever its id is — the
+/// call's result, list_simulations, get_simulation_info — survives undo and a restart, and is
+/// not part of the state: a named simulation hashes as an unnamed one. A fork or load is
+/// named by its own call only. A bad name is refused naming `name` and creates nothing.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_simulation_name_is_shown_with_its_id_and_is_not_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let created = c.call("create_simulation", json!({"name": "tower A"})).await;
+    assert_eq!(created["name"], "tower A", "{created}");
+    let sim = created["simulation_id"].as_str().unwrap().to_string();
+    let plain = c.new_sim(json!({})).await;
+    for s in [&sim, &plain] {
+        c.ground(s).await;
+        sphere(&c, s, 0.0, json!({})).await;
+        c.step(s, 10).await;
+    }
+    assert_eq!(c.hash(&sim).await, c.hash(&plain).await, "a name is not state");
+    let listed = |list: &Value, id: &str| list["simulations"].as_array().unwrap().iter().find(|r| r["simulation_id"] == id).cloned().unwrap();
+    let list = c.call("list_simulations", json!({})).await;
+    assert_eq!(listed(&list, &sim)["name"], "tower A");
+    assert!(listed(&list, &plain).get("name").is_none(), "{list}");
+    c.call("undo", json!({"sim_id": sim, "count": 3})).await;
+    assert_eq!(c.call("get_simulation_info", json!({"sim_id": sim})).await["name"], "tower A");
+    // A fork and a load carry the name their own call gives, or none.
+    let fork = c.call("fork_simulation", json!({"sim_id": sim, "name": "tower B"})).await;
+    assert_eq!(fork["name"], "tower B", "{fork}");
+    let unnamed = c.call("fork_simulation", json!({"sim_id": sim})).await;
+    assert!(unnamed.get("name").is_none(), "{unnamed}");
+    c.call("save_simulation", json!({"sim_id": sim, "file_path": "named.json"})).await;
+    let loaded = c.call("load_simulation", json!({"file_path": "named.json", "name": "tower C"})).await;
+    assert_eq!(loaded["name"], "tower C", "{loaded}");
+    // Refused, naming the parameter; nothing is created.
+    let before = c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len();
+    for bad in [json!(""), json!("   "), json!("two\nlines"), json!("x".repeat(101))] {
+        let why = c.try_call("create_simulation", json!({"name": bad})).await.unwrap_err();
+        assert!(why.starts_with("name must be"), "{why}");
+        let why = c.try_call("fork_simulation", json!({"sim_id": sim, "name": bad})).await.unwrap_err();
+        assert!(why.contains("name must be"), "{why}");
+    }
+    assert_eq!(c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len(), before);
+    // After a restart every name is as it was.
+    let fork_id = fork["simulation_id"].as_str().unwrap().to_string();
+    drop(c);
+    server.terminate();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    for (id, name) in [(&sim, "tower A"), (&fork_id, "tower B")] {
+        assert_eq!(c.call("get_simulation_info", json!({"sim_id": id})).await["name"], name);
+    }
+    verifies_and_replays(c, server, dir.path(), &sim).await;
+}

@@ -66,7 +66,7 @@ fn every_world_the_server_makes_steps_on_the_threads_pool() {
     let expect = THREADS;
     {
         let reg = registry(dir.path());
-        let root = Command::CreateSimulation { simulation_id: "a".into(), gravity: [0.0, 0.0, -9.81], gui: false };
+        let root = Command::CreateSimulation { simulation_id: "a".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
         reg.create(root, &Args::new()).expect("create");
         let a = reg.get("a").unwrap();
         add_box(&a, -0.1, 0.0);
@@ -78,7 +78,7 @@ fn every_world_the_server_makes_steps_on_the_threads_pool() {
         lock_sim(&a).redo(&Args::new(), 1).expect("redo");
         assert_eq!(stepping_threads("redone", &a), expect);
 
-        reg.fork("a", None, "f".into(), &Args::new()).expect("fork");
+        reg.fork("a", None, ("f".into(), None), &Args::new()).expect("fork");
         assert_eq!(stepping_threads("forked", &reg.get("f").unwrap()), expect);
 
         lock_sim(&a).save(&args(json!({"sim_id": "a", "file_path": "a.json"})), &reg).expect("save");
@@ -209,7 +209,7 @@ fn steps_called_from_rayon_workers_at_once_all_finish() {
     use physics_mcp::world::World;
     physics_mcp::cli::step_on_threads(THREADS).unwrap();
     let falling = |seed: usize| {
-        let root = Command::CreateSimulation { simulation_id: format!("f{seed}"), gravity: [0.0, 0.0, -9.81], gui: false };
+        let root = Command::CreateSimulation { simulation_id: format!("f{seed}"), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
         let (mut w, _) = World::create(&root).unwrap();
         for i in 0..30 {
             let position = [(i % 6) as f32 * 0.3, (i / 6) as f32 * 0.3, seed as f32];

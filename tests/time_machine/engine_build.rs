@@ -26,7 +26,7 @@ fn args(v: Value) -> Args {
 
 /// Creates `id` with a sphere, stepped 20 times.
 fn simulation(reg: &Registry, id: &str) {
-    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
     reg.create(root, &Args::new()).unwrap();
     let shared = reg.get(id).unwrap();
     let mut sim = lock_sim(&shared);
@@ -49,7 +49,7 @@ fn new_roots_of_create_fork_and_load_record_this_build() {
     let cfg = config(dir.path());
     let reg = Registry::open(cfg.clone()).unwrap();
     simulation(&reg, "made");
-    reg.fork("made", None, "forked".into(), &args(json!({"sim_id": "made"}))).unwrap();
+    reg.fork("made", None, ("forked".into(), None), &args(json!({"sim_id": "made"}))).unwrap();
     {
         let shared = reg.get("made").unwrap();
         let mut sim = lock_sim(&shared);

@@ -55,7 +55,7 @@ fn registry(dir: &Path) -> Registry {
 }
 
 fn new_sim(reg: &Registry, id: &str) -> SharedSim {
-    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false };
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
     reg.create(root, &Args::new()).expect("create");
     let sim = reg.get(id).expect("get");
     let ground = Command::AddBody {
@@ -207,7 +207,7 @@ fn a_fork_at_seq_s_then_the_same_calls_reproduces_the_originals_hashes() {
         // root and starts with nothing to redo), so the continuation is made of changes.
         let cont: Vec<Op> = ops[at..].iter().filter(|o| !matches!(o, Op::Undo(_) | Op::Redo(_))).cloned().collect();
         let rest: Vec<String> = cont.iter().map(|o| run(&s, o)).collect();
-        r.fork("orig", Some(head), "fork".into(), &Args::new()).map_err(TestCaseError::fail)?;
+        r.fork("orig", Some(head), ("fork".into(), None), &Args::new()).map_err(TestCaseError::fail)?;
         let f = r.get("fork").unwrap();
         let again: Vec<String> = cont.iter().map(|o| run(&f, o)).collect();
         prop_assert_eq!(rest, again);

@@ -26,6 +26,7 @@ fn pile() -> World {
         simulation_id: "pile".into(),
         gravity: [0.0, 0.0, -9.81],
         gui: false,
+        name: None,
     };
     let (mut w, _) = World::create(&root).unwrap();
     apply(&mut w, Command::AddBody {

@@ -288,6 +288,9 @@ pub enum Command {
         gravity: [f32; 3],
         /// Whether the web viewer follows this simulation.
         gui: bool,
+        /// An optional label shown beside the id (`value::label`); not part of the state.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
     },
     /// Root event of a fork: the world is the parent's at `at_seq` (the inherited chain
     /// before this event in the log folds to it), under a new id. Applying it changes nothing.
@@ -300,6 +303,9 @@ pub enum Command {
         at_seq: u64,
         /// Whether the web viewer follows this simulation.
         gui: bool,
+        /// An optional label shown beside the id (`value::label`); not part of the state.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
     },
     /// Root event of a simulation loaded from a saved file's history: the world is the one
     /// the inherited chain before this event folds to, under a new id. Applying it changes
@@ -311,6 +317,9 @@ pub enum Command {
         file_path: String,
         /// Whether the web viewer follows this simulation.
         gui: bool,
+        /// An optional label shown beside the id (`value::label`); not part of the state.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
     },
     /// Advance time by `steps` fixed timesteps.
     StepSimulation {
@@ -790,8 +799,14 @@ impl Command {
     /// checked again for commands from files and logs (hostile or corrupt ones included).
     pub fn validate_values(&self) -> Result<(), Refusal> {
         match self {
-            Command::CreateSimulation { gravity, .. } => finite("gravity", gravity),
-            Command::ForkSimulation { .. } | Command::LoadSimulation { .. } | Command::StepSimulation { .. } => Ok(()),
+            Command::CreateSimulation { gravity, name, .. } => {
+                finite("gravity", gravity)?;
+                name.as_deref().map_or(Ok(()), |n| crate::value::label("name", n).map(|_| ()))
+            }
+            Command::ForkSimulation { name, .. } | Command::LoadSimulation { name, .. } => {
+                name.as_deref().map_or(Ok(()), |n| crate::value::label("name", n).map(|_| ()))
+            }
+            Command::StepSimulation { .. } => Ok(()),
             Command::SetTimestep { timestep, timestep_given } => {
                 positive("timestep", *timestep)?;
                 match timestep_given {

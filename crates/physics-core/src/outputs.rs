@@ -48,6 +48,9 @@ pub struct Created {
     pub gravity: [f64; 3],
     /// Whether the web viewer follows this simulation.
     pub gui_enabled: bool,
+    /// Its label, when it was given one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Where the viewer page is, when gui is on.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub viewer_url: Option<String>,
@@ -61,6 +64,9 @@ pub struct Created {
 pub struct SimulationSummary {
     /// Simulation id.
     pub simulation_id: String,
+    /// Its label, when it was given one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Number of objects.
     pub objects: usize,
     /// Simulated time in seconds.
@@ -355,6 +361,9 @@ pub struct SweptObject {
 pub struct SimulationInfo {
     /// Simulation id.
     pub simulation_id: String,
+    /// Its label, when it was given one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Gravity [gx, gy, gz].
     pub gravity: [f64; 3],
     /// Seconds per step.
@@ -457,6 +466,9 @@ pub struct History {
 pub struct Forked {
     /// The new simulation's id.
     pub simulation_id: String,
+    /// Its label, when it was given one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// The simulation it was forked from.
     pub parent_id: String,
     /// The event of the parent it starts from.
@@ -510,6 +522,9 @@ pub struct Saved {
 pub struct Loaded {
     /// The new simulation's id.
     pub simulation_id: String,
+    /// Its label, when it was given one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// The file it was loaded from.
     pub file_path: String,
     /// Its state hash (equal to the saved one for files with history).

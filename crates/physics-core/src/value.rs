@@ -232,6 +232,19 @@ pub fn boolean(name: &str, v: &Value) -> Result<bool, Refusal> {
     scalar(v).as_bool().ok_or_else(|| format!("{name} must be true or false; got {}", show(v)))
 }
 
+/// Longest simulation label, in characters: a label is for a person to tell runs apart.
+pub const MAX_LABEL_CHARS: usize = 100;
+
+/// A simulation's label (`name` on create, fork and load): 1–100 characters, no control
+/// characters, so it reads on one line wherever ids are shown.
+pub fn label<'a>(name: &str, v: &'a str) -> Result<&'a str, Refusal> {
+    let n = v.chars().count();
+    if v.trim().is_empty() || n > MAX_LABEL_CHARS || v.chars().any(char::is_control) {
+        return Err(format!("{name} must be 1-{MAX_LABEL_CHARS} characters on one line, not blank; got {n} characters"));
+    }
+    Ok(v)
+}
+
 /// Reads a required string argument.
 pub fn string(args: &Args, name: &str) -> Result<String, Refusal> {
     match required(args, name, "a string")? {

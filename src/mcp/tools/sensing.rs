@@ -114,7 +114,7 @@ impl PhysicsServer {
         params::parse("compute_projection_matrix", &args).and_then(projection_matrix).map(Json)
     }
 
-    /// Render a PNG with the visible objects and depth range; depth and segmentation on request.
+    /// Render a PNG; also the visible objects and depth range.
     #[tool(
         input_schema = schema_for_type::<params::CameraImage>(),
         output_schema = schema_for_output::<CameraImage>(),

@@ -30,17 +30,19 @@ pub(super) fn decide_timestep(p: SetTimestep) -> Result<Command, Refusal> {
 
 #[tool_router(router = simulation_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Create an empty simulation (no ground: add a static box or plane.urdf); returns its id.
+    /// Create an empty simulation (no ground: add a static box or plane.urdf).
     #[tool(input_schema = schema_for_type::<params::CreateSimulation>())]
     async fn create_simulation(&self, args: JsonObject) -> Result<Json<Created>, String> {
         let p: CreateSimulation = params::parse("create_simulation", &args)?;
         let gravity = p.gravity.map_or([0.0, 0.0, -9.81], |g| g.0);
         let gui = p.gui.is_some_and(|g| g.0);
+        let name = params::lenient::label(p.name)?;
         let simulation_id = uuid::Uuid::new_v4().to_string();
         let root = Command::CreateSimulation {
             simulation_id,
             gravity,
             gui,
+            name,
         };
         let reg = self.reg.clone();
         let out = tokio::task::spawn_blocking(move || reg.create(root, &args))

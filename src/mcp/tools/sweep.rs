@@ -58,8 +58,7 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
 
 #[tool_router(router = sweep_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Per variant: fork at the head, apply its calls, step, summarise. In parallel; forks
-    /// are deleted unless keep.
+    /// Per variant, in parallel: fork at the head, apply its calls, step, summarise.
     #[tool(input_schema = schema_for_type::<params::Sweep>())]
     async fn run_sweep(
         &self,

@@ -104,10 +104,10 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::Fork>())]
     async fn fork_simulation(&self, args: JsonObject) -> Result<Json<Forked>, String> {
         let p: Fork = params::parse("fork_simulation", &args)?;
-        let (parent, at) = (p.sim_id.0, seq("at_seq", p.at_seq)?);
+        let (parent, at, name) = (p.sim_id.0, seq("at_seq", p.at_seq)?, crate::params::lenient::label(p.name)?);
         let new_id = uuid::Uuid::new_v4().to_string();
         let reg = self.reg.clone();
-        let out = tokio::task::spawn_blocking(move || reg.fork(&parent, at, new_id, &args))
+        let out = tokio::task::spawn_blocking(move || reg.fork(&parent, at, (new_id, name), &args))
             .await
             .map_err(|_| "Internal error: the fork was not created".to_string())?
             .map(|mut forked| {

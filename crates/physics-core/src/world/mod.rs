@@ -342,6 +342,8 @@ impl From<TablesV1> for TablesV2 {
 pub struct World {
     simulation_id: String,
     gui: bool,
+    /// The simulation's optional label (its own root command's `name`): identity, like the id.
+    name: Option<String>,
     physics: PhysicsWorld,
     tables: Tables,
     /// The scene index of the current state, built on first use and dropped by every `apply`.
@@ -365,6 +367,7 @@ impl World {
             simulation_id,
             gravity,
             gui,
+            name,
         } = cmd
         else {
             return None;
@@ -377,6 +380,7 @@ impl World {
         let world = World {
             simulation_id: simulation_id.clone(),
             gui: *gui,
+            name: name.clone(),
             physics,
             tables: Tables::default(),
             scene: OnceLock::new(),
@@ -386,6 +390,7 @@ impl World {
             simulation_id: simulation_id.clone(),
             gravity: r32s(*gravity),
             gui_enabled: *gui,
+            name: name.clone(),
             viewer_url: None,
         };
         Some((world, Outcome::Created(out)))
@@ -396,6 +401,17 @@ impl World {
         self.simulation_id = simulation_id.to_string();
         self.gui = gui;
         self
+    }
+
+    /// The same state under another label (a fork's or load's own `name`, or none).
+    pub fn with_name(mut self, name: Option<String>) -> World {
+        self.name = name;
+        self
+    }
+
+    /// The simulation's label, if it was given one.
+    pub fn name(&self) -> Option<&str> {
+        self.name.as_deref()
     }
 
     /// The simulation's id (for error messages).
@@ -664,6 +680,7 @@ impl World {
         World {
             simulation_id: self.simulation_id.clone(),
             gui: self.gui,
+            name: self.name.clone(),
             physics: PhysicsWorld {
                 gravity: p.gravity,
                 integration_parameters: p.integration_parameters,
@@ -715,6 +732,7 @@ impl World {
         Ok(World {
             simulation_id: simulation_id.to_string(),
             gui,
+            name: None,
             physics,
             tables,
             scene: OnceLock::new(),
