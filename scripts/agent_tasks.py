@@ -12,7 +12,7 @@ today's tools — the server's default arguments only (no detail switches; no `o
 `observe`, no `every`), one call per thing the agent wants to know, and the agent's own Python
 for whatever the tools do not compute (how many boxes moved, when a box landed). The tasks
 are the issue's: (1) a five-box tower knocked over by a thrown ball and looked back at
-(get_history to find the interval, get_trajectory of it); (2) a 100-box pile built in one
+(the throw's result names the interval, get_trajectory of it); (2) a 100-box pile built in one
 batch, stepped, and checked settled; (3) a sweep over four throwing speeds with run_sweep,
 counting the boxes moved at each; (4) the KUKA iiwa14 (fixed base) moved to a target with
 calculate_inverse_kinematics and set_joint_motor_control_array; (5) the wheeled base
@@ -179,14 +179,12 @@ async def tower_lookback(t):
         r = await t.call("add_box", {"sim_id": sim, "dimensions": [BOX_HALF] * 3, "position": [0, 0, z], "mass": 1})
         boxes.append(ids(r))
     ball = ids(await t.call("add_sphere", {"sim_id": sim, "radius": 0.1, "position": BALL_START, "mass": 2}))
-    await t.call("set_object_velocity", {"sim_id": sim, "object_id": ball, "linear_velocity": THROW})
+    throw = await t.call("set_object_velocity", {"sim_id": sim, "object_id": ball, "linear_velocity": THROW})
     await t.call("step_simulation", {"sim_id": sim, "steps": 480})
 
-    # Look back: which seq was the throw? (step_simulation says no seq.)
-    history = await t.call("get_history", {"sim_id": sim})
-    throws = [e["seq"] for e in history["events"] if e["tool"] == "set_object_velocity" and e["ok"]]
-    t.check(len(throws) == 1, f"get_history shows {len(throws)} throws, not 1")
-    since = {"from_seq": throws[-1]} if throws else {}
+    # Look back from the throw: its result says where it landed (head_seq).
+    t.check("head_seq" in throw, "set_object_velocity does not say its seq")
+    since = {"from_seq": throw["head_seq"]} if "head_seq" in throw else {}
     traj = await t.call("get_trajectory", {"sim_id": sim, **since})
 
     by_id = {o["object_id"]: o for o in traj["objects"]}
