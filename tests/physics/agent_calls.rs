@@ -65,6 +65,57 @@ async fn a_marker_touches_nothing_but_rays_and_the_camera_see_it() {
     verifies_and_replays(c, server, dir.path(), &sim).await;
 }
 
+/// One drop or stack case of PyBullet's own run (tests/fixtures/pybullet_filter_defaults.json):
+/// does the filtered body rest where PyBullet's did?
+async fn rests_as_pybullet(c: &Client, case: &Value) -> (bool, bool) {
+    let sim = c.new_sim(json!({})).await;
+    let filter = |id: u64, g: &Value, m: &Value| json!({"sim_id": sim, "object_id": id, "collision_filter_group": g, "collision_filter_mask": m});
+    if let Some(support) = case["support"].as_str() {
+        match support {
+            "plane.urdf" => c.call("load_urdf", json!({"sim_id": sim, "file_path": "plane.urdf"})).await,
+            _ => c.call("add_box", json!({"sim_id": sim, "dimensions": [2, 2, 0.05], "position": [0, 0, -0.05], "mass": 0})).await,
+        };
+        let ball = sphere(c, &sim, 0.0, json!({})).await;
+        if !case["sphere_group"].is_null() {
+            c.call("set_collision_filter_group_mask", filter(ball, &case["sphere_group"], &case["sphere_mask"])).await;
+        }
+        c.step(&sim, 480).await;
+        ((z(c, &sim, ball).await - 0.1).abs() < 0.01, case["resting"].as_bool().unwrap())
+    } else {
+        c.call("load_urdf", json!({"sim_id": sim, "file_path": "plane.urdf"})).await;
+        for h in [0.1, 0.3] {
+            c.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, h]})).await;
+        }
+        if !case["top_mask"].is_null() {
+            c.call("set_collision_filter_group_mask", filter(2, &case["top_group"], &case["top_mask"])).await;
+        }
+        c.step(&sim, 480).await;
+        ((z(c, &sim, 2).await - 0.3).abs() < 0.01, case["top_resting_on_bottom"].as_bool().unwrap())
+    }
+}
+
+/// set_collision_filter_group_mask against PyBullet's own run: a pair touches when either
+/// part's group meets the other's mask, static parts being group 2, mask all but 2 (found by
+/// scripts/pybullet_filter_defaults.py; the first release tested both ways, every part at
+/// group 1 — its recorded logs still fold that way, replays/markers_filters_motors.sqlite).
+#[tokio::test(flavor = "multi_thread")]
+async fn group_and_mask_touch_exactly_where_pybullet_s_did() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let reference: Value = serde_json::from_str(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/pybullet_filter_defaults.json")).unwrap()).unwrap();
+    let cases: Vec<&Value> = reference["drop_tests"].as_array().unwrap().iter().chain(reference["stacked_dynamic_boxes"].as_array().unwrap()).collect();
+    assert!(cases.len() >= 25, "the reference has {} cases", cases.len());
+    let mut wrong = Vec::new();
+    for case in &cases {
+        let (ours, pybullet) = rests_as_pybullet(&c, case).await;
+        if ours != pybullet {
+            wrong.push(format!("{} on {}: ours rests {ours}, PyBullet's {pybullet}", case["case"], case["support"]));
+        }
+    }
+    assert!(wrong.is_empty(), "{} of {} cases differ from PyBullet: {wrong:#?}", wrong.len(), cases.len());
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn collision_filters_decide_which_parts_touch_as_pybullet_defines_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -76,12 +127,12 @@ async fn collision_filters_decide_which_parts_touch_as_pybullet_defines_them() {
     let paired = sphere(&c, &sim, 0.0, json!({})).await;
     let plain = sphere(&c, &sim, 1.0, json!({})).await;
     let hash_plain = c.hash(&sim).await;
-    // Group 2, mask 2: it meets the ground (group 1, mask all) only if 2 & all and 1 & 2 — no.
-    c.call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": masked, "collision_filter_group": 2, "collision_filter_mask": 2})).await;
+    // Group 2, mask 1 against the static ground (group 2, mask all but 2): 2 & !2 and 2 & 1 — no.
+    c.call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": masked, "collision_filter_group": 2, "collision_filter_mask": 1})).await;
     c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": paired, "object_id_b": ground, "enable_collision": false})).await;
     assert_ne!(c.hash(&sim).await, hash_plain, "filters are hashed state");
     c.step(&sim, 240).await;
-    assert!(z(&c, &sim, masked).await < -0.5, "group 2 / mask 2 falls through the ground (group 1)");
+    assert!(z(&c, &sim, masked).await < -0.5, "group 2 / mask 1 falls through the static ground");
     assert!(z(&c, &sim, paired).await < -0.5, "the disabled pair falls through");
     assert!((z(&c, &sim, plain).await - 0.1).abs() < 0.01, "the unfiltered ball rests on the ground");
     // Bad parts are refused naming the parameter, changing nothing.
@@ -97,7 +148,7 @@ async fn collision_filters_decide_which_parts_touch_as_pybullet_defines_them() {
     c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": paired, "object_id_b": ground, "enable_collision": false})).await;
     c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": ground, "object_id_b": paired, "enable_collision": true})).await;
     // A pair enabled explicitly touches whatever the masks say (PyBullet's pair filter wins).
-    c.call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": masked, "collision_filter_group": 2, "collision_filter_mask": 2})).await;
+    c.call("set_collision_filter_group_mask", json!({"sim_id": sim, "object_id": masked, "collision_filter_group": 2, "collision_filter_mask": 1})).await;
     c.call("set_collision_filter_pair", json!({"sim_id": sim, "object_id_a": masked, "object_id_b": ground, "enable_collision": true})).await;
     c.step(&sim, 240).await;
     assert!((z(&c, &sim, paired).await - 0.1).abs() < 0.01, "re-enabled, the pair touches again");

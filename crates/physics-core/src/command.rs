@@ -457,8 +457,8 @@ pub enum Command {
         motors: Vec<(u32, MotorSpec)>,
     },
     /// PyBullet's collision filter group and mask of an object's base (−1) or link
-    /// (set_collision_filter_group_mask): two parts touch only when each one's group meets the
-    /// other's mask (bit sets).
+    /// (set_collision_filter_group_mask), tested as PyBullet tests them (`pybullet_test`;
+    /// `world::filters`).
     SetCollisionFilter {
         /// The object.
         object_id: u32,
@@ -468,6 +468,12 @@ pub enum Command {
         group: u32,
         /// The groups it touches.
         mask: u32,
+        /// PyBullet's own test (a pair touches when either part's group meets the other's
+        /// mask; static parts are group 2, mask all but 2): every command made now. False
+        /// (absent) in events of the first release, which tested both ways with every part at
+        /// group 1, mask all — those logs fold as they were recorded.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        pybullet_test: bool,
     },
     /// Contacts between two parts (object, link) off or back on (set_collision_filter_pair).
     SetCollisionPair {

@@ -85,6 +85,7 @@ pub(super) fn decide_filter(p: CollisionFilterGroupMask) -> Result<Command, Refu
         link_index: link_index(p.link_index)?,
         group: bits(p.collision_filter_group, "collision_filter_group")?,
         mask: bits(p.collision_filter_mask, "collision_filter_mask")?,
+        pybullet_test: true,
     })
 }
 
@@ -249,7 +250,7 @@ impl PhysicsServer {
         self.change("remove_object", args, decide_remove).await
     }
 
-    /// Two parts touch when each one's group meets the other's mask (bits; default 1, all).
+    /// Parts touch when either's group meets the other's mask (default 1, all; static 2, all but 2).
     #[tool(input_schema = schema_for_type::<params::CollisionFilterGroupMask>())]
     async fn set_collision_filter_group_mask(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_collision_filter_group_mask", args, decide_filter).await

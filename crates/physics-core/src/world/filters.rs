@@ -5,10 +5,17 @@
 //!
 //! Markers live in rapier's colliders (collision groups that meet nothing). Group/mask and
 //! disabled pairs are a contact-pair filter consulted during the step (`ContactFilter`), beside
-//! MJCF's `<exclude>`: PyBullet's rule needs every other part at its default (group 1, mask
-//! all), while rapier's default membership is every group, and changing that would change
-//! every world's hash. The table here records what was set, so the state hash covers it (only
-//! when anything was: worlds that never used these keep their hashes).
+//! MJCF's `<exclude>`: PyBullet's rule needs every other part at its default, while rapier's
+//! default membership is every group, and changing that would change every world's hash. The
+//! table here records what was set, so the state hash covers it (only when anything was:
+//! worlds that never used these keep their hashes).
+//!
+//! PyBullet's test, as measured against pybullet 3.2.7 (`scripts/pybullet_filter_defaults.py`):
+//! a pair touches when *either* part's group meets the other's mask (the world's filter mode
+//! is `B3_FILTER_GROUPAMASKB_OR_GROUPBMASKA`), dynamic parts default to group 1, mask all, and
+//! static parts (fixed: mass 0, a fixed base) to Bullet's StaticFilter, group 2, mask all but 2.
+//! The first release tested both ways with every part at group 1, mask all; worlds whose
+//! filters it set keep that test (`pybullet_test` false), so their logs fold as recorded.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -30,12 +37,37 @@ pub struct Filters {
     pub pairs: BTreeMap<(Part, Part), bool>,
     /// Markers: objects made to touch nothing.
     pub markers: BTreeSet<u32>,
+    /// Groups and masks are tested as PyBullet tests them (module doc); false only for
+    /// worlds filtered by the first release, whose test it keeps.
+    pub pybullet_test: bool,
 }
+
+/// The filters as snapshot version 4 and the first release's state hash encoded them.
+#[derive(Deserialize)]
+pub(super) struct FiltersV4 {
+    groups: BTreeMap<Part, (u32, u32)>,
+    pairs: BTreeMap<(Part, Part), bool>,
+    markers: BTreeSet<u32>,
+}
+
+impl From<FiltersV4> for Filters {
+    fn from(f: FiltersV4) -> Self {
+        Filters { groups: f.groups, pairs: f.pairs, markers: f.markers, pybullet_test: false }
+    }
+}
+
+/// `FiltersV4`'s encoding of today's filters, borrowed (postcard encodes a tuple as the struct).
+pub(super) type FiltersV4Ref<'a> = (&'a BTreeMap<Part, (u32, u32)>, &'a BTreeMap<(Part, Part), bool>, &'a BTreeSet<u32>);
 
 impl Filters {
     /// Whether nothing was set (then the state hash leaves the section out).
     pub fn is_empty(&self) -> bool {
         self.groups.is_empty() && self.pairs.is_empty() && self.markers.is_empty()
+    }
+
+    /// The first release's view of these filters (without `pybullet_test`).
+    pub(super) fn v4(&self) -> FiltersV4Ref<'_> {
+        (&self.groups, &self.pairs, &self.markers)
     }
 
     /// Forgets every entry of a removed object.
@@ -46,12 +78,19 @@ impl Filters {
     }
 }
 
-/// PyBullet's default group and mask of a part nobody filtered.
+/// PyBullet's default group and mask of a dynamic part nobody filtered.
 const DEFAULT_GROUP_MASK: (u32, u32) = (1, u32::MAX);
 
-/// PyBullet's test: two parts touch when each one's group meets the other's mask.
-fn touch((g1, m1): (u32, u32), (g2, m2): (u32, u32)) -> bool {
-    g1 & m2 != 0 && g2 & m1 != 0
+/// PyBullet's default group and mask of a static part (Bullet's StaticFilter).
+const STATIC_GROUP_MASK: (u32, u32) = (2, u32::MAX ^ 2);
+
+/// Whether two parts with these (group, mask) touch: PyBullet's test (either way), or the
+/// first release's (both ways).
+fn touch((g1, m1): (u32, u32), (g2, m2): (u32, u32), pybullet_test: bool) -> bool {
+    match pybullet_test {
+        true => g1 & m2 != 0 || g2 & m1 != 0,
+        false => g1 & m2 != 0 && g2 & m1 != 0,
+    }
 }
 
 impl World {
@@ -66,10 +105,12 @@ impl World {
         }
     }
 
-    /// Sets a part's collision group and mask, recording it.
-    pub(super) fn set_collision_filter(&mut self, id: u32, link_index: i32, group: u32, mask: u32) -> String {
+    /// Sets a part's collision group and mask, recording it; with `pybullet_test` the world's
+    /// groups and masks are tested as PyBullet tests them from now on (module doc).
+    pub(super) fn set_collision_filter(&mut self, id: u32, link_index: i32, (group, mask): (u32, u32), pybullet_test: bool) -> String {
         self.filter_contacts_of(id, link_index);
         self.tables.filters.groups.insert((id, link_index), (group, mask));
+        self.tables.filters.pybullet_test |= pybullet_test;
         format!("Collision filter of object {id} link {link_index} set: group {group}, mask {mask}")
     }
 
@@ -109,6 +150,7 @@ impl World {
 pub struct ContactFilter {
     pairs: BTreeMap<(Raw, Raw), bool>,
     groups: BTreeMap<Raw, (u32, u32)>,
+    pybullet_test: bool,
 }
 
 /// A body handle's raw parts (handles are not `Ord`).
@@ -130,7 +172,7 @@ impl ContactFilter {
             .iter()
             .filter_map(|((id, link), gm)| Some((w.part(*id, *link)?.0.into_raw_parts(), *gm)))
             .collect();
-        ContactFilter { pairs, groups }
+        ContactFilter { pairs, groups, pybullet_test: w.tables.filters.pybullet_test }
     }
 
     /// No pair and no group: the plain step applies.
@@ -141,12 +183,19 @@ impl ContactFilter {
 
 impl PhysicsHooks for ContactFilter {
     fn filter_contact_pair(&self, c: &PairFilterContext) -> Option<SolverFlags> {
-        let of = |b: Option<RigidBodyHandle>| b.and_then(|b| self.groups.get(&b.into_raw_parts()).copied()).unwrap_or(DEFAULT_GROUP_MASK);
+        let default = |b: Option<RigidBodyHandle>| {
+            let dynamic = b.and_then(|b| c.bodies.get(b)).is_some_and(|b| b.is_dynamic());
+            match self.pybullet_test && !dynamic {
+                true => STATIC_GROUP_MASK,
+                false => DEFAULT_GROUP_MASK,
+            }
+        };
+        let of = |b: Option<RigidBodyHandle>| b.and_then(|b| self.groups.get(&b.into_raw_parts()).copied()).unwrap_or_else(|| default(b));
         let forced = match (c.rigid_body1, c.rigid_body2) {
             (Some(a), Some(b)) => self.pairs.get(&(a.into_raw_parts(), b.into_raw_parts())).copied(),
             _ => None,
         };
-        forced.unwrap_or_else(|| touch(of(c.rigid_body1), of(c.rigid_body2))).then(SolverFlags::default)
+        forced.unwrap_or_else(|| touch(of(c.rigid_body1), of(c.rigid_body2), self.pybullet_test)).then(SolverFlags::default)
     }
 
     fn filter_intersection_pair(&self, _: &PairFilterContext) -> bool {

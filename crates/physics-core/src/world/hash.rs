@@ -155,7 +155,11 @@ pub(super) fn state_hash(w: &World) -> String {
     }
     // The collision filters, pairs and markers likewise, only when the agent set any.
     if !w.tables.filters.is_empty() {
-        bytes.extend(encode(&("filters", &w.tables.filters)));
+        // The first release's filters hash as they did; PyBullet's test adds its flag.
+        match w.tables.filters.pybullet_test {
+            false => bytes.extend(encode(&("filters", w.tables.filters.v4()))),
+            true => bytes.extend(encode(&("filters", &w.tables.filters))),
+        }
     }
     // Constraints likewise, behind a tag so they can never read as robots.
     if !w.tables.constraints.is_empty() {

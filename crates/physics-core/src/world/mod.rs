@@ -576,8 +576,8 @@ impl World {
                 let mode = motors.first().map_or("", |(_, m)| m.mode.name());
                 Outcome::Message(Message::new(format!("Motors of joints {joints:?} of object {object_id} set to {mode}")))
             }
-            Command::SetCollisionFilter { object_id, link_index, group, mask } => {
-                Outcome::Message(Message::new(self.set_collision_filter(*object_id, *link_index, *group, *mask)))
+            Command::SetCollisionFilter { object_id, link_index, group, mask, pybullet_test } => {
+                Outcome::Message(Message::new(self.set_collision_filter(*object_id, *link_index, (*group, *mask), *pybullet_test)))
             }
             Command::SetCollisionPair { a, b, enable } => Outcome::Message(Message::new(self.set_collision_pair(*a, *b, *enable))),
             Command::ResetJointState { object_id, joint_index, target_value, target_velocity } => {
@@ -653,22 +653,32 @@ impl World {
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
         let encoded = if t.filters.is_empty() {
-            let v3 = TablesV3Ref {
-                objects: &t.objects,
-                next_object_id: t.next_object_id,
-                next_constraint_id: t.next_constraint_id,
-                time_s: t.time_s,
-                steps: t.steps,
-                pending_wrench: &t.pending_wrench,
-                viewer: &t.viewer,
-                constraints: &t.constraints,
-                as_given: &t.as_given,
-            };
+            let v3 = self.tables_v3_ref();
             postcard::to_extend(&(3u32, &self.physics, v3), out)
+        } else if !t.filters.pybullet_test {
+            // Filters of the first release, before `pybullet_test`: as version 4 wrote them.
+            let v3 = self.tables_v3_ref();
+            postcard::to_extend(&(4u32, &self.physics, v3, t.filters.v4()), out)
         } else {
             postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t), out)
         };
         encoded.unwrap_or_default()
+    }
+
+    /// The tables as version 3 encoded them (everything but the filters), borrowed.
+    fn tables_v3_ref(&self) -> TablesV3Ref<'_> {
+        let t = &self.tables;
+        TablesV3Ref {
+            objects: &t.objects,
+            next_object_id: t.next_object_id,
+            next_constraint_id: t.next_constraint_id,
+            time_s: t.time_s,
+            steps: t.steps,
+            pending_wrench: &t.pending_wrench,
+            viewer: &t.viewer,
+            constraints: &t.constraints,
+            as_given: &t.as_given,
+        }
     }
 
     /// A working copy of this world that continues exactly as this one would (what
@@ -710,6 +720,14 @@ impl World {
                     postcard::from_bytes(bytes).map_err(bad)?;
                 (physics, tables)
             }
+            4 => {
+                // Version 4's tables are version 3's followed by the first release's filters.
+                let (_, physics, tables, filters): (u32, PhysicsWorld, TablesV3, filters::FiltersV4) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                let mut tables: Tables = tables.into();
+                tables.filters = filters.into();
+                (physics, tables)
+            }
             3 => {
                 let (_, physics, tables): (u32, PhysicsWorld, TablesV3) =
                     postcard::from_bytes(bytes).map_err(bad)?;
@@ -741,10 +759,11 @@ impl World {
 
     /// Whether a fold may start from these snapshot bytes: versions 1 and 2 restore (their
     /// hashes can be checked) but lack the values as given, so results computed on them could
-    /// differ from a fold from the root's; version 3 lacks only the filters, which it could not
-    /// have had, so it restores exactly; folds start at such a snapshot or the root.
+    /// differ from a fold from the root's; versions 3 and 4 lack only state they could not have
+    /// had (filters; PyBullet's filter test), so they restore exactly; folds start at such a
+    /// snapshot or the root.
     pub fn foldable_snapshot(bytes: &[u8]) -> bool {
-        postcard::take_from_bytes::<u32>(bytes).is_ok_and(|(v, _)| v == SNAPSHOT_VERSION || v == 3)
+        postcard::take_from_bytes::<u32>(bytes).is_ok_and(|(v, _)| (3..=SNAPSHOT_VERSION).contains(&v))
     }
 
     /// blake3 (hex) over the canonical encoding of everything `apply` can change.
@@ -755,8 +774,9 @@ impl World {
 
 /// Version of the snapshot encoding (2 added constraints to the tables, 3 the values as given,
 /// 4 the collision filters, written only for worlds that have any — others are written as 3;
-/// 1 to 3 still restore).
-pub const SNAPSHOT_VERSION: u32 = 4;
+/// 5 PyBullet's filter test (`Filters::pybullet_test`), written only for worlds that use it —
+/// worlds with the first release's filters are written as 4; 1 to 4 still restore).
+pub const SNAPSHOT_VERSION: u32 = 5;
 
 impl From<bodies::BodyOutcome> for Outcome {
     fn from(o: bodies::BodyOutcome) -> Outcome {
