@@ -176,6 +176,26 @@ async fn history_is_compact_by_default_and_full_on_request() {
     assert!(e.contains("detail") && e.contains("full"), "{e}");
 }
 
+/// A batch's reads record what they returned too, as the same reads alone do.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_batch_read_shows_what_it_returned() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let calls = json!([
+        {"tool": "add_box", "arguments": {"dimensions": [0.2, 0.2, 0.2], "position": [0, 0, 1]}},
+        {"tool": "get_object_state", "arguments": {"object_id": 0}},
+    ]);
+    c.call("batch", json!({"sim_id": sim, "calls": calls})).await;
+    c.state(&sim, 0).await;
+    let events = c.call("get_history", json!({"sim_id": sim, "since_seq": 1})).await["events"].as_array().unwrap().clone();
+    let lines: Vec<&str> = events.iter().filter(|e| e["tool"] == "get_object_state").map(|e| e["summary"].as_str().unwrap()).collect();
+    assert_eq!(lines.len(), 2);
+    assert!(lines[0].contains("position=[0,0,1]"), "{lines:?}");
+    assert_eq!(lines[0], lines[1], "the same read says the same in a batch and alone");
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn forks_inherit_history_and_evolve_alike() {
     let dir = tempfile::tempdir().unwrap();
