@@ -37,6 +37,7 @@ fn event(seq: u64, kind: Kind, tool: &str, w: &World) -> Event {
         result_hash: None,
         state_hash: w.state_hash(),
         engine: None,
+        summary: None,
     }
 }
 

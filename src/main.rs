@@ -241,7 +241,8 @@ fn run_replay(file: &Path, until: Option<u64>, json: bool) -> anyhow::Result<boo
 fn print_history(file: &Path) -> anyhow::Result<()> {
     println!("{:>6}  {:<8} {:>6}  {:<24} {:<3} {:<12}  summary", "seq", "kind", "parent", "tool", "ok", "state");
     for e in physics_mcp::log::replay::events(file)? {
-        let summary = e.result.as_deref().unwrap_or("");
+        // A read shows what it returned (schema v3), anything else its result or refusal.
+        let summary = e.result.as_deref().or(e.summary.as_deref()).unwrap_or("");
         let summary: String = summary.chars().take(70).collect();
         println!(
             "{:>6}  {:<8} {:>6}  {:<24} {:<3} {:<12}  {}{}",

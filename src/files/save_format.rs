@@ -337,6 +337,7 @@ pub fn log_event(e: &SavedEvent) -> Event {
         result_hash: e.result_hash.clone(),
         state_hash: e.state_hash.clone(),
         engine: e.engine.clone(),
+        summary: None,
     }
 }
 

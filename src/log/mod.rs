@@ -1,5 +1,6 @@
 //! The event log: what every backend of it provides ([`EventLog`]), its SQLite storage
-//! (`sqlite`), the data directory (`data_dir`), the one fold routine (`fold`) and `replay`.
+//! (`sqlite`), the data directory (`data_dir`), the one fold routine (`fold`), `replay`, and
+//! the one-line summary a read event records (`summary`).
 //!
 //! A simulation *is* its log; the world in memory is a cache equal to the fold of it. The
 //! trait is what the rest of the server uses a log through: appends fenced by the seq they
@@ -10,6 +11,7 @@ pub mod data_dir;
 pub mod fold;
 pub mod replay;
 pub mod sqlite;
+pub mod summary;
 
 pub use sqlite::{Event, Kind, Snap, StoreError, SyncMode};
 

@@ -22,11 +22,16 @@ use rusqlite::{params, Connection, OptionalExtension};
 const MIGRATIONS: &[&str] = &[
     include_str!("../../migrations/0001_init.sql"),
     include_str!("../../migrations/0002_engine_build.sql"),
+    include_str!("../../migrations/0003_read_summary.sql"),
 ];
 
 /// The first schema version whose events have the `engine` column (read-only opens of older
 /// files read it as NULL: roots made before builds were recorded).
 const ENGINE_COLUMN_SINCE: i64 = 2;
+
+/// The first schema version whose events have the `summary` column (read-only opens of older
+/// files read it as NULL: reads made before their summaries were recorded).
+const SUMMARY_COLUMN_SINCE: i64 = 3;
 
 /// Buffered read/refused events are committed once this many are waiting.
 const LAZY_FLUSH_AT: usize = 256;
@@ -120,6 +125,9 @@ pub struct Event {
     /// Root events: the engine build that made them (`physics_core::engine::ENGINE_BUILD`
     /// of that binary); `None` on other events and on roots recorded before builds were.
     pub engine: Option<String>,
+    /// Read events: a one-line summary of what they returned (`log::summary::one_line`);
+    /// `None` on other events and on reads recorded before schema v3. Part of no hash.
+    pub summary: Option<String>,
 }
 
 impl Event {
@@ -141,6 +149,7 @@ impl Event {
             result_hash: None,
             state_hash: String::new(),
             engine: None,
+            summary: None,
         }
     }
 
@@ -324,25 +333,29 @@ fn row_to_event(r: &rusqlite::Row) -> rusqlite::Result<Event> {
         result_hash: r.get(11)?,
         state_hash: r.get(12)?,
         engine: r.get(13)?,
+        summary: r.get(14)?,
     })
 }
 
 const EVENT_COLUMNS: &str = "seq, kind, parent, tool, arguments, command, version, ok, mutates, \
-                             inherited, result, result_hash, state_hash, engine";
+                             inherited, result, result_hash, state_hash, engine, summary";
 
-/// `EVENT_COLUMNS` for a file of schema `version` (read-only opens do not migrate): one
-/// before the `engine` column selects NULL in its place.
+/// `EVENT_COLUMNS` for a file of schema `version` (read-only opens do not migrate): a column
+/// newer than the file is selected as NULL in its place.
 fn event_columns(version: i64) -> String {
-    if version >= ENGINE_COLUMN_SINCE {
-        EVENT_COLUMNS.to_string()
-    } else {
-        EVENT_COLUMNS.replace(", engine", ", NULL AS engine")
+    let mut columns = EVENT_COLUMNS.to_string();
+    if version < ENGINE_COLUMN_SINCE {
+        columns = columns.replace(", engine", ", NULL AS engine");
     }
+    if version < SUMMARY_COLUMN_SINCE {
+        columns = columns.replace(", summary", ", NULL AS summary");
+    }
+    columns
 }
 
 fn insert_event(tx: &rusqlite::Transaction, e: &Event) -> Result<(), StoreError> {
     tx.prepare_cached(&format!(
-        "INSERT INTO events ({EVENT_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)"
+        "INSERT INTO events ({EVENT_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)"
     ))?
     .execute(params![
         e.seq as i64,
@@ -359,6 +372,7 @@ fn insert_event(tx: &rusqlite::Transaction, e: &Event) -> Result<(), StoreError>
         e.result_hash,
         e.state_hash,
         e.engine,
+        e.summary,
     ])?;
     Ok(())
 }

@@ -53,10 +53,10 @@ const WORKFLOWS: [Workflow; 3] = [
         arguments: &[("sim_id", "the simulation to look at (default: list_simulations and pick one)", None)],
         text: "Walk through a simulation's recorded history with the physics-mcp tools.\n\
 1. Simulation: {sim_id}. (Unsure? list_simulations.)\n\
-2. get_history (since_seq 0, limit 100, then page on with since_seq = the last seq): every call, its arguments, whether it changed the world, and the state hash after it.\n\
+2. get_history (since_seq 0, limit 100, then page on with since_seq = the last seq): every call, its arguments, what it did (a read: what it returned), and the state hash after it (its first 12 hex; detail \"full\" gives all 64).\n\
 3. verify_simulation: refolds the whole log in a fresh world and checks every hash; ok must be true.\n\
 4. fork_simulation at an interesting seq (at_seq) to branch a copy from that moment, then change the copy (different forces, another step count) and compare get_object_state of both.\n\
-5. undo / redo on the original move along its history; get_simulation_info's state_hash equals the hash the history recorded for that point.\n\
+5. undo / redo on the original move along its history; get_simulation_info's state_hash begins with the hash the history shows for that point.\n\
 6. save_simulation writes the session to a file; anyone can replay it bit for bit with `physics-mcp replay FILE` on the command line.",
     },
 ];

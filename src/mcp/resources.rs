@@ -59,7 +59,7 @@ impl Part {
     fn description(self) -> &'static str {
         match self {
             Part::Info => "The simulation's gravity, timestep, time, objects, constraints and state hash (as get_simulation_info).",
-            Part::History => "The simulation's event log, one JSON event per line (as get_history's events; the newest 10,000 that fit the reply budget).",
+            Part::History => "The simulation's event log, one JSON event per line (as get_history's compact events; the newest 10,000 that fit the reply budget).",
             Part::Image => "A 320x240 PNG of the simulation from its viewer camera (set_camera).",
         }
     }
@@ -117,7 +117,7 @@ fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize, budget: usize) -> R
             let mut since = sim.log().last_seq().saturating_sub(HISTORY_RESOURCE_EVENTS);
             let mut lines: Vec<String> = Vec::new();
             loop {
-                let page = sim.history(since, HISTORY_MAX_LIMIT)?;
+                let page = sim.history(since, HISTORY_MAX_LIMIT, false)?;
                 let Some(last) = page.events.last().map(|e| e.seq) else { break };
                 for e in &page.events {
                     lines.push(serde_json::to_string(e).map_err(|e| format!("Internal error: {e}"))?);

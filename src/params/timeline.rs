@@ -21,10 +21,12 @@ pub struct Count {
 pub struct HistoryPage {
     /// Sim id.
     pub sim_id: Text,
-    /// Events after this seq (default 0).
+    /// After seq (default 0).
     pub since_seq: Option<Int<u64>>,
     /// 1-1000 (default 50).
     pub limit: Option<Int<u64>>,
+    /// full: as logged.
+    pub detail: Option<Text>,
 }
 
 /// fork_simulation parameters.

@@ -349,6 +349,7 @@ fn work_out(
                     .map_err(refused)?;
                 e.result_hash = Some(crate::digest::result_hash(&value.to_string()));
                 e.state_hash = hash.clone();
+                e.summary = Some(crate::log::summary::one_line(&value));
                 results.push(value);
             }
         }

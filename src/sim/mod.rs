@@ -370,7 +370,8 @@ impl Sim {
         self.ensure_live()?;
         match f(self) {
             Ok(out) => {
-                let json = serde_json::to_value(&out).unwrap_or_default().to_string();
+                let value = serde_json::to_value(&out).unwrap_or_default();
+                let json = value.to_string();
                 if budget != usize::MAX {
                     let bytes = reply_bytes(&out, &json);
                     if bytes > budget {
@@ -383,6 +384,7 @@ impl Sim {
                 let mut e = self.event(Kind::Read, tool, args);
                 e.result_hash = Some(crate::digest::result_hash(&json));
                 e.state_hash = self.state_hash.clone();
+                e.summary = Some(crate::log::summary::one_line(&value));
                 if let Err(err) = self.log.append_lazy(e) {
                     tracing::warn!("could not record a read: {err}");
                 }

@@ -41,25 +41,87 @@ pub fn shallow(v: Value, depth: usize) -> Value {
     }
 }
 
-/// One line describing an event for get_history.
-fn summary(e: &Event) -> String {
-    let text = match (e.kind, e.result.as_deref()) {
-        (Kind::Refused, Some(why)) => format!("refused: {why}"),
-        (Kind::Read, _) => "read".to_string(),
-        (_, Some(result)) => match serde_json::from_str::<Value>(result) {
-            Ok(Value::Object(m)) => match m.get("message").and_then(Value::as_str) {
-                Some(msg) => msg.to_string(),
-                None => Value::Object(m).to_string(),
-            },
-            _ => result.to_string(),
-        },
-        (_, None) => String::new(),
+/// Compact JSON bytes over which a field of a recorded result is shown by its size in
+/// get_history's default (compact) answer; with detail "full", fields up to the size of
+/// arguments kept inline (64 KB) are shown whole.
+pub const SUMMARY_FIELD_BYTES: usize = 256;
+
+/// Characters of a refusal sentence get_history shows by default (all of it with "full").
+const REFUSAL_CHARS: usize = 160;
+
+/// Hex characters of a state hash get_history shows by default: enough to tell states apart
+/// at a glance (and to match the `history` CLI); "full" gives all 64.
+pub const SHORT_HASH: usize = 12;
+
+/// `v` with every field whose compact JSON is over `max` bytes shown by its size instead
+/// (`"[4000 items]"`, `"{12 fields}"`, a long string cut): a recorded result may be large (a
+/// model's whole body list), a history event stays small.
+fn bounded(v: Value, max: usize) -> Value {
+    let shown = |x: Value| -> Value {
+        if x.to_string().len() <= max {
+            return x;
+        }
+        match x {
+            Value::Array(items) => Value::String(format!("[{} items]", items.len())),
+            Value::Object(m) => Value::String(format!("{{{} fields}}", m.len())),
+            Value::String(text) => Value::String(crate::log::summary::cut(&text, max / 2)),
+            other => other,
+        }
     };
-    if text.chars().count() > 160 {
-        format!("{}...", text.chars().take(157).collect::<String>())
-    } else {
-        text
+    match v {
+        Value::Object(m) => Value::Object(m.into_iter().map(|(k, x)| (k, shown(x))).collect()),
+        other => shown(other),
     }
+}
+
+/// What an event did, for get_history: a change's or root's recorded result as JSON (just
+/// its message when that is all it says), "refused: why", or a read's one-line summary.
+/// Compact unless `full`: see `HistoryEvent::summary`.
+fn summary(e: &Event, full: bool) -> Value {
+    let field_max = if full { crate::log::sqlite::INLINE_ARGS_MAX } else { SUMMARY_FIELD_BYTES };
+    match (e.kind, e.result.as_deref()) {
+        (Kind::Refused, why) => {
+            let text = format!("refused: {}", why.unwrap_or_default());
+            Value::String(if full { text } else { crate::log::summary::cut(&text, REFUSAL_CHARS) })
+        }
+        (Kind::Read, _) => Value::String(e.summary.clone().unwrap_or_else(|| "read".to_string())),
+        (_, Some(result)) => match serde_json::from_str::<Value>(result) {
+            Ok(Value::Object(m)) if m.len() == 1 && m.get("message").is_some_and(Value::is_string) => {
+                m.into_iter().next().map(|(_, msg)| msg).unwrap_or_default()
+            }
+            Ok(Value::Object(mut m)) if !full => {
+                // Compact: the simulation a change was made in is the one asked about (a root
+                // keeps it: an inherited root names its ancestor), and a hash by its short form.
+                if e.kind != Kind::Root {
+                    m.remove("simulation_id");
+                }
+                for v in m.values_mut() {
+                    if let Value::String(text) = v {
+                        if text.len() == 64 && text.bytes().all(|b| b.is_ascii_hexdigit()) {
+                            text.truncate(SHORT_HASH);
+                        }
+                    }
+                }
+                shallow(bounded(Value::Object(m), field_max), ARGUMENTS_DEPTH)
+            }
+            Ok(v) => shallow(bounded(v, field_max), ARGUMENTS_DEPTH),
+            Err(_) => Value::String(result.to_string()),
+        },
+        (_, None) => Value::Null,
+    }
+}
+
+/// The arguments as get_history echoes them: as recorded with "full"; otherwise without
+/// `sim_id`, which names the simulation being asked about (or, on an inherited event, its
+/// ancestor).
+fn echoed_arguments(recorded: &str, full: bool) -> Value {
+    let mut v = serde_json::from_str(recorded).unwrap_or(Value::Null);
+    if !full {
+        if let Value::Object(m) = &mut v {
+            m.remove("sim_id");
+        }
+    }
+    shallow(v, ARGUMENTS_DEPTH)
 }
 
 impl Sim {
@@ -193,8 +255,9 @@ impl Sim {
         Ok(out)
     }
 
-    /// One page of the log: events with seq > `since`, ascending, at most `limit`.
-    pub fn history(&self, since: u64, limit: usize) -> Result<History, Refusal> {
+    /// One page of the log: events with seq > `since`, ascending, at most `limit`; compact
+    /// (short hashes, arguments without sim_id, big result fields by their size) unless `full`.
+    pub fn history(&self, since: u64, limit: usize, full: bool) -> Result<History, Refusal> {
         let events = self.log.events_since(since, limit).map_err(store_err)?;
         Ok(History {
             events: events
@@ -204,12 +267,12 @@ impl Sim {
                     kind: e.kind.as_str().into(),
                     parent: e.parent,
                     tool: e.tool.clone(),
-                    arguments: shallow(serde_json::from_str(&e.arguments).unwrap_or(Value::Null), ARGUMENTS_DEPTH),
+                    arguments: echoed_arguments(&e.arguments, full),
                     ok: e.ok,
                     mutates: e.mutates,
                     inherited: e.inherited,
-                    summary: summary(e),
-                    state_hash: e.state_hash.clone(),
+                    summary: summary(e, full),
+                    state_hash: if full { e.state_hash.clone() } else { e.state_hash.chars().take(SHORT_HASH).collect() },
                 })
                 .collect(),
             head_seq: self.log.head_seq(),

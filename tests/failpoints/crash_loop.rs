@@ -111,7 +111,7 @@ async fn restart_and_check(dir: &std::path::Path, sims: &[String], acks: &Acks, 
     assert!(partial.is_empty(), "{what}: partial files left: {partial:?}");
     let pending: Vec<_> = std::mem::take(&mut *acks.lock().unwrap());
     for (sim, head, hash) in &pending {
-        let h = c.call("get_history", json!({"sim_id": sim, "since_seq": head - 1, "limit": 1})).await;
+        let h = c.call("get_history", json!({"sim_id": sim, "since_seq": head - 1, "limit": 1, "detail": "full"})).await;
         let e = &h["events"][0];
         assert_eq!(e["seq"].as_u64(), Some(*head), "{what}: acknowledged event {head} of {sim} is missing");
         assert_eq!(e["state_hash"].as_str(), Some(hash.as_str()), "{what}: event {head} of {sim} has another hash");

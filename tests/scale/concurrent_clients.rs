@@ -96,7 +96,7 @@ async fn all_events(c: &Client, sim: &str) -> Vec<Value> {
     let mut out: Vec<Value> = Vec::new();
     while out.last().and_then(|e| e["seq"].as_u64()).unwrap_or(0) < end {
         let since = out.last().and_then(|e| e["seq"].as_u64()).unwrap_or(0);
-        let page = c.call("get_history", json!({"sim_id": sim, "since_seq": since, "limit": 1000})).await;
+        let page = c.call("get_history", json!({"sim_id": sim, "since_seq": since, "limit": 1000, "detail": "full"})).await;
         out.extend(page["events"].as_array().unwrap().iter().filter(|e| e["seq"].as_u64() <= Some(end)).cloned());
     }
     out

@@ -140,3 +140,39 @@ async fn a_file_saved_by_the_v1_build_loads_to_its_recorded_hash() {
     let loaded = c.call("load_simulation", json!({"file_path": "saved_v1.json"})).await;
     assert_eq!(loaded["state_hash"], recorded);
 }
+
+/// A schema v2 log (before read events recorded what they returned) served from a data
+/// directory: it is migrated to v3 on open, its old reads show as "read" in get_history, a new
+/// read shows its one-line summary, and it still verifies and replays.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_v2_log_migrates_and_its_old_reads_say_read() {
+    let v2 = Path::new(env!("CARGO_MANIFEST_DIR")).join("replays/markers_filters_motors.sqlite");
+    let version = |p: &Path| -> i64 { rusqlite::Connection::open(p).unwrap().query_row("PRAGMA user_version", [], |r| r.get(0)).unwrap() };
+    assert_eq!(version(&v2), 2, "the recorded log is schema v2");
+    let id: String = rusqlite::Connection::open(&v2)
+        .unwrap()
+        .query_row("SELECT value FROM meta WHERE key = 'simulation_id'", [], |r| r.get(0))
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    let log = data.join(format!("{id}.sqlite"));
+    std::fs::copy(&v2, &log).unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    assert_eq!(version(&log), 3, "migrated on open");
+    let old = c.call("get_history", json!({"sim_id": id, "limit": 1000})).await;
+    let reads: Vec<&serde_json::Value> = old["events"].as_array().unwrap().iter().filter(|e| e["kind"] == "read").collect();
+    assert!(!reads.is_empty() && reads.iter().all(|e| e["summary"] == "read"), "{reads:?}");
+    let info = c.call("get_simulation_info", json!({"sim_id": id})).await;
+    let page = c.call("get_history", json!({"sim_id": id, "since_seq": old["last_seq"]})).await;
+    let events = page["events"].as_array().unwrap();
+    // The first get_history (a read itself), then get_simulation_info.
+    let line = events.last().unwrap()["summary"].as_str().unwrap().to_string();
+    assert!(line.contains(&format!(" head_seq={} ", info["head_seq"])), "{line}");
+    assert!(events[0]["summary"].as_str().unwrap().starts_with("head_seq="), "{}", events[0]);
+    assert_eq!(c.call("verify_simulation", json!({"sim_id": id})).await["ok"], true);
+    drop(c);
+    server.terminate();
+    physics_mcp::log::replay::replay(&log, None, |_, _| {}).unwrap_or_else(|e| panic!("the migrated log does not replay: {e}"));
+}

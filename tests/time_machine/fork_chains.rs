@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 
 /// Seq → recorded state hash of every state-changing event in `sim`'s log.
 async fn recorded(c: &Client, sim: &str) -> Vec<(u64, String, bool)> {
-    let h = c.call("get_history", json!({"sim_id": sim, "limit": 1000})).await;
+    let h = c.call("get_history", json!({"sim_id": sim, "limit": 1000, "detail": "full"})).await;
     h["events"]
         .as_array()
         .unwrap()

@@ -106,6 +106,96 @@ async fn history_lists_every_call_in_pages() {
     assert!(e.contains("limit"), "{e}");
 }
 
+/// get_history answers compactly by default — hashes by their first 12 hex, arguments without
+/// the sim's own id, results as JSON (not JSON in strings), what each read returned in one
+/// line — and as recorded with `detail: "full"`.
+#[tokio::test(flavor = "multi_thread")]
+async fn history_is_compact_by_default_and_full_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let calls = [
+        ("add_box", json!({"dimensions": [5, 5, 0.5], "position": [0, 0, -0.25], "mass": 0})),
+        ("add_box", json!({"dimensions": [0.2, 0.2, 0.2], "position": [0, 0, 1]})),
+        ("step_simulation", json!({"steps": 100})),
+        ("get_object_state", json!({"object_id": 1})),
+        ("add_sphere", json!({"radius": 0.2, "position": [0, 0, 2]})),
+        ("step_simulation", json!({"steps": 50})),
+        ("get_all_collisions", json!({})),
+        ("undo", json!({})),
+        ("add_box", json!({"dimensions": [1, 1], "position": [0, 0, 0]})),
+    ];
+    for (tool, mut a) in calls {
+        a["sim_id"] = json!(sim);
+        let _ = c.try_call(tool, a).await;
+    }
+    let hash = c.hash(&sim).await;
+    let compact = c.raw("get_history", json!({"sim_id": sim, "since_seq": 0, "limit": 10})).await;
+    let full = c.raw("get_history", json!({"sim_id": sim, "limit": 10, "detail": "full"})).await;
+    let wire = |r: &rmcp::model::CallToolResult| serde_json::to_string(r).unwrap().len();
+    let (small, big) = (wire(&compact), wire(&full));
+    // Measured: 5.8 KB by default (72%), 8.1 KB full, and about as much before, when summaries
+    // were JSON text. Results that grow add to both alike, so the bound leaves some room.
+    eprintln!("10-event history on the wire: {small} B by default, {big} B with detail full");
+    assert!(small * 5 < big * 4 && small < 6_500, "the default ({small} B) is not under 80% of the full answer ({big} B)");
+
+    let page = compact.structured_content.unwrap();
+    let events = page["events"].as_array().unwrap();
+    assert_eq!(events.len(), 10);
+    for e in events {
+        assert_eq!(e["state_hash"].as_str().unwrap().len(), 12, "{e}");
+        assert!(e["arguments"].get("sim_id").is_none(), "{e}");
+    }
+    let by_seq = |seq: usize| &events[seq - 1];
+    assert_eq!(by_seq(3)["summary"]["object_id"], 1, "a change's result as an object: {}", by_seq(3));
+    assert!(by_seq(4)["summary"].get("simulation_id").is_none(), "{}", by_seq(4));
+    assert_eq!(by_seq(3)["arguments"], json!({"dimensions": [0.2, 0.2, 0.2], "position": [0, 0, 1]}));
+    assert_eq!(by_seq(1)["summary"]["simulation_id"], sim.as_str(), "a root keeps the id it made");
+    let read = by_seq(5)["summary"].as_str().unwrap();
+    assert!(read.contains(" position=[") && read.contains("linear_velocity=[") && read.chars().count() <= 160, "{read}");
+    assert_eq!(by_seq(9)["summary"]["undone"][0]["tool"], "step_simulation", "{}", by_seq(9));
+    assert_eq!(by_seq(9)["summary"]["state_hash"], json!(&hash[..12]));
+    assert!(by_seq(10)["summary"].as_str().unwrap().starts_with("refused: "), "{}", by_seq(10));
+    assert_eq!(by_seq(9)["state_hash"], json!(&hash[..12]));
+
+    // Full: every hash whole, the arguments as recorded; summaries still structured.
+    let page = full.structured_content.unwrap();
+    let events = page["events"].as_array().unwrap();
+    for e in events {
+        assert_eq!(e["state_hash"].as_str().unwrap().len(), 64, "{e}");
+        assert!(e["kind"] == "root" || e["arguments"]["sim_id"] == sim.as_str(), "{e}");
+    }
+    assert_eq!(events[8]["state_hash"], json!(hash));
+    assert_eq!(events[8]["summary"]["state_hash"], json!(hash));
+    assert_eq!(events[3]["summary"]["simulation_id"], sim.as_str());
+    assert_eq!(events[4]["summary"], json!(read), "a read's summary is its line either way");
+
+    // An unknown detail is refused, naming it.
+    let e = c.try_call("get_history", json!({"sim_id": sim, "detail": "everything"})).await.unwrap_err();
+    assert!(e.contains("detail") && e.contains("full"), "{e}");
+}
+
+/// A batch's reads record what they returned too, as the same reads alone do.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_batch_read_shows_what_it_returned() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let calls = json!([
+        {"tool": "add_box", "arguments": {"dimensions": [0.2, 0.2, 0.2], "position": [0, 0, 1]}},
+        {"tool": "get_object_state", "arguments": {"object_id": 0}},
+    ]);
+    c.call("batch", json!({"sim_id": sim, "calls": calls})).await;
+    c.state(&sim, 0).await;
+    let events = c.call("get_history", json!({"sim_id": sim, "since_seq": 1})).await["events"].as_array().unwrap().clone();
+    let lines: Vec<&str> = events.iter().filter(|e| e["tool"] == "get_object_state").map(|e| e["summary"].as_str().unwrap()).collect();
+    assert_eq!(lines.len(), 2);
+    assert!(lines[0].contains("position=[0,0,1]"), "{lines:?}");
+    assert_eq!(lines[0], lines[1], "the same read says the same in a batch and alone");
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn forks_inherit_history_and_evolve_alike() {
     let dir = tempfile::tempdir().unwrap();
@@ -123,7 +213,7 @@ async fn forks_inherit_history_and_evolve_alike() {
     assert_eq!(c.state(&sim, 2).await, c.state(&fork, 2).await);
 
     // Fork at an earlier event: the state recorded there.
-    let hist = c.call("get_history", json!({"sim_id": sim, "limit": 1000})).await;
+    let hist = c.call("get_history", json!({"sim_id": sim, "limit": 1000, "detail": "full"})).await;
     let third_change = hist["events"].as_array().unwrap().iter().filter(|e| e["kind"] == "change").nth(2).unwrap().clone();
     let early = c.call("fork_simulation", json!({"sim_id": sim, "at_seq": third_change["seq"]})).await;
     assert_eq!(early["state_hash"], third_change["state_hash"]);

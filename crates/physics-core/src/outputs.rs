@@ -432,7 +432,8 @@ pub struct HistoryEvent {
     pub parent: Option<u64>,
     /// The tool called.
     pub tool: String,
-    /// The arguments as sent (over 64 KB: `{"blob": hash, "bytes": n}`).
+    /// The arguments as sent, less sim_id unless detail is full (over 64 KB: `{"blob": hash,
+    /// "bytes": n}`).
     pub arguments: serde_json::Value,
     /// Accepted (true) or refused.
     pub ok: bool,
@@ -440,9 +441,11 @@ pub struct HistoryEvent {
     pub mutates: bool,
     /// Copied from the simulation this one was forked or loaded from.
     pub inherited: bool,
-    /// One line: what happened (or why it was refused).
-    pub summary: String,
-    /// The state hash after the event.
+    /// What happened: the recorded result (an object, or its message; unless detail is full,
+    /// without the sim's own id, hashes short and fields over 256 bytes by their size),
+    /// "refused: why", or what a read returned in one line ("read" if logged before that was).
+    pub summary: serde_json::Value,
+    /// The state hash after the event: its first 12 hex unless detail is full.
     pub state_hash: String,
 }
 

@@ -82,7 +82,7 @@ impl PhysicsServer {
         .map(Json)
     }
 
-    /// Page through the event log (every call, reads and refusals too).
+    /// All calls, reads and refusals too, paged.
     #[tool(
         input_schema = schema_for_type::<params::HistoryPage>(),
         annotations(read_only_hint = true)
@@ -95,7 +95,8 @@ impl PhysicsServer {
             if !(1..=HISTORY_MAX_LIMIT as i64).contains(&limit) {
                 return Err(format!("limit must be an integer from 1 to {HISTORY_MAX_LIMIT}; got {limit}"));
             }
-            sim.history(since, limit as usize).map(|h| within_budget(h, budget))
+            let full = crate::params::lenient::full_detail(p.detail.as_ref())?;
+            sim.history(since, limit as usize, full).map(|h| within_budget(h, budget))
         })
         .await
     }
