@@ -143,6 +143,8 @@ impl Registry {
                     sim = Some(Sim::create_unpublished(&partial, tool, root, args, self.config().sync)?.0);
                 }
                 Some(sim) => {
+                    // Made from the file, not from a client's call: held to the edge's bounds here.
+                    cmd.within_extent().map_err(|why| format!("The file's objects cannot be re-created: {why}"))?;
                     sim.change(tool, &Args::new(), Ok(cmd), self.limits(), &mut |_| true)
                         .map_err(|why| format!("The file's objects cannot be re-created: {why}"))?;
                 }

@@ -119,3 +119,26 @@ async fn a_saved_history_is_checked_in_every_field_the_new_log_adopts() {
     let v = c.call("verify_simulation", json!({"sim_id": id})).await;
     assert_eq!(v["ok"], true, "{v}");
 }
+
+/// A saved file without history (the old server's readable fields) is re-made as commands, so
+/// it is held to the same bounds as a client's calls: a box 1.8e19 m wide once loaded and made
+/// the engine panic on the next step (found by the file fuzzer, seed 4691663335914689912).
+#[tokio::test(flavor = "multi_thread")]
+async fn a_readable_file_is_held_to_the_bounds_of_a_call() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let object = |dims: Value| {
+        json!({"objects": [{"object_id": 0, "type": "primitive", "shape": "box", "dimensions": dims, "mass": 1,
+            "position": [0, 0, 1], "orientation": [0, 0, 0, 1], "linear_velocity": [0, 0, 0], "angular_velocity": [0, 0, 0]}]})
+    };
+    std::fs::write(server.workspace.join("huge.json"), object(json!([1.8446744073709552e19, 0.1, 0.1])).to_string()).unwrap();
+    let before = c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len();
+    let e = c.try_call("load_simulation", json!({"file_path": "huge.json"})).await.unwrap_err();
+    assert!(e.contains("dimensions") && !e.contains('\n'), "{e}");
+    assert_eq!(c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len(), before);
+    // The same file at a sane size loads and steps.
+    std::fs::write(server.workspace.join("sane.json"), object(json!([0.1, 0.1, 0.1])).to_string()).unwrap();
+    let sim = c.call("load_simulation", json!({"file_path": "sane.json"})).await["simulation_id"].as_str().unwrap().to_string();
+    c.step(&sim, 10).await;
+}

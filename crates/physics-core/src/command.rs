@@ -771,9 +771,10 @@ impl Command {
     }
 
     /// Sizes and positions within [`crate::limits::MAX_EXTENT_M`]: beyond it the engine
-    /// panics on every later step (a 1.8e19 m box beside a mesh). Checked at the edge only, not
-    /// in `validate`, so logs recorded before the bound fold as they always did.
-    fn within_extent(&self) -> Result<(), Refusal> {
+    /// panics on every later step (a 1.8e19 m box beside a mesh). Checked at the edge only —
+    /// `ready`, and every command re-made from a saved file's readable fields — not in
+    /// `validate`, so logs recorded before the bound fold as they always did.
+    pub fn within_extent(&self) -> Result<(), Refusal> {
         let bound = crate::limits::MAX_EXTENT_M as f32;
         let near = |name: &str, v: &[f32]| match v.iter().all(|x| x.abs() <= bound) {
             true => Ok(()),
