@@ -209,7 +209,11 @@ pub fn fold_decoded(
     observe: crate::world::StepObserver,
 ) -> Result<(Command, Option<Outcome>), FoldError> {
     let result = match &cmd {
-        Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => None,
+        Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => {
+            // It changes nothing, but its values (a label) are held to the edge's rules.
+            cmd.validate_values().map_err(|why| FoldError::Refused { seq: e.seq, why })?;
+            None
+        }
         Command::CreateSimulation { .. } => {
             return Err(FoldError::Refused { seq: e.seq, why: "a second create_simulation in one chain".into() })
         }
@@ -267,12 +271,13 @@ pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Outcome)
     Ok((world, result))
 }
 
-/// The label a root command gives its simulation (None for any other command, or no label).
+/// The label a root command gives its simulation (None for any other command, no label, or
+/// a label a hand-edited log holds that a call could not have given).
 pub fn root_name(cmd: &Command) -> Option<String> {
     match cmd {
         Command::CreateSimulation { name, .. }
         | Command::ForkSimulation { name, .. }
-        | Command::LoadSimulation { name, .. } => name.clone(),
+        | Command::LoadSimulation { name, .. } => name.clone().filter(|n| crate::value::label("name", n).is_ok()),
         _ => None,
     }
 }

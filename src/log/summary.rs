@@ -102,6 +102,10 @@ fn string(s: &str) -> String {
 /// `x` to at most 4 significant digits and at most 4 decimals (0.1 mm, as get_trajectory's
 /// default precision: solver noise such as 2.8e-17 reads as 0), without trailing zeros; whole
 /// numbers keep all their digits.
+/// Below this a number is shown as 0 (float noise such as -2.8e-17); between it and what 4
+/// decimals show, in scientific notation.
+const TINY: f64 = 1e-9;
+
 fn number(x: f64) -> String {
     if !x.is_finite() {
         return x.to_string();
@@ -109,6 +113,8 @@ fn number(x: f64) -> String {
     let magnitude = if x == 0.0 { 0 } else { x.abs().log10().floor() as i32 };
     let decimals = (3 - magnitude).clamp(0, 4) as usize;
     match trim_zeros(&format!("{x:.decimals$}")) {
+        // Below 4 decimals but not noise (a 1e-5 kg mass is not a static body's 0): say so.
+        "0" | "-0" if x.abs() >= TINY => format!("{x:.1e}"),
         "-0" => "0".to_string(),
         shown => shown.to_string(),
     }
@@ -137,7 +143,8 @@ mod tests {
         assert_eq!(number(12345.678), "12346");
         assert_eq!(number(0.06857), "0.0686");
         assert_eq!(number(-0.000396), "-0.0004");
-        assert_eq!(number(0.00004), "0");
+        assert_eq!(number(0.00004), "4.0e-5");
+        assert_eq!(number(-1e-5), "-1.0e-5");
         assert_eq!(number(-2.8e-17), "0");
     }
 

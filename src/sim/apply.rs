@@ -70,6 +70,8 @@ pub struct Carried {
     pub outcome: Option<Outcome>,
     /// The head after the calls.
     pub head_seq: u64,
+    /// Simulated time after the calls.
+    pub time: f64,
     /// The state hash after the calls.
     pub state_hash: String,
 }
@@ -155,7 +157,7 @@ impl Sim {
                 true => c.results.clone(),
                 false => c.results.iter().zip(&changes).map(|(r, change)| if *change { compact_change(r) } else { r.clone() }).collect(),
             };
-            let out = Batched { results, head_seq: c.head_seq, state_hash: c.state_hash.clone() };
+            let out = Batched { results, head_seq: c.head_seq, time: c.time, state_hash: c.state_hash.clone() };
             let bytes = crate::sim::budget::reply_bytes("batch", serde_json::to_value(&out).unwrap_or_default());
             if bytes > budget {
                 return Err(crate::sim::budget::over_budget("batch", bytes as u64, budget));
@@ -359,7 +361,7 @@ fn work_out(
         snapshots.push(snapshot_of(world, head));
         (work_since, changes_since) = (0, 0);
     }
-    let carried = Carried { results, outcome, head_seq: head, state_hash: hash };
+    let carried = Carried { results, outcome, head_seq: head, time: world.current_time(), state_hash: hash };
     Ok(Worked { carried, events, snapshots, blobs, work_since_snapshot: work_since, changes_since_snapshot: changes_since })
 }
 

@@ -4,7 +4,7 @@ use crate::log::EventLog;
 use base64::Engine;
 
 use crate::command::Command;
-use crate::outputs::{Loaded, Saved};
+use crate::outputs::{Landed, Loaded, Saved};
 use crate::files::save_format::{
     chain_blobs, commands_from_readable, disagreeing_fields, readable, saved_event, snapshot_mac,
     world_from_history, SaveFile, SavedHistory, SavedSnapshot, MAX_SAVE_BYTES, SAVE_FORMAT,
@@ -117,13 +117,16 @@ impl Registry {
                     ));
                 }
                 let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui, name: name.clone() };
-                let out = Loaded { simulation_id: new_id.clone(), name: name.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None };
+                let landed = chain.last().map(|e| Landed { head_seq: e.seq + 1, time: world.current_time() });
+                let out = Loaded { simulation_id: new_id.clone(), name: name.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None, landed };
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
                 self.adopt((&chain, &crate::files::save_format::SavedBlobs(&h.blobs), None), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?
             }
             None => self.load_readable(&file, &new_id, (gui, name.clone()), args, &mut reader)?,
         };
-        let out = Loaded { simulation_id: new_id, name, file_path: user, state_hash: sim.state_hash().to_string(), viewer_url: None };
+        // A file without history lands after the commands that re-made it.
+        let landed = Some(Landed { head_seq: sim.log().head_seq(), time: sim.world().current_time() });
+        let out = Loaded { simulation_id: new_id, name, file_path: user, state_hash: sim.state_hash().to_string(), viewer_url: None, landed };
         slot.fill(sim);
         Ok(out)
     }

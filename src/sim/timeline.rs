@@ -95,6 +95,10 @@ fn summary(e: &Event, full: bool) -> Value {
                 if e.kind != Kind::Root {
                     m.remove("simulation_id");
                 }
+                // Where a change landed is the event's own seq, shown beside it already.
+                if m.get("head_seq").and_then(Value::as_u64) == Some(e.seq) {
+                    m.remove("head_seq");
+                }
                 for v in m.values_mut() {
                     if let Value::String(text) = v {
                         if text.len() == 64 && text.bytes().all(|b| b.is_ascii_hexdigit()) {
@@ -334,6 +338,8 @@ pub(crate) struct ForkSource {
     chain: Vec<Event>,
     snapshot: Vec<u8>,
     state_hash: String,
+    /// Simulated time at `at`.
+    time: f64,
     gui: bool,
     at: u64,
     parent_id: String,
@@ -360,6 +366,7 @@ impl ForkSource {
             chain,
             snapshot: rebuilt.world.snapshot(),
             state_hash: rebuilt.world.state_hash(),
+            time: rebuilt.world.current_time(),
             gui: rebuilt.world.gui(),
             at,
             parent_id: p.id().to_string(),
@@ -434,6 +441,8 @@ impl Registry {
             at_seq: source.at,
             state_hash: source.state_hash.clone(),
             viewer_url: None,
+            // The fork's root is the event after the last inherited one.
+            landed: source.chain.last().map(|e| crate::outputs::Landed { head_seq: e.seq + 1, time: source.time }),
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
         let state = (source.snapshot.as_slice(), source.state_hash.as_str());

@@ -240,6 +240,16 @@ async fn every_change_says_where_it_landed_and_names_an_interval() {
         .await;
     let (first, last) = (b["results"][0]["head_seq"].as_u64().unwrap(), b["results"][2]["head_seq"].as_u64().unwrap());
     assert_eq!((last, b["head_seq"].as_u64().unwrap()), (first + 2, last), "{b}");
+    assert_eq!(b["time"], b["results"][2]["time"], "{b}");
+    // A fork's and a load's own root land after the chain they inherit, at its time.
+    let fork = c.call("fork_simulation", json!({"sim_id": sim, "at_seq": landed[6].0})).await;
+    assert_eq!((fork["head_seq"].as_u64(), fork["time"].as_f64()), (Some(landed[6].0 + 1), Some(landed[6].1)), "{fork}");
+    let fork_id = fork["simulation_id"].as_str().unwrap();
+    assert_eq!(c.call("get_simulation_info", json!({"sim_id": fork_id})).await["head_seq"], fork["head_seq"]);
+    c.call("save_simulation", json!({"sim_id": fork_id, "file_path": "landed.json"})).await;
+    let loaded = c.call("load_simulation", json!({"file_path": "landed.json"})).await;
+    let info = c.call("get_simulation_info", json!({"sim_id": loaded["simulation_id"]})).await;
+    assert_eq!((&loaded["head_seq"], &loaded["time"]), (&info["head_seq"], &info["current_time"]), "{loaded}");
     // After an undo, a new change lands past every event so far, on the undone-to head.
     let undone = c.call("undo", json!({"sim_id": sim})).await;
     let r = c.call("apply_force", json!({"sim_id": sim, "object_id": 1, "force": [1, 0, 0]})).await;
@@ -282,7 +292,7 @@ async fn a_simulation_name_is_shown_with_its_id_and_is_not_state() {
     assert_eq!(loaded["name"], "tower C", "{loaded}");
     // Refused, naming the parameter; nothing is created.
     let before = c.call("list_simulations", json!({})).await["simulations"].as_array().unwrap().len();
-    for bad in [json!(""), json!("   "), json!("two\nlines"), json!("x".repeat(101))] {
+    for bad in [json!(""), json!("   "), json!("two\nlines"), json!("x".repeat(101)), json!("a\u{2028}b"), json!("\u{202E}evil")] {
         let why = c.try_call("create_simulation", json!({"name": bad})).await.unwrap_err();
         assert!(why.starts_with("name must be"), "{why}");
         let why = c.try_call("fork_simulation", json!({"sim_id": sim, "name": bad})).await.unwrap_err();

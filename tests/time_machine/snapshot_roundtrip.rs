@@ -226,3 +226,19 @@ fn filtered_worlds_of_both_rules_restore_and_continue_bit_identically() {
     }
     assert_ne!(hashes[0], hashes[1], "the rule is state");
 }
+
+/// The rule outlives the filters that brought it: with every filtered object removed, a
+/// snapshot still carries it, so a fold from that snapshot hashes as the live world once new
+/// filters are set (found in review: the snapshot once left it out).
+#[test]
+fn pybullet_s_test_survives_a_snapshot_taken_after_its_filters_are_gone() {
+    let mut w = pile();
+    apply(&mut w, Command::SetCollisionFilter { object_id: 1, link_index: -1, group: 2, mask: 1, pybullet_test: true });
+    apply(&mut w, Command::RemoveObject { object_id: 1 });
+    let mut r = World::restore("pile", false, &w.snapshot()).unwrap();
+    assert_eq!(r.state_hash(), w.state_hash());
+    for world in [&mut w, &mut r] {
+        apply(world, Command::SetCollisionPair { a: (2, -1), b: (3, -1), enable: false });
+    }
+    assert_eq!(r.state_hash(), w.state_hash(), "the restored world kept PyBullet's test");
+}

@@ -298,6 +298,8 @@ pub struct Batched {
     pub results: Vec<serde_json::Value>,
     /// The head after the batch.
     pub head_seq: u64,
+    /// Simulated time after the batch, in seconds (with head_seq: where it landed).
+    pub time: f64,
     /// The state hash after the batch.
     pub state_hash: String,
 }
@@ -481,6 +483,9 @@ pub struct Forked {
     /// Where the viewer page is, when gui is on (HTTP only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub viewer_url: Option<String>,
+    /// Where the new simulation's own root landed: its seq (the head) and the time there.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// Where a refold first disagreed with the log.
@@ -535,6 +540,9 @@ pub struct Loaded {
     /// Where the viewer page is, when gui is on (HTTP only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub viewer_url: Option<String>,
+    /// Where the new simulation's own root landed: its seq (the head) and the time there.
+    #[serde(flatten)]
+    pub landed: Option<Landed>,
 }
 
 /// Result of load_urdf.

@@ -239,10 +239,19 @@ pub const MAX_LABEL_CHARS: usize = 100;
 /// characters, so it reads on one line wherever ids are shown.
 pub fn label<'a>(name: &str, v: &'a str) -> Result<&'a str, Refusal> {
     let n = v.chars().count();
-    if v.trim().is_empty() || n > MAX_LABEL_CHARS || v.chars().any(char::is_control) {
+    if v.trim().is_empty() || n > MAX_LABEL_CHARS {
         return Err(format!("{name} must be 1-{MAX_LABEL_CHARS} characters on one line, not blank; got {n} characters"));
     }
+    if let Some(c) = v.chars().find(|c| breaks_a_line(*c)) {
+        return Err(format!("{name} must be 1-{MAX_LABEL_CHARS} characters on one line; it holds U+{:04X}", c as u32));
+    }
     Ok(v)
+}
+
+/// Characters that break a line or change how the text around them is shown: controls, line
+/// and paragraph separators, zero-width and bidirectional formatting marks.
+fn breaks_a_line(c: char) -> bool {
+    c.is_control() || matches!(c, '\u{2028}' | '\u{2029}' | '\u{200B}'..='\u{200F}' | '\u{202A}'..='\u{202E}' | '\u{2060}'..='\u{2064}' | '\u{2066}'..='\u{2069}' | '\u{FEFF}')
 }
 
 /// Reads a required string argument.

@@ -60,9 +60,11 @@ impl From<FiltersV4> for Filters {
 pub(super) type FiltersV4Ref<'a> = (&'a BTreeMap<Part, (u32, u32)>, &'a BTreeMap<(Part, Part), bool>, &'a BTreeSet<u32>);
 
 impl Filters {
-    /// Whether nothing was set (then the state hash leaves the section out).
+    /// Whether nothing was set (then the state hash and snapshot leave the section out). The
+    /// rule counts: a world that used PyBullet's test keeps it in its hash and snapshots even
+    /// after every filtered object is removed, so a later fold from a snapshot agrees.
     pub fn is_empty(&self) -> bool {
-        self.groups.is_empty() && self.pairs.is_empty() && self.markers.is_empty()
+        self.groups.is_empty() && self.pairs.is_empty() && self.markers.is_empty() && !self.pybullet_test
     }
 
     /// The first release's view of these filters (without `pybullet_test`).
