@@ -450,13 +450,10 @@ fn check_result_hash(e: &Event, outcome: Option<crate::outputs::Outcome>) -> Res
 /// those of the last root among them (create, fork or load).
 fn identity_at(events: &[Event], blobs: &dyn BlobSource) -> Result<(String, bool), Refusal> {
     let root = events.iter().rev().find(|e| e.kind == Kind::Root).ok_or_else(|| bad("history.events has no root"))?;
-    match crate::log::fold::decode(root, blobs).map_err(bad)? {
-        Some(
-            Command::CreateSimulation { simulation_id, gui, .. }
-            | Command::ForkSimulation { simulation_id, gui, .. }
-            | Command::LoadSimulation { simulation_id, gui, .. },
-        ) => Ok((simulation_id, gui)),
-        _ => Err(bad(format!("event {} is a root without a root command", root.seq))),
+    let cmd = crate::log::fold::decode(root, blobs).map_err(bad)?;
+    match cmd.as_ref().and_then(crate::log::fold::root_identity) {
+        Some((id, gui, _)) => Ok((id.to_string(), gui)),
+        None => Err(bad(format!("event {} is a root without a root command", root.seq))),
     }
 }
 

@@ -271,23 +271,16 @@ pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Outcome)
     Ok((world, result))
 }
 
-/// The label a root command gives its simulation (None for any other command, no label, or
-/// a label a hand-edited log holds that a call could not have given).
-pub fn root_name(cmd: &Command) -> Option<String> {
+/// Who a root command says its simulation is: its id, its `gui` flag and its label (None for
+/// any other command). A label a hand-edited log holds that a call could not have given is
+/// left out. The one place the three root kinds are read for identity.
+pub fn root_identity(cmd: &Command) -> Option<(&str, bool, Option<String>)> {
     match cmd {
-        Command::CreateSimulation { name, .. }
-        | Command::ForkSimulation { name, .. }
-        | Command::LoadSimulation { name, .. } => name.clone().filter(|n| crate::value::label("name", n).is_ok()),
-        _ => None,
-    }
-}
-
-/// The `gui` flag a root command carries (None for any other command).
-pub fn root_gui(cmd: &Command) -> Option<bool> {
-    match cmd {
-        Command::CreateSimulation { gui, .. }
-        | Command::ForkSimulation { gui, .. }
-        | Command::LoadSimulation { gui, .. } => Some(*gui),
+        Command::CreateSimulation { simulation_id, gui, name, .. }
+        | Command::ForkSimulation { simulation_id, gui, name, .. }
+        | Command::LoadSimulation { simulation_id, gui, name, .. } => {
+            Some((simulation_id, *gui, name.clone().filter(|n| crate::value::label("name", n).is_ok())))
+        }
         _ => None,
     }
 }

@@ -84,13 +84,21 @@ fn scalar(v: &Value) -> Option<String> {
     })
 }
 
-/// A string: a 64-hex hash as its first 12 characters (as get_history shows hashes), a long
-/// one cut; quoted (JSON) when it is empty or holds spaces, '=' or ',' so it reads as one value.
+/// Hex characters of a hash shown where a short form will do (get_history's default, read
+/// summaries, the `history` CLI): enough to tell states apart at a glance.
+pub const SHORT_HASH: usize = 12;
+
+/// `s`'s short form if it is a 64-hex hash (a state or result hash), else None.
+pub fn short_hash(s: &str) -> Option<&str> {
+    (s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit())).then(|| &s[..SHORT_HASH])
+}
+
+/// A string: a 64-hex hash by its short form (as get_history shows hashes), a long one cut;
+/// quoted (JSON) when it is empty or holds spaces, '=' or ',' so it reads as one value.
 fn string(s: &str) -> String {
-    let s = if s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
-        s[..12].to_string()
-    } else {
-        cut(s, SHORT_STRING)
+    let s = match short_hash(s) {
+        Some(short) => short.to_string(),
+        None => cut(s, SHORT_STRING),
     };
     if s.is_empty() || s.chars().any(|c| c.is_whitespace() || c.is_control() || matches!(c, '=' | ',' | '"')) {
         serde_json::to_string(&s).unwrap_or(s)

@@ -486,8 +486,7 @@ pub(crate) fn rebuild_at(
         Some(text) => serde_json::from_str::<Command>(&text).ok(),
         None => chain.iter().rev().find(|e| e.kind == Kind::Root).and_then(|e| fold::decode(e, &NoBlobs).ok().flatten()),
     };
-    let gui = own_root.as_ref().and_then(fold::root_gui).unwrap_or(false);
-    let name = own_root.as_ref().and_then(fold::root_name);
+    let (gui, name) = own_root.as_ref().and_then(fold::root_identity).map_or((false, None), |(_, gui, name)| (gui, name));
     let world = match start {
         Some(bytes) => World::restore(id, gui, &bytes).map_err(StoreError::Corrupt)?,
         None => fold::create_root(first, log)?.0.with_identity(id, gui),

@@ -49,9 +49,6 @@ pub const SUMMARY_FIELD_BYTES: usize = 256;
 /// Characters of a refusal sentence get_history shows by default (all of it with "full").
 const REFUSAL_CHARS: usize = 160;
 
-/// Hex characters of a state hash get_history shows by default: enough to tell states apart
-/// at a glance (and to match the `history` CLI); "full" gives all 64.
-pub const SHORT_HASH: usize = 12;
 
 /// `v` with every field whose compact JSON is over `max` bytes shown by its size instead
 /// (`"[4000 items]"`, `"{12 fields}"`, a long string cut): a recorded result may be large (a
@@ -101,8 +98,8 @@ fn summary(e: &Event, full: bool) -> Value {
                 }
                 for v in m.values_mut() {
                     if let Value::String(text) = v {
-                        if text.len() == 64 && text.bytes().all(|b| b.is_ascii_hexdigit()) {
-                            text.truncate(SHORT_HASH);
+                        if let Some(short) = crate::log::summary::short_hash(text) {
+                            *text = short.to_string();
                         }
                     }
                 }
@@ -276,7 +273,7 @@ impl Sim {
                     mutates: e.mutates,
                     inherited: e.inherited,
                     summary: summary(e, full),
-                    state_hash: if full { e.state_hash.clone() } else { e.state_hash.chars().take(SHORT_HASH).collect() },
+                    state_hash: if full { e.state_hash.clone() } else { e.state_hash.chars().take(crate::log::summary::SHORT_HASH).collect() },
                 })
                 .collect(),
             head_seq: self.log.head_seq(),
