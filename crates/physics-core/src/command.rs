@@ -771,7 +771,8 @@ impl Command {
     }
 
     /// Sizes and positions within [`crate::limits::MAX_EXTENT_M`]: beyond it the engine
-    /// panics on every later step (a 1.8e19 m box beside a mesh). Checked at the edge only —
+    /// panics on every later step (a 1.8e19 m box beside a mesh); velocities within
+    /// [`crate::limits::MAX_SPEED`] (far beyond it a body freezes). Checked at the edge only —
     /// `ready`, and every command re-made from a saved file's readable fields — not in
     /// `validate`, so logs recorded before the bound fold as they always did.
     pub fn within_extent(&self) -> Result<(), Refusal> {
@@ -787,6 +788,15 @@ impl Command {
             }
             Command::SetObjectPose { position, .. } | Command::LoadUrdf { position, .. } | Command::LoadMjcf { position, .. } => {
                 near("position", position)
+            }
+            Command::SetObjectVelocity { linear_velocity, angular_velocity, .. } => {
+                let speed = crate::limits::MAX_SPEED as f32;
+                for (name, v) in [("linear_velocity", linear_velocity), ("angular_velocity", angular_velocity)] {
+                    if let Some(v) = v.filter(|v| v.iter().any(|x| x.abs() > speed)) {
+                        return Err(format!("{name} must be within {speed} per axis (the engine caps speed at 400 m/s); got {v:?}"));
+                    }
+                }
+                Ok(())
             }
             _ => Ok(()),
         }

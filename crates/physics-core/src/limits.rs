@@ -61,6 +61,11 @@ impl Limits {
 /// leaving a simulation that can never step again. Not a CLI flag: no real scene is near it.
 pub const MAX_EXTENT_M: f64 = 1e5;
 
+/// Largest speed (m/s, each component) or spin (rad/s) a call may set. The engine caps linear
+/// speed at 400 m/s anyway (rapier's `max_linear_velocity`); near 1.8e19 the cap's f32 norm
+/// overflows and the body silently freezes where it is, so such a value is refused instead.
+pub const MAX_SPEED: f64 = 1e5;
+
 /// Joints one model (URDF or MJCF) may have. One step of an articulation of n links costs
 /// O(n³) time and O(n²) memory in the engine's multibody solver, so a 10,000-link chain that
 /// fits in a small file made a single step run for hours; real robots have tens of joints.
