@@ -144,10 +144,10 @@ impl Replayer<'_> {
                         self.world = Some(w);
                         Self::check_result(e, &result.to_value())?;
                     }
-                    Command::ForkSimulation { simulation_id, gui, name, .. }
-                    | Command::LoadSimulation { simulation_id, gui, name, .. } => {
+                    Command::ForkSimulation { .. } | Command::LoadSimulation { .. } => {
                         let w = self.world.take().ok_or_else(|| Self::diverged(e, "order", "an inherited chain", "none"))?;
-                        self.world = Some(w.with_identity(simulation_id, *gui).with_name(name.clone()));
+                        let (id, gui, name) = fold::root_identity(&cmd).ok_or_else(|| Self::diverged(e, "command", "a root command", "another"))?;
+                        self.world = Some(w.with_identity(id, gui).with_name(name));
                     }
                     _ => return Err(Self::diverged(e, "command", "a root command", "another")),
                 }

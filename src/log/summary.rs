@@ -107,13 +107,12 @@ fn string(s: &str) -> String {
     }
 }
 
-/// `x` to at most 4 significant digits and at most 4 decimals (0.1 mm, as get_trajectory's
-/// default precision: solver noise such as 2.8e-17 reads as 0), without trailing zeros; whole
-/// numbers keep all their digits.
 /// Below this a number is shown as 0 (float noise such as -2.8e-17); between it and what 4
 /// decimals show, in scientific notation.
 const TINY: f64 = 1e-9;
 
+/// `x` to at most 4 significant digits and at most 4 decimals (0.1 mm, as get_trajectory's
+/// default precision), without trailing zeros; whole numbers keep all their digits.
 fn number(x: f64) -> String {
     if !x.is_finite() {
         return x.to_string();

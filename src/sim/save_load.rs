@@ -117,7 +117,7 @@ impl Registry {
                     ));
                 }
                 let root = Command::LoadSimulation { simulation_id: new_id.clone(), file_path: user.clone(), gui, name: name.clone() };
-                let landed = chain.last().map(|e| Landed { head_seq: e.seq + 1, time: world.current_time() });
+                let landed = crate::sim::timeline::root_seq_after(&chain).map(|seq| Landed { head_seq: seq, time: world.current_time() });
                 let out = Loaded { simulation_id: new_id.clone(), name: name.clone(), file_path: user.clone(), state_hash: world.state_hash(), viewer_url: None, landed };
                 let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
                 self.adopt((&chain, &crate::files::save_format::SavedBlobs(&h.blobs), None), &world.with_identity(&new_id, gui), root, "load_simulation", args, &result)?

@@ -41,6 +41,12 @@ pub fn shallow(v: Value, depth: usize) -> Value {
     }
 }
 
+/// The seq a fork's or load's own root takes: the event after the last one it inherits (None
+/// for an empty chain). Its result says so before the root is written.
+pub(crate) fn root_seq_after(chain: &[Event]) -> Option<u64> {
+    chain.last().map(|e| e.seq + 1)
+}
+
 /// Compact JSON bytes over which a field of a recorded result is shown by its size in
 /// get_history's default (compact) answer; with detail "full", fields up to the size of
 /// arguments kept inline (64 KB) are shown whole.
@@ -48,7 +54,6 @@ pub const SUMMARY_FIELD_BYTES: usize = 256;
 
 /// Characters of a refusal sentence get_history shows by default (all of it with "full").
 const REFUSAL_CHARS: usize = 160;
-
 
 /// `v` with every field whose compact JSON is over `max` bytes shown by its size instead
 /// (`"[4000 items]"`, `"{12 fields}"`, a long string cut): a recorded result may be large (a
@@ -438,8 +443,7 @@ impl Registry {
             at_seq: source.at,
             state_hash: source.state_hash.clone(),
             viewer_url: None,
-            // The fork's root is the event after the last inherited one.
-            landed: source.chain.last().map(|e| crate::outputs::Landed { head_seq: e.seq + 1, time: source.time }),
+            landed: root_seq_after(&source.chain).map(|seq| crate::outputs::Landed { head_seq: seq, time: source.time }),
         };
         let result = serde_json::to_value(&out).map_err(|e| e.to_string())?;
         let state = (source.snapshot.as_slice(), source.state_hash.as_str());
@@ -476,7 +480,7 @@ impl Registry {
         args: &Args,
         result: &Value,
     ) -> Result<Sim, Refusal> {
-        let last = chain.last().ok_or("the inherited chain is empty")?;
+        let seq = root_seq_after(chain).ok_or("the inherited chain is empty")?;
         let id = match &root_cmd {
             Command::ForkSimulation { simulation_id, .. } | Command::LoadSimulation { simulation_id, .. } => {
                 simulation_id.clone()
@@ -484,7 +488,7 @@ impl Registry {
             _ => return Err("not a fork or load root".into()),
         };
         let arguments = Value::Object(args.clone()).to_string();
-        let root = Event::root(last.seq + 1, Some(last.seq), tool, arguments, &root_cmd, result.to_string(), state_hash)?;
+        let root = Event::root(seq, Some(seq - 1), tool, arguments, &root_cmd, result.to_string(), state_hash)?;
         let path = self.path_for(&id);
         let partial = crate::log::sqlite::partial_path(&path);
         let built = (|| {

@@ -815,14 +815,10 @@ impl Command {
     /// The command's own values, whatever the world: what the adapters' parsing guarantees,
     /// checked again for commands from files and logs (hostile or corrupt ones included).
     pub fn validate_values(&self) -> Result<(), Refusal> {
+        let labelled = |name: &Option<String>| name.as_deref().map_or(Ok(()), |n| crate::value::label("name", n).map(|_| ()));
         match self {
-            Command::CreateSimulation { gravity, name, .. } => {
-                finite("gravity", gravity)?;
-                name.as_deref().map_or(Ok(()), |n| crate::value::label("name", n).map(|_| ()))
-            }
-            Command::ForkSimulation { name, .. } | Command::LoadSimulation { name, .. } => {
-                name.as_deref().map_or(Ok(()), |n| crate::value::label("name", n).map(|_| ()))
-            }
+            Command::CreateSimulation { gravity, name, .. } => finite("gravity", gravity).and_then(|()| labelled(name)),
+            Command::ForkSimulation { name, .. } | Command::LoadSimulation { name, .. } => labelled(name),
             Command::StepSimulation { .. } => Ok(()),
             Command::SetTimestep { timestep, timestep_given } => {
                 positive("timestep", *timestep)?;
