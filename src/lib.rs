@@ -31,6 +31,7 @@
 pub use physics_core::{command, digest, engine, limits, outputs, value, world};
 
 pub mod cli;
+pub mod cluster;
 pub mod client;
 pub mod failpoints;
 pub mod files;

@@ -39,6 +39,52 @@ struct Common {
     limits: LimitArgs,
 }
 
+/// Joining a NATS JetStream cluster (docs/cluster.md); absent, the log is embedded SQLite.
+#[derive(clap::Args)]
+struct ClusterArgs {
+    /// Keep the log of record in this NATS JetStream cluster: nats://HOST:PORT[,…]. --data is
+    /// then only this node's cache, and --workspace must be a directory every node shares.
+    #[arg(long, value_name = "URLS")]
+    cluster: Option<String>,
+    /// This node's name in the cluster (unique per live node; default: host name and pid).
+    #[arg(long, requires = "cluster")]
+    node: Option<String>,
+    /// Streams the simulations are spread over (the first node's value holds cluster-wide).
+    #[arg(long, default_value_t = 4)]
+    cluster_streams: u32,
+    /// Replicas of every stream and bucket (3 survives the loss of one NATS server).
+    #[arg(long, default_value_t = 3)]
+    cluster_replicas: usize,
+    /// A lease's life in milliseconds unless renewed (the first node's value holds cluster-wide).
+    #[arg(long, default_value_t = 5000)]
+    lease_ms: u64,
+}
+
+impl ClusterArgs {
+    /// Connects when --cluster is given.
+    fn connect(&self) -> anyhow::Result<Option<Arc<physics_mcp::cluster::Cluster>>> {
+        let Some(urls) = &self.cluster else { return Ok(None) };
+        let node = self.node.clone().unwrap_or_else(default_node_name);
+        let mut config = physics_mcp::cluster::ClusterConfig::new(urls, &node);
+        config.streams = self.cluster_streams;
+        config.replicas = self.cluster_replicas;
+        config.lease = std::time::Duration::from_millis(self.lease_ms);
+        physics_mcp::cluster::Cluster::connect(config).map(Some)
+    }
+}
+
+/// A node name unique per process: the host's name and the process id.
+fn default_node_name() -> String {
+    let host = std::fs::read_to_string("/etc/hostname").map(|h| h.trim().replace('.', "-")).unwrap_or_default();
+    format!("{}-{}", if host.is_empty() { "node" } else { &host }, std::process::id())
+}
+
+/// A connection for the export/import commands (not a node: it serves nothing).
+fn connect_tool(urls: &str) -> anyhow::Result<Arc<physics_mcp::cluster::Cluster>> {
+    let config = physics_mcp::cluster::ClusterConfig::new(urls, &format!("cli-{}", std::process::id()));
+    physics_mcp::cluster::Cluster::connect(config)
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Serve MCP over streamable HTTP at /mcp.
@@ -57,6 +103,27 @@ enum Cmd {
         max_sessions: usize,
         #[command(flatten)]
         common: Common,
+        #[command(flatten)]
+        cluster: ClusterArgs,
+    },
+    /// Write a simulation's log from a cluster into a SQLite file that `replay` verifies.
+    Export {
+        /// The cluster: nats://HOST:PORT[,…].
+        cluster: String,
+        /// The simulation.
+        sim_id: String,
+        /// The file to write (refused if it exists).
+        out: PathBuf,
+    },
+    /// Put a simulation's SQLite log into a cluster (verified first; an id that exists there is refused).
+    Import {
+        /// The cluster: nats://HOST:PORT[,…].
+        cluster: String,
+        /// A simulation's SQLite log.
+        file: PathBuf,
+        /// The id to give it in the cluster.
+        #[arg(long = "as", value_name = "NEW_ID")]
+        new_id: Option<String>,
     },
     /// Serve MCP over stdin/stdout (for clients that start the server themselves).
     Stdio {
@@ -261,13 +328,34 @@ fn print_history(file: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn open_registry(c: Common) -> anyhow::Result<Arc<Registry>> {
-    Ok(Arc::new(Registry::open(Config {
-        data_dir: c.data,
-        workspace: c.workspace,
-        limits: c.limits.into(),
-        sync: c.sync,
-    })?))
+fn open_registry(c: Common, cluster: Option<Arc<physics_mcp::cluster::Cluster>>) -> anyhow::Result<Arc<Registry>> {
+    Ok(Arc::new(Registry::open_with(
+        Config {
+            data_dir: c.data,
+            workspace: c.workspace,
+            limits: c.limits.into(),
+            sync: c.sync,
+        },
+        cluster,
+    )?))
+}
+
+/// `export` and `import`, which talk to a cluster and nothing else.
+fn run_portable(command: &Cmd) -> Option<anyhow::Result<()>> {
+    use physics_mcp::cluster::portable;
+    Some(match command {
+        Cmd::Export { cluster, sim_id, out } => connect_tool(cluster).and_then(|c| {
+            let events = portable::export(&c, sim_id, out).map_err(anyhow::Error::msg)?;
+            println!("wrote {}: simulation {sim_id}, {events} events", out.display());
+            Ok(())
+        }),
+        Cmd::Import { cluster, file, new_id } => connect_tool(cluster).and_then(|c| {
+            let id = portable::import(&c, file, new_id.as_deref()).map_err(anyhow::Error::msg)?;
+            println!("imported {} as simulation {id}", file.display());
+            Ok(())
+        }),
+        _ => return None,
+    })
 }
 
 /// A write past the file-size limit (RLIMIT_FSIZE) raises SIGXFSZ, whose default action kills
@@ -303,6 +391,26 @@ fn main() {
     // session tasks and our handlers (simulation work runs on the blocking pool, reads take a
     // try_lock), and with one worker those hand-offs stay on one thread instead of waking
     // another: get_object_state p50 over HTTP 0.37 -> 0.31 ms on two cores (benches/physics.rs).
+    if let Some(done) = run_portable(&cli.command) {
+        if let Err(e) = done {
+            eprintln!("physics-mcp: {e:#}");
+            std::process::exit(1);
+        }
+        return;
+    }
+    // The cluster's own runtime is started outside the server's (one may not block on a
+    // runtime from inside another).
+    let cluster = match &cli.command {
+        Cmd::Serve { cluster, .. } => cluster.connect(),
+        _ => Ok(None),
+    };
+    let cluster = match cluster {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("physics-mcp: {e:#}");
+            std::process::exit(2);
+        }
+    };
     let result = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
         .enable_all()
@@ -317,11 +425,12 @@ fn main() {
                         allow_origin,
                         max_sessions,
                         common,
+                        ..
                     } => {
-                        let reg = open_registry(common)?;
+                        let reg = open_registry(common, cluster)?;
                         serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions }).await
                     }
-                    Cmd::Stdio { common } => serve_stdio(open_registry(common)?).await,
+                    Cmd::Stdio { common } => serve_stdio(open_registry(common, None)?).await,
                     Cmd::Replay { file, render: Some(out), interval, size, force, .. } => {
                         let span = physics_mcp::seeing::report::Span { from: interval.from, to: interval.to };
                         run_render(&file, &out, span, interval.every, size, force)
@@ -342,6 +451,8 @@ fn main() {
                         Ok(())
                     }
                     Cmd::History { file } => print_history(&file),
+                    // Run before this runtime starts (run_portable).
+                    Cmd::Export { .. } | Cmd::Import { .. } => Ok(()),
                     Cmd::Call { url, tool, args, token } => {
                         let called = physics_mcp::client::call(&url, &tool, &args, token.as_deref()).await?;
                         println!("{}", called.output);

@@ -15,6 +15,18 @@ pub mod summary;
 
 pub use sqlite::{Event, Kind, Snap, StoreError, SyncMode};
 
+/// What a SQLite log sends to the log of record it mirrors (cluster mode, `crate::cluster`):
+/// every commit, before the SQLite transaction, so nothing is acknowledged that the log of
+/// record lacks. The SQLite file is then a cache of it that any node can rebuild.
+pub trait Replica: Send {
+    /// Makes a blob durable in the log of record (before the event that names it).
+    fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError>;
+    /// Appends one commit, all or nothing: `events` (inherited ones flagged), the new `head`
+    /// and the snapshots taken with it. Refused ([`StoreError::Fenced`]) when another owner
+    /// wrote since.
+    fn append(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError>;
+}
+
 /// Why an append was not made.
 #[derive(Debug, thiserror::Error)]
 pub enum AppendError {

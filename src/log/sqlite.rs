@@ -76,7 +76,8 @@ impl Kind {
         }
     }
 
-    fn parse(s: &str) -> Option<Kind> {
+    /// The kind a stored name stands for (`None`: not a kind; a damaged or hostile record).
+    pub fn parse(s: &str) -> Option<Kind> {
         Some(match s {
             "root" => Kind::Root,
             "change" => Kind::Change,
@@ -179,6 +180,13 @@ pub enum StoreError {
     /// A file operation failed.
     #[error("file system error: {0}")]
     Io(#[from] std::io::Error),
+    /// The log of record (cluster mode) refused the append: another node owns the simulation
+    /// now, or this node's lease on it ran out.
+    #[error("this node no longer owns the simulation: {0}")]
+    Fenced(String),
+    /// The log of record (cluster mode) could not be reached or failed.
+    #[error("the cluster log failed: {0}")]
+    Cluster(String),
 }
 
 /// Suffix of a log being created (create, fork, load) before its root commits: start-up
@@ -242,6 +250,8 @@ pub struct Log {
     select_columns: String,
     /// The acknowledgement file (`-seq`), once the log is open under its final name.
     acknowledged: Option<std::fs::File>,
+    /// The log of record this file mirrors (cluster mode): every commit goes there first.
+    replica: Option<Box<dyn super::Replica>>,
 }
 
 /// Copies the WAL into the main file on its own connection (PASSIVE: never blocks the
@@ -404,6 +414,7 @@ impl Log {
             checkpointing: Arc::default(),
             select_columns,
             acknowledged: None,
+            replica: None,
         })
     }
 
@@ -488,7 +499,6 @@ impl Log {
         Ok(())
     }
 
-
     /// A `Log` over an opened existing file: reads where its head and last event are.
     fn from_existing(conn: Connection, path: &Path) -> Result<Log, StoreError> {
         let head_seq: i64 = conn
@@ -509,6 +519,7 @@ impl Log {
             checkpointing: Arc::default(),
             select_columns,
             acknowledged: None,
+            replica: None,
         })
     }
 
@@ -534,14 +545,25 @@ impl Log {
         &self.path
     }
 
+    /// Makes this file a cache of a log of record (cluster mode): from now on every commit,
+    /// buffered reads and blob goes to `replica` first.
+    pub fn attach_replica(&mut self, replica: Box<dyn super::Replica>) {
+        self.replica = Some(replica);
+    }
 
+    /// Every blob stored (hash, bytes): what a whole log carries to the log of record when a
+    /// simulation joins a cluster.
+    pub fn blobs(&self) -> Result<Vec<(String, Vec<u8>)>, StoreError> {
+        let mut stmt = self.conn.prepare("SELECT hash, bytes FROM blobs ORDER BY hash")?;
+        let rows = stmt.query_map([], |r| Ok((r.get(0)?, r.get(1)?)))?.collect::<Result<_, _>>()?;
+        Ok(rows)
+    }
 
-
-
-
-
-
-
+    /// Writes one commit of another log as it is (events with their flags, head, snapshots):
+    /// how a cache is rebuilt from the log of record, and how `export` writes a file.
+    pub fn import_commit(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError> {
+        self.commit((&[], None), events, head, snapshots)
+    }
 
     /// Starts a forked log: the inherited chain (flagged `inherited`, original seqs), every
     /// snapshot `parent` holds on that chain (so any inherited point costs what it costs in the
@@ -566,6 +588,22 @@ impl Log {
         snapshots: &[Snap],
     ) -> Result<(), StoreError> {
         let Some(last) = events.last() else { return Ok(()) };
+        if let Some(replica) = self.replica.as_mut() {
+            let mut all: Vec<Event> = inherited.iter().map(|e| Event { inherited: true, ..e.clone() }).collect();
+            let mut copied: Vec<(u64, Vec<u8>, String)> = Vec::new();
+            if let (Some(parent), Some(last)) = (parent, inherited.last()) {
+                for seq in parent.chain_snapshot_seqs(last.seq)? {
+                    if let Some((bytes, hash)) = parent.snapshot_at(seq)? {
+                        copied.push((seq, bytes, hash));
+                    }
+                }
+            }
+            all.extend(self.pending.iter().cloned());
+            all.extend(events.iter().cloned());
+            let mut snaps: Vec<Snap> = copied.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
+            snaps.extend_from_slice(snapshots);
+            replica.append(&all, head, &snaps)?;
+        }
         let tx = self.conn.transaction()?;
         for e in inherited {
             let mut e = e.clone();
@@ -616,19 +654,6 @@ impl Log {
         Ok(())
     }
 
-
-
-
-
-
-
-
-
-
-
-
-
-
     /// Moves the WAL's contents into the main file (so `file_bytes` measures the log itself).
     pub fn checkpoint(&self) -> Result<(), StoreError> {
         // The background checkpointer may hold the WAL at this moment: retry briefly until
@@ -648,6 +673,7 @@ impl Log {
     /// in-memory database, so nothing done afterwards can reach or recreate the deleted files.
     pub fn close_for_deletion(&mut self) {
         self.pending.clear();
+        self.replica = None;
         while self.checkpointing.load(Ordering::Acquire) {
             std::thread::sleep(std::time::Duration::from_millis(1));
         }
@@ -699,6 +725,9 @@ impl super::EventLog for Log {
     /// Stores a command's blob (URDF text, mesh) under its hash; storing it twice is a no-op.
     /// Written before the event that refers to it, so a committed event always finds it.
     fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError> {
+        if let Some(replica) = self.replica.as_mut() {
+            replica.put_blob(hash, bytes)?;
+        }
         self.conn.execute(
             "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
             params![hash, bytes],
@@ -720,6 +749,12 @@ impl super::EventLog for Log {
             return args_json;
         }
         let hash = blake3::hash(args_json.as_bytes()).to_hex().to_string();
+        if let Some(replica) = self.replica.as_mut() {
+            if let Err(e) = replica.put_blob(&hash, args_json.as_bytes()) {
+                tracing::warn!("could not store large arguments as a blob in the cluster: {e}");
+                return args_json;
+            }
+        }
         match self.conn.execute(
             "INSERT OR IGNORE INTO blobs (hash, bytes) VALUES (?1, ?2)",
             params![hash, args_json.as_bytes()],
@@ -751,6 +786,9 @@ impl super::EventLog for Log {
     fn flush(&mut self) -> Result<(), StoreError> {
         if self.pending.is_empty() {
             return Ok(());
+        }
+        if let Some(replica) = self.replica.as_mut() {
+            replica.append(&self.pending, self.head_seq, &[])?;
         }
         let tx = self.conn.transaction()?;
         for e in &self.pending {

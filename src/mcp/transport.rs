@@ -126,7 +126,14 @@ async fn shutdown_signal(ct: CancellationToken) {
 async fn finish(reg: Arc<Registry>) {
     crate::shutdown::begin();
     let deadline = crate::shutdown::began() + crate::shutdown::DEADLINE - std::time::Duration::from_millis(500);
-    let busy = tokio::task::spawn_blocking(move || reg.flush_all_until(deadline)).await.unwrap_or(0);
+    let busy = tokio::task::spawn_blocking(move || {
+        let busy = reg.flush_all_until(deadline);
+        // Cluster mode: the flushed simulations can be taken over at once, not a lease later.
+        reg.leave_cluster();
+        busy
+    })
+    .await
+    .unwrap_or(0);
     if busy > 0 {
         tracing::warn!("{busy} simulation(s) were still busy at shutdown; their calls commit their own events");
     }

@@ -245,6 +245,9 @@ impl Sim {
         }
         if changes {
             self.redo.clear();
+            if let Some(cluster) = &self.cluster {
+                cluster.index_touch(self.id(), &crate::sim::cluster::index_entry(self));
+            }
         }
         Ok((carried, answer))
     }

@@ -8,6 +8,7 @@
 
 pub mod apply;
 pub mod budget;
+pub mod cluster;
 pub mod reads;
 pub mod sampled_step;
 pub mod save_load;
@@ -110,6 +111,9 @@ pub struct Sim {
     /// Snapshot writes slower than [`stall_ms`] since the MCP layer last took them, as
     /// sentences for logging sessions (an operator wants to know the disk is slow).
     pub(crate) stalls: Vec<String>,
+    /// The cluster this simulation belongs to (cluster mode): its index entry is refreshed
+    /// after each change.
+    pub(crate) cluster: Option<Arc<crate::cluster::Cluster>>,
 }
 
 /// A snapshot (serialise, hash, commit) slower than this many milliseconds is a stall worth a
@@ -162,6 +166,7 @@ impl Sim {
                 destroyed: false,
                 damaged: None,
                 stalls: Vec::new(),
+                cluster: None,
             }),
             Err(e) => {
                 remove_log_files(&partial);
@@ -205,6 +210,7 @@ impl Sim {
                 destroyed: false,
                 damaged: None,
                 stalls: Vec::new(),
+                cluster: None,
             },
             result,
         ))
@@ -237,6 +243,7 @@ impl Sim {
             destroyed: false,
             damaged: None,
             stalls: Vec::new(),
+            cluster: None,
         })
     }
 
@@ -587,19 +594,34 @@ pub struct Registry {
     config: Config,
     sandbox: Sandbox,
     mac_key: [u8; 32],
+    /// The cluster this node is part of (`serve --cluster`); None: embedded mode.
+    cluster: Option<Arc<crate::cluster::Cluster>>,
+    /// Held while a simulation is taken over, so two calls do not both rebuild it.
+    takeovers: Mutex<()>,
     _lock: std::fs::File,
 }
 
 impl Registry {
     /// Locks the data directory and recovers every simulation in it. A corrupt log is
     /// reported on stderr and skipped (left on disk, not served).
-    pub fn open(mut config: Config) -> anyhow::Result<Registry> {
+    pub fn open(config: Config) -> anyhow::Result<Registry> {
+        Self::open_with(config, None)
+    }
+
+    /// `open` as a node of `cluster` (when given): the data directory is then only a cache
+    /// of the cluster's logs, emptied at start, and the saved-file key is the cluster's.
+    pub fn open_with(mut config: Config, cluster: Option<Arc<crate::cluster::Cluster>>) -> anyhow::Result<Registry> {
         config.data_dir = data_dir::prepare_dir("--data", &config.data_dir, true)?;
         config.workspace = data_dir::prepare_dir("--workspace", &config.workspace, false)?;
         let lock = data_dir::lock(&config.data_dir)?;
         data_dir::remove_partial_logs(&config.data_dir);
         let mut sims = BTreeMap::new();
         let mut damaged = BTreeMap::new();
+        if cluster.is_some() {
+            for path in data_dir::logs(&config.data_dir)? {
+                remove_log_files(&path);
+            }
+        }
         for path in data_dir::logs(&config.data_dir)? {
             let started = std::time::Instant::now();
             let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -629,13 +651,18 @@ impl Registry {
             workspace: config.workspace.clone(),
             data_dir: config.data_dir.clone(),
         };
-        let mac_key = data_dir::mac_key(&config.data_dir)?;
+        let mut mac_key = data_dir::mac_key(&config.data_dir)?;
+        if let Some(cluster) = &cluster {
+            mac_key = cluster.shared_mac_key(mac_key)?;
+        }
         Ok(Registry {
             table: Mutex::new(Table { sims, reserved: 0 }),
             damaged,
             config,
             sandbox,
             mac_key,
+            cluster,
+            takeovers: Mutex::new(()),
             _lock: lock,
         })
     }
@@ -684,8 +711,9 @@ impl Registry {
 
     /// Reserves room for `n` new simulations at once, all or none.
     pub(crate) fn reserve_many(&self, n: usize) -> Result<Vec<Slot<'_>>, Refusal> {
+        let in_cluster = self.cluster_count();
         let mut t = self.table();
-        let live = t.sims.len() + t.reserved;
+        let live = in_cluster.unwrap_or(t.sims.len()) + t.reserved;
         let max = self.config.limits.max_sims;
         if live + n > max {
             return Err(if n == 1 {
@@ -711,9 +739,10 @@ impl Registry {
         };
         let id = simulation_id.clone();
         let slot = self.reserve()?;
-        let (sim, result) =
-            Sim::create(&self.path_for(&id), "create_simulation", root, args, self.config.sync)?;
-        slot.fill(sim);
+        let partial = crate::log::sqlite::partial_path(&self.path_for(&id));
+        let (sim, result) = Sim::create_unpublished(&partial, "create_simulation", root, args, self.config.sync)?;
+        crate::crash_point!("create_before_publish");
+        slot.fill(self.publish_sim(sim)?);
         Ok(result)
     }
 
@@ -722,13 +751,34 @@ impl Registry {
         if let Some(why) = self.damaged.get(id) {
             return Err(sim_damaged(id, why));
         }
-        self.table().sims.get(id).cloned().ok_or_else(|| sim_not_found(id))
+        if let Some(cluster) = &self.cluster {
+            return self.get_in_cluster(cluster, id);
+        }
+        self.lookup(id).ok_or_else(|| sim_not_found(id))
+    }
+
+    /// The simulation with this id if this process has it in memory.
+    fn lookup(&self, id: &str) -> Option<SharedSim> {
+        self.table().sims.get(id).cloned()
+    }
+
+    /// Drops a simulation from memory (cluster mode: its lease is gone).
+    fn evict(&self, id: &str) {
+        self.table().sims.remove(id);
+    }
+
+    /// Lists a simulation taken over from another node.
+    fn insert(&self, id: &str, sim: SharedSim) {
+        self.table().sims.insert(id.to_string(), sim);
     }
 
     /// Removes a simulation and deletes its log.
     pub fn destroy(&self, id: &str) -> Result<Message, Refusal> {
         if let Some(why) = self.damaged.get(id) {
             return Err(sim_damaged(id, why));
+        }
+        if self.cluster.is_some() {
+            self.get(id)?;
         }
         let sim = self.table().sims.remove(id).ok_or_else(|| sim_not_found(id))?;
         // Wait for any call in flight; then, still under the lock, mark it destroyed and close
@@ -740,6 +790,7 @@ impl Registry {
             guard.log.path().to_path_buf()
         };
         remove_log_files(&path);
+        self.forget_in_cluster(id)?;
         Ok(Message::new(format!("Simulation {id} destroyed")))
     }
 
@@ -763,6 +814,15 @@ impl Registry {
                 name: s.world().name().map(str::to_string),
                 objects: s.world().object_count(),
                 simulation_time: s.world().current_time(),
+            });
+        }
+        let here: Vec<String> = simulations.iter().map(|s| s.simulation_id.clone()).collect();
+        for (id, entry) in self.listed_elsewhere(&here) {
+            simulations.push(SimulationSummary {
+                simulation_id: id,
+                name: entry.name,
+                objects: entry.objects,
+                simulation_time: entry.simulation_time,
             });
         }
         damaged.sort_by(|a, b| a.simulation_id.cmp(&b.simulation_id));

@@ -155,7 +155,7 @@ impl Registry {
             Ok(())
         });
         match (emitted, sim) {
-            (Ok(()), Some(sim)) => sim.publish(&path),
+            (Ok(()), Some(sim)) => self.publish_sim(sim),
             (Ok(()), None) => Err("The file gave no simulation to create".into()),
             (Err(why), sim) => {
                 match sim {

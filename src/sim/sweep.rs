@@ -164,7 +164,7 @@ impl Registry {
         let mut kept = Vec::new();
         for ((v, sim), slot) in swept.variants.iter().zip(sims.by_ref()).zip(slots) {
             let id = sim.id().to_string();
-            match sim.publish(&self.path_for(&id)) {
+            match self.publish_sim(sim) {
                 Ok(sim) => slot.fill(sim),
                 Err(why) => {
                     discard(sims);

@@ -387,8 +387,7 @@ impl Registry {
         // Lock order: the parent, then the table (for the slot); no table lock across I/O.
         let result = self.reserve().and_then(|slot| {
             let (forked, sim) = self.fork_unpublished(&p, at_seq, (new_id, name), args)?;
-            let path = self.path_for(sim.id());
-            slot.fill(sim.publish(&path)?);
+            slot.fill(self.publish_sim(sim)?);
             Ok(forked)
         });
         match result {
@@ -465,8 +464,7 @@ impl Registry {
     ) -> Result<Sim, Refusal> {
         let snapshot = world.snapshot();
         let sim = self.adopt_unpublished(ancestry, (&snapshot, &world.state_hash()), root_cmd, tool, args, result)?;
-        let path = self.path_for(sim.id());
-        sim.publish(&path)
+        self.publish_sim(sim)
     }
 
     /// `adopt` under the partial name (`Sim::publish` gives it its final one), its root's

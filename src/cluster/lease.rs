@@ -1,0 +1,132 @@
+//! One owner per simulation: a lease is an entry in the `pmcp_leases` bucket, whose entries
+//! the server expires after the lease time unless renewed. Taken by `create` (refused while
+//! another node's entry lives), renewed by compare-and-set on its revision every quarter of
+//! the lease. The holder stops serving a simulation a fifth of the lease before its last
+//! renewal could expire (measured from when the renewal was *sent*, so a node that was
+//! paused or cut off stops before anyone else can start); appends are fenced besides
+//! (`replica`), so a write it had already begun cannot land after a takeover.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use async_nats::jetstream::kv;
+
+use super::Cluster;
+
+/// A lease this node holds.
+pub struct Held {
+    /// The revision the lease was taken at: names this ownership (takeover records, message
+    /// ids), unchanged by renewals.
+    pub epoch: u64,
+    /// The entry's latest revision (what the next renewal must find).
+    revision: u64,
+    /// Until when this node may serve the simulation.
+    valid_until: Instant,
+}
+
+/// Why a lease was not taken.
+#[derive(Debug)]
+pub enum NotTaken {
+    /// Another node's lease lives (its name; this node's own name means an earlier run of
+    /// this node, whose lease lapses within the lease time).
+    Owned(String),
+    /// The cluster failed.
+    Failed(String),
+}
+
+impl Cluster {
+    /// The margin before a lease's expiry at which its holder stops serving.
+    fn margin(&self) -> Duration {
+        self.config.lease / 5
+    }
+
+    /// Takes the lease on `id` for this node (or confirms it holds it); returns its epoch.
+    pub fn acquire(&self, id: &str) -> Result<u64, NotTaken> {
+        if let Some(epoch) = self.held_epoch(id) {
+            return Ok(epoch);
+        }
+        let leases = self.leases.clone();
+        let (key, node) = (id.to_string(), self.config.node.clone());
+        let sent = Instant::now();
+        let taken = self.run(async move {
+            match leases.create(&key, node.clone().into()).await {
+                Ok(revision) => Ok(revision),
+                Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => {
+                    let owner = super::kv_get(&leases, &key).await.ok().flatten().map(|b| String::from_utf8_lossy(&b).into_owned());
+                    Err(NotTaken::Owned(owner.unwrap_or_else(|| "unknown".into())))
+                }
+                Err(e) => Err(NotTaken::Failed(e.to_string())),
+            }
+        })?;
+        let valid_until = sent + self.config.lease - self.margin();
+        self.held.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), Held { epoch: taken, revision: taken, valid_until });
+        Ok(taken)
+    }
+
+    /// The epoch of the lease this node holds on `id`, while it may still serve it.
+    pub fn held_epoch(&self, id: &str) -> Option<u64> {
+        let held = self.held.lock().unwrap_or_else(|p| p.into_inner());
+        held.get(id).filter(|h| Instant::now() < h.valid_until).map(|h| h.epoch)
+    }
+
+    /// Whether this node may serve `id` now.
+    pub fn owns(&self, id: &str) -> bool {
+        self.held_epoch(id).is_some()
+    }
+
+    /// Gives up the lease on `id` (destroy, shutdown): another node may take it at once.
+    pub fn release(&self, id: &str) {
+        let Some(held) = self.held.lock().unwrap_or_else(|p| p.into_inner()).remove(id) else { return };
+        let leases = self.leases.clone();
+        let key = id.to_string();
+        self.run(async move {
+            let _ = leases.delete_expect_revision(&key, Some(held.revision)).await;
+        });
+    }
+
+    /// Gives up every lease (graceful shutdown).
+    pub fn release_all(&self) {
+        let ids: Vec<String> = self.held.lock().unwrap_or_else(|p| p.into_inner()).keys().cloned().collect();
+        for id in ids {
+            self.release(&id);
+        }
+    }
+}
+
+/// Renews every held lease each quarter of the lease time, by compare-and-set: a lease whose
+/// entry changed (another node took it after it expired) is dropped, and the node stops
+/// serving that simulation.
+pub fn start_renewing(cluster: &Arc<Cluster>) {
+    let weak = Arc::downgrade(cluster);
+    let every = cluster.config.lease / 4;
+    let Some(rt) = cluster.rt.as_ref() else { return };
+    rt.spawn(async move {
+        loop {
+            tokio::time::sleep(every).await;
+            let Some(cluster) = weak.upgrade() else { return };
+            let due: Vec<(String, u64)> = {
+                let held = cluster.held.lock().unwrap_or_else(|p| p.into_inner());
+                held.iter().map(|(k, h)| (k.clone(), h.revision)).collect()
+            };
+            for (id, revision) in due {
+                let sent = Instant::now();
+                let renewed = cluster.leases.update(&id, cluster.config.node.clone().into(), revision).await;
+                let mut held = cluster.held.lock().unwrap_or_else(|p| p.into_inner());
+                match renewed {
+                    Ok(next) => {
+                        if let Some(h) = held.get_mut(&id) {
+                            h.revision = next;
+                            h.valid_until = sent + cluster.config.lease - cluster.margin();
+                        }
+                    }
+                    Err(e) if e.kind() == kv::UpdateErrorKind::WrongLastRevision => {
+                        tracing::warn!("lost the lease on simulation {id}: another node holds it");
+                        held.remove(&id);
+                    }
+                    // A transient failure: the lease still runs out on time if it persists.
+                    Err(e) => tracing::warn!("could not renew the lease on simulation {id}: {e}"),
+                }
+            }
+        }
+    });
+}

@@ -1,0 +1,340 @@
+//! Cluster mode (`serve --cluster`): the log of record of every simulation is a subject in a
+//! replicated NATS JetStream stream, and the node that holds a simulation's lease serves it.
+//! A node's SQLite files are a cache of those subjects that any node can rebuild, so a node's
+//! death loses nothing acknowledged (docs/cluster.md).
+//!
+//! - `record`: what a subject holds (commits, takeovers);
+//! - `replica`: the hook that sends every commit of a SQLite log to its subject, fenced;
+//! - `lease`: one owner per simulation (a KV bucket whose entries expire unless renewed);
+//! - `transfer`: a whole log into a subject (a simulation joining, `import`) and back into a
+//!   SQLite file (a takeover's cache, `export`).
+//!
+//! The rest of the server is synchronous; this module owns a small tokio runtime of its own
+//! and blocks on it ([`Cluster::run`]), whatever thread calls.
+
+pub mod lease;
+pub mod portable;
+pub mod record;
+pub mod replica;
+pub mod transfer;
+
+use std::collections::HashMap;
+use std::future::Future;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use async_nats::jetstream::{self, kv, object_store, stream};
+
+/// How a node joins a cluster (`serve --cluster …`).
+#[derive(Clone, Debug)]
+pub struct ClusterConfig {
+    /// NATS server URLs, comma-separated (`nats://HOST:PORT,…`).
+    pub urls: String,
+    /// This node's name (in leases and takeover records; unique per live node).
+    pub node: String,
+    /// How many streams the simulations' subjects are spread over (one Raft leader each).
+    pub streams: u32,
+    /// Replicas of every stream, bucket and object (3 survives one server's loss).
+    pub replicas: usize,
+    /// How long a lease lasts unless renewed (the whole cluster must use one value).
+    pub lease: Duration,
+}
+
+impl ClusterConfig {
+    /// The defaults (`--cluster-streams 4 --cluster-replicas 3 --lease-ms 5000`).
+    pub fn new(urls: &str, node: &str) -> ClusterConfig {
+        ClusterConfig { urls: urls.into(), node: node.into(), streams: 4, replicas: 3, lease: Duration::from_millis(5000) }
+    }
+}
+
+/// Largest commit carried inside a message; a larger one goes to the object store and the
+/// message names it (NATS's default max payload is 1 MiB).
+pub const INLINE_COMMIT_MAX: usize = 256 * 1024;
+
+/// How long an append keeps retrying while the cluster elects a leader or reconnects.
+pub const APPEND_PATIENCE: Duration = Duration::from_secs(30);
+
+/// One connection to a JetStream cluster and the buckets the server keeps there.
+pub struct Cluster {
+    rt: Option<tokio::runtime::Runtime>,
+    js: jetstream::Context,
+    leases: kv::Store,
+    index: kv::Store,
+    settings: kv::Store,
+    objects: object_store::ObjectStore,
+    config: ClusterConfig,
+    held: Arc<Mutex<HashMap<String, lease::Held>>>,
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        if let Some(rt) = self.rt.take() {
+            rt.shutdown_background();
+        }
+    }
+}
+
+/// Creates a bucket-like thing, or opens it when another node created it first.
+async fn create_or_get<T, E1, E2, C, G>(create: C, get: G) -> Result<T, String>
+where
+    C: Future<Output = Result<T, E1>>,
+    G: FnOnce() -> std::pin::Pin<Box<dyn Future<Output = Result<T, E2>> + Send>>,
+    E1: std::fmt::Display,
+    E2: std::fmt::Display,
+{
+    match create.await {
+        Ok(t) => Ok(t),
+        Err(first) => get().await.map_err(|e| format!("{first}; then {e}")),
+    }
+}
+
+impl Cluster {
+    /// Connects to the cluster and makes sure its streams and buckets exist.
+    pub fn connect(config: ClusterConfig) -> anyhow::Result<Arc<Cluster>> {
+        if config.node.is_empty() || config.node.contains(|c: char| c.is_whitespace() || c == '.') {
+            anyhow::bail!("--node must be a non-empty name without spaces or dots, not {:?}", config.node);
+        }
+        if config.streams == 0 || config.replicas == 0 || config.lease < Duration::from_millis(500) {
+            anyhow::bail!("--cluster-streams and --cluster-replicas must be at least 1 and --lease-ms at least 500");
+        }
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("cluster")
+            .enable_all()
+            .build()?;
+        let mut cfg = config;
+        let (js, leases, index, settings, objects, config) = rt.block_on(async move {
+            let addrs: Vec<async_nats::ServerAddr> = cfg
+                .urls
+                .split(',')
+                .map(|u| u.trim().parse())
+                .collect::<Result<_, _>>()
+                .map_err(|e| anyhow::anyhow!("--cluster {}: {e}", cfg.urls))?;
+            let client = async_nats::ConnectOptions::new()
+                .name(format!("physics-mcp {}", cfg.node))
+                .retry_on_initial_connect()
+                .connection_timeout(Duration::from_secs(5))
+                .connect(addrs)
+                .await
+                .map_err(|e| anyhow::anyhow!("cannot connect to the cluster {}: {e}", cfg.urls))?;
+            let mut js = jetstream::new(client);
+            js.set_timeout(Duration::from_secs(5));
+            let bucket = |name: &str, max_age: Duration, replicas: usize| kv::Config {
+                bucket: name.into(),
+                history: 1,
+                max_age,
+                num_replicas: replicas,
+                ..Default::default()
+            };
+            let settings = open_bucket(&js, bucket("pmcp_settings", Duration::ZERO, cfg.replicas)).await?;
+            // Cluster-wide settings: the first node's values hold for every node (subjects are
+            // spread by the stream count; leases expire by the bucket's age).
+            cfg.streams = agreed(&settings, "streams", cfg.streams as u64).await? as u32;
+            cfg.lease = Duration::from_millis(agreed(&settings, "lease_ms", cfg.lease.as_millis() as u64).await?);
+            for k in 0..cfg.streams {
+                let config = stream::Config {
+                    name: stream_name(k),
+                    subjects: vec![format!("pmcp.log.{k}.>")],
+                    num_replicas: cfg.replicas,
+                    duplicate_window: Duration::from_secs(120),
+                    allow_direct: true,
+                    ..Default::default()
+                };
+                js.get_or_create_stream(config).await.map_err(|e| anyhow::anyhow!("stream {}: {e}", stream_name(k)))?;
+            }
+            let leases = open_bucket(&js, bucket("pmcp_leases", cfg.lease, cfg.replicas)).await?;
+            let index = open_bucket(&js, bucket("pmcp_sims", Duration::ZERO, cfg.replicas)).await?;
+            let js2 = js.clone();
+            let objects = create_or_get(
+                js.create_object_store(object_store::Config {
+                    bucket: "pmcp_objects".into(),
+                    num_replicas: cfg.replicas,
+                    ..Default::default()
+                }),
+                move || Box::pin(async move { js2.get_object_store("pmcp_objects").await }),
+            )
+            .await
+            .map_err(|e| anyhow::anyhow!("object store pmcp_objects: {e}"))?;
+            anyhow::Ok((js, leases, index, settings, objects, cfg))
+        })?;
+        let cluster = Arc::new(Cluster {
+            rt: Some(rt),
+            js,
+            leases,
+            index,
+            settings,
+            objects,
+            config,
+            held: Arc::default(),
+        });
+        lease::start_renewing(&cluster);
+        Ok(cluster)
+    }
+
+    /// Runs `f` on the cluster's runtime and waits for it: the bridge from the server's
+    /// synchronous code (a call's thread, start-up, the CLI).
+    pub fn run<T: Send + 'static>(&self, f: impl Future<Output = T> + Send + 'static) -> T {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        self.rt.as_ref().expect("runtime lives as long as the cluster").spawn(async move {
+            let _ = tx.send(f.await);
+        });
+        rx.recv().expect("a cluster task never drops its answer")
+    }
+
+    /// This node's configuration.
+    pub fn config(&self) -> &ClusterConfig {
+        &self.config
+    }
+
+    /// The stream and subject a simulation's log lives on (spread by a hash of its id).
+    pub fn subject(&self, id: &str) -> (String, String) {
+        let k = blake3::hash(id.as_bytes()).as_bytes()[0] as u32 % self.config.streams;
+        (stream_name(k), format!("pmcp.log.{k}.{id}"))
+    }
+
+    /// The saved-file MAC key every node uses: the first node's, shared through the cluster
+    /// so a file saved on one node loads (fast) on any other.
+    pub fn shared_mac_key(&self, local: [u8; 32]) -> anyhow::Result<[u8; 32]> {
+        let settings = self.settings.clone();
+        let hex = blake3::Hash::from_bytes(local).to_hex().to_string();
+        let stored = self.run(async move {
+            match settings.create("mac_key", hex.clone().into()).await {
+                Ok(_) => Ok(hex),
+                Err(_) => kv_get(&settings, "mac_key")
+                    .await?
+                    .map(|b| String::from_utf8_lossy(&b).into_owned())
+                    .ok_or_else(|| "the cluster's mac_key vanished".to_string()),
+            }
+        });
+        let stored = stored.map_err(|e| anyhow::anyhow!("the cluster's saved-file key: {e}"))?;
+        let hash = blake3::Hash::from_hex(stored.trim()).map_err(|e| anyhow::anyhow!("the cluster's saved-file key: {e}"))?;
+        Ok(*hash.as_bytes())
+    }
+}
+
+/// Creates a key-value bucket, or opens it when another node created it first.
+async fn open_bucket(js: &jetstream::Context, config: kv::Config) -> anyhow::Result<kv::Store> {
+    let name = config.bucket.clone();
+    let js2 = js.clone();
+    let n = name.clone();
+    create_or_get(js.create_key_value(config), move || Box::pin(async move { js2.get_key_value(n).await }))
+        .await
+        .map_err(|e| anyhow::anyhow!("bucket {name}: {e}"))
+}
+
+/// The cluster's value of setting `key`: this node's `mine` if it is the first to say, else
+/// the stored one.
+async fn agreed(settings: &kv::Store, key: &str, mine: u64) -> anyhow::Result<u64> {
+    if settings.create(key, mine.to_string().into()).await.is_ok() {
+        return Ok(mine);
+    }
+    let stored = kv_get(settings, key).await.map_err(|e| anyhow::anyhow!("setting {key}: {e}"))?;
+    stored
+        .and_then(|b| String::from_utf8_lossy(&b).trim().parse().ok())
+        .ok_or_else(|| anyhow::anyhow!("the cluster's setting {key} is unreadable"))
+}
+
+/// A key's value, retried for a few seconds while the bucket's replicas cannot answer yet
+/// (a bucket just created, a server just lost: direct gets see "no responders").
+pub(crate) async fn kv_get(store: &kv::Store, key: &str) -> Result<Option<bytes::Bytes>, String> {
+    let started = std::time::Instant::now();
+    loop {
+        match store.get(key).await {
+            Ok(v) => return Ok(v),
+            Err(e) if started.elapsed() < Duration::from_secs(10) => {
+                tracing::debug!("reading {key}: {e}; retrying");
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+}
+
+/// The name of stream `k`.
+fn stream_name(k: u32) -> String {
+    format!("PMCP_LOG_{k}")
+}
+
+/// What the cluster-wide index says of a simulation (list_simulations without asking owners).
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug, Default)]
+pub struct IndexEntry {
+    /// The simulation's label.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Objects when its owner last wrote the entry.
+    #[serde(default)]
+    pub objects: usize,
+    /// Simulated time when its owner last wrote the entry.
+    #[serde(default)]
+    pub simulation_time: f64,
+}
+
+impl Cluster {
+    /// Writes a simulation's index entry (on joining, takeover, and after changes).
+    pub fn index_put(&self, id: &str, entry: &IndexEntry) -> Result<(), String> {
+        let index = self.index.clone();
+        let (id, bytes) = (id.to_string(), serde_json::to_vec(entry).unwrap_or_default());
+        self.run(async move { index.put(id, bytes.into()).await.map(|_| ()).map_err(|e| e.to_string()) })
+    }
+
+    /// Like `index_put`, without waiting (after a change: the entry is a convenience, the log
+    /// is the record).
+    pub fn index_touch(&self, id: &str, entry: &IndexEntry) {
+        let index = self.index.clone();
+        let (id, bytes) = (id.to_string(), serde_json::to_vec(entry).unwrap_or_default());
+        if let Some(rt) = &self.rt {
+            rt.spawn(async move {
+                let _ = index.put(id, bytes.into()).await;
+            });
+        }
+    }
+
+    /// A simulation's index entry, if the cluster has it.
+    pub fn index_get(&self, id: &str) -> Result<Option<IndexEntry>, String> {
+        let index = self.index.clone();
+        let id = id.to_string();
+        self.run(async move {
+            let got = kv_get(&index, &id).await?;
+            Ok(got.map(|b| serde_json::from_slice(&b).unwrap_or_default()))
+        })
+    }
+
+    /// Every simulation in the cluster with its index entry, by id.
+    pub fn index_all(&self) -> Result<Vec<(String, IndexEntry)>, String> {
+        use futures_util::StreamExt;
+        let index = self.index.clone();
+        self.run(async move {
+            let mut keys = match index.keys().await {
+                Ok(k) => k.boxed(),
+                Err(e) => return Err(e.to_string()),
+            };
+            let mut ids = Vec::new();
+            while let Some(k) = keys.next().await {
+                ids.push(k.map_err(|e| e.to_string())?);
+            }
+            let mut out = Vec::new();
+            for id in ids {
+                if let Some(b) = kv_get(&index, &id).await? {
+                    out.push((id, serde_json::from_slice(&b).unwrap_or_default()));
+                }
+            }
+            out.sort_by(|a, b| a.0.cmp(&b.0));
+            Ok(out)
+        })
+    }
+
+    /// Removes a simulation from the cluster: its index entry, its subject, its lease.
+    pub fn forget(&self, id: &str) -> Result<(), String> {
+        let (index, js) = (self.index.clone(), self.js.clone());
+        let (stream, subject) = self.subject(id);
+        let key = id.to_string();
+        self.run(async move {
+            index.delete(&key).await.map_err(|e| e.to_string())?;
+            let stream = js.get_stream(stream).await.map_err(|e| e.to_string())?;
+            stream.purge().filter(subject).await.map_err(|e| e.to_string())?;
+            Ok::<(), String>(())
+        })?;
+        self.release(id);
+        Ok(())
+    }
+}

@@ -1,0 +1,225 @@
+//! Moving logs between a subject and SQLite: publishing a commit (fenced, retried through
+//! leader elections), a whole SQLite log into an empty subject (a simulation joining the
+//! cluster, `import`), and a subject back into a SQLite file (a takeover's cache, `export`).
+
+use std::path::Path;
+use std::time::Instant;
+
+use async_nats::jetstream::context::PublishErrorKind;
+use async_nats::jetstream::message::PublishMessage;
+use async_nats::jetstream::stream::LastRawMessageErrorKind;
+
+use super::record::{blob_object, commit_object, snapshot_object, Commit, Record, WireEvent};
+use super::{Cluster, APPEND_PATIENCE, INLINE_COMMIT_MAX};
+use crate::log::sqlite::Log;
+use crate::log::{Event, EventLog, StoreError, SyncMode};
+
+impl Cluster {
+    /// Stores `bytes` under `name` in the object store unless an object of that name exists
+    /// (names are content hashes, so it holds the same bytes).
+    pub fn put_object(&self, name: &str, bytes: &[u8]) -> Result<(), String> {
+        let (store, name, bytes) = (self.objects.clone(), name.to_string(), bytes.to_vec());
+        self.run(async move {
+            if store.info(&name).await.is_ok_and(|i| !i.deleted) {
+                return Ok(());
+            }
+            let mut reader = bytes.as_slice();
+            store.put(name.as_str(), &mut reader).await.map(|_| ()).map_err(|e| format!("storing {name}: {e}"))
+        })
+    }
+
+    /// The bytes of an object.
+    pub fn get_object(&self, name: &str) -> Result<Vec<u8>, String> {
+        let (store, name) = (self.objects.clone(), name.to_string());
+        self.run(async move {
+            use tokio::io::AsyncReadExt;
+            let mut object = store.get(&name).await.map_err(|e| format!("reading {name}: {e}"))?;
+            let mut bytes = Vec::new();
+            object.read_to_end(&mut bytes).await.map_err(|e| format!("reading {name}: {e}"))?;
+            Ok(bytes)
+        })
+    }
+
+    /// Publishes a commit on `subject` if the subject still ends at `expected`; returns its
+    /// sequence. Retried (same message id, so a commit that landed is not written twice) while
+    /// the cluster is unreachable or electing, up to [`APPEND_PATIENCE`]; a stale expectation
+    /// is [`StoreError::Fenced`].
+    pub fn publish_commit(&self, subject: &str, commit: &Commit, expected: u64, msg_id: &str) -> Result<u64, StoreError> {
+        let json = serde_json::to_vec(&Record::Commit(Commit {
+            events: commit.events.clone(),
+            head: commit.head,
+            snapshots: commit.snapshots.clone(),
+            blobs: commit.blobs.clone(),
+        }))
+        .map_err(|e| StoreError::Cluster(e.to_string()))?;
+        let payload = if json.len() > INLINE_COMMIT_MAX {
+            let object = commit_object(&crate::digest::content_hash(&json));
+            self.put_object(&object, &json).map_err(StoreError::Cluster)?;
+            serde_json::to_vec(&Record::Stored { object, bytes: json.len() }).map_err(|e| StoreError::Cluster(e.to_string()))?
+        } else {
+            json
+        };
+        self.publish_fenced(subject, payload, expected, msg_id)
+    }
+
+    /// Publishes one record fenced by `expected`, retrying what may be transient.
+    pub(crate) fn publish_fenced(&self, subject: &str, payload: Vec<u8>, expected: u64, msg_id: &str) -> Result<u64, StoreError> {
+        let (js, subject, msg_id) = (self.js.clone(), subject.to_string(), msg_id.to_string());
+        self.run(async move {
+            let started = Instant::now();
+            let mut last_error = String::new();
+            while started.elapsed() < APPEND_PATIENCE {
+                let message = PublishMessage::build()
+                    .payload(payload.clone().into())
+                    .message_id(&msg_id)
+                    .expected_last_subject_sequence(expected);
+                let acked = match js.send_publish(subject.clone(), message).await {
+                    Ok(pending) => pending.await,
+                    Err(e) => Err(e),
+                };
+                match acked {
+                    Ok(ack) => return Ok(ack.sequence),
+                    Err(e) if e.kind() == PublishErrorKind::WrongLastSequence => {
+                        return Err(StoreError::Fenced(format!("another node wrote to {subject} first")));
+                    }
+                    Err(e) if e.kind() == PublishErrorKind::MaxPayloadExceeded => {
+                        return Err(StoreError::Cluster(e.to_string()));
+                    }
+                    Err(e) => {
+                        last_error = e.to_string();
+                        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+                    }
+                }
+            }
+            Err(StoreError::Cluster(format!("no acknowledgement within {APPEND_PATIENCE:?}: {last_error}")))
+        })
+    }
+
+    /// The sequence of the last message on a simulation's subject (0: none).
+    pub fn last_sequence(&self, id: &str) -> Result<u64, String> {
+        let (stream, subject) = self.subject(id);
+        let js = self.js.clone();
+        self.run(async move {
+            let stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
+            match stream.get_last_raw_message_by_subject(&subject).await {
+                Ok(m) => Ok(m.sequence),
+                Err(e) if e.kind() == LastRawMessageErrorKind::NoMessageFound => Ok(0),
+                Err(e) => Err(e.to_string()),
+            }
+        })
+    }
+
+    /// Every commit on a simulation's subject in order, and the subject's last sequence.
+    pub fn read_commits(&self, id: &str) -> Result<(Vec<Commit>, u64), String> {
+        use async_nats::jetstream::consumer::{pull, DeliverPolicy};
+        use futures_util::StreamExt;
+        let last = self.last_sequence(id)?;
+        if last == 0 {
+            return Ok((Vec::new(), 0));
+        }
+        let (stream, subject) = self.subject(id);
+        let js = self.js.clone();
+        let records: Vec<Vec<u8>> = self.run(async move {
+            let stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
+            let consumer = stream
+                .create_consumer(pull::OrderedConfig {
+                    filter_subject: subject,
+                    deliver_policy: DeliverPolicy::All,
+                    ..Default::default()
+                })
+                .await
+                .map_err(|e| e.to_string())?;
+            let mut messages = consumer.messages().await.map_err(|e| e.to_string())?;
+            let mut out = Vec::new();
+            while let Some(m) = messages.next().await {
+                let m = m.map_err(|e| e.to_string())?;
+                let seq = m.info().map_err(|e| e.to_string())?.stream_sequence;
+                out.push(m.payload.to_vec());
+                if seq >= last {
+                    break;
+                }
+            }
+            Ok::<_, String>(out)
+        })?;
+        let mut commits = Vec::new();
+        for bytes in records {
+            match serde_json::from_slice::<Record>(&bytes).map_err(|e| format!("a record of {id} does not decode: {e}"))? {
+                Record::Commit(c) => commits.push(c),
+                Record::Stored { object, .. } => {
+                    let json = self.get_object(&object)?;
+                    match serde_json::from_slice::<Record>(&json).map_err(|e| format!("{object} does not decode: {e}"))? {
+                        Record::Commit(c) => commits.push(c),
+                        _ => return Err(format!("{object} is not a commit")),
+                    }
+                }
+                Record::Takeover { .. } => {}
+            }
+        }
+        Ok((commits, last))
+    }
+
+    /// Writes a simulation's log from its subject into a new SQLite file at `path`; returns
+    /// the subject's last sequence (what the next append must follow).
+    pub fn materialize(&self, id: &str, path: &Path, sync: SyncMode) -> Result<u64, String> {
+        let (commits, last) = self.read_commits(id)?;
+        if commits.is_empty() {
+            return Err(format!("the cluster holds no log for simulation {id}"));
+        }
+        let mut log = Log::create(path, id, sync).map_err(|e| e.to_string())?;
+        for commit in commits {
+            for hash in &commit.blobs {
+                let bytes = self.get_object(&blob_object(hash))?;
+                log.put_blob(hash, &bytes).map_err(|e| e.to_string())?;
+            }
+            let mut snaps = Vec::new();
+            for (seq, hash) in &commit.snapshots {
+                let bytes = self.get_object(&snapshot_object(hash))?;
+                if crate::digest::content_hash(&bytes) != *hash {
+                    return Err(format!("snapshot {hash} of {id} does not match its hash"));
+                }
+                snaps.push((*seq, bytes, hash.clone()));
+            }
+            let events: Vec<Event> = commit.events.into_iter().map(Event::try_from).collect::<Result<_, _>>()?;
+            let snaps: Vec<_> = snaps.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
+            if events.is_empty() {
+                continue;
+            }
+            log.import_commit(&events, commit.head, &snaps).map_err(|e| e.to_string())?;
+        }
+        Ok(last)
+    }
+
+    /// Publishes a whole SQLite log as the first commit of an empty subject (refused if the
+    /// subject has anything: ids are unique in the cluster); returns its sequence.
+    pub fn upload(&self, id: &str, log: &Log, epoch: u64) -> Result<u64, String> {
+        let mut blobs = Vec::new();
+        for (hash, bytes) in log.blobs().map_err(|e| e.to_string())? {
+            self.put_object(&blob_object(&hash), &bytes)?;
+            blobs.push(hash);
+        }
+        let mut snapshots = Vec::new();
+        for seq in log.snapshot_seqs().map_err(|e| e.to_string())? {
+            if let Some((bytes, hash)) = log.snapshot_at(seq).map_err(|e| e.to_string())? {
+                self.put_object(&snapshot_object(&hash), &bytes)?;
+                snapshots.push((seq, hash));
+            }
+        }
+        let events = log.all_events().map_err(|e| e.to_string())?;
+        let commit = Commit { events: events.iter().map(WireEvent::from).collect(), head: log.head_seq(), snapshots, blobs };
+        let subject = self.subject(id).1;
+        let msg_id = format!("{id}.0.{}.{epoch}", self.config.node);
+        self.publish_commit(&subject, &commit, 0, &msg_id).map_err(|e| match e {
+            StoreError::Fenced(_) => format!("a simulation with id {id} already exists in the cluster"),
+            e => e.to_string(),
+        })
+    }
+
+    /// Records that this node took `id` over at the subject's sequence `seen`, fencing out any
+    /// append an earlier owner prepared; returns the new last sequence.
+    pub fn claim(&self, id: &str, seen: u64, epoch: u64) -> Result<u64, StoreError> {
+        let record = Record::Takeover { node: self.config.node.clone(), epoch };
+        let payload = serde_json::to_vec(&record).map_err(|e| StoreError::Cluster(e.to_string()))?;
+        let subject = self.subject(id).1;
+        self.publish_fenced(&subject, payload, seen, &format!("{id}.{seen}.{}.{epoch}.claim", self.config.node))
+    }
+}
