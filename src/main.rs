@@ -49,6 +49,10 @@ struct ClusterArgs {
     /// This node's name in the cluster (unique per live node; default: host name and pid).
     #[arg(long, requires = "cluster")]
     node: Option<String>,
+    /// Prefix of the streams, buckets and subjects kept in NATS (deployments sharing one NATS
+    /// cluster use different ones).
+    #[arg(long, default_value = "pmcp")]
+    cluster_namespace: String,
     /// Streams the simulations are spread over (the first node's value holds cluster-wide).
     #[arg(long, default_value_t = 4)]
     cluster_streams: u32,
@@ -66,6 +70,7 @@ impl ClusterArgs {
         let Some(urls) = &self.cluster else { return Ok(None) };
         let node = self.node.clone().unwrap_or_else(default_node_name);
         let mut config = physics_mcp::cluster::ClusterConfig::new(urls, &node);
+        config.namespace = self.cluster_namespace.clone();
         config.streams = self.cluster_streams;
         config.replicas = self.cluster_replicas;
         config.lease = std::time::Duration::from_millis(self.lease_ms);
@@ -80,8 +85,9 @@ fn default_node_name() -> String {
 }
 
 /// A connection for the export/import commands (not a node: it serves nothing).
-fn connect_tool(urls: &str) -> anyhow::Result<Arc<physics_mcp::cluster::Cluster>> {
-    let config = physics_mcp::cluster::ClusterConfig::new(urls, &format!("cli-{}", std::process::id()));
+fn connect_tool(urls: &str, namespace: &str) -> anyhow::Result<Arc<physics_mcp::cluster::Cluster>> {
+    let mut config = physics_mcp::cluster::ClusterConfig::new(urls, &format!("cli-{}", std::process::id()));
+    config.namespace = namespace.into();
     physics_mcp::cluster::Cluster::connect(config)
 }
 
@@ -110,6 +116,9 @@ enum Cmd {
     Export {
         /// The cluster: nats://HOST:PORT[,…].
         cluster: String,
+        /// The namespace the nodes use (their --cluster-namespace).
+        #[arg(long, default_value = "pmcp")]
+        cluster_namespace: String,
         /// The simulation.
         sim_id: String,
         /// The file to write (refused if it exists).
@@ -119,6 +128,9 @@ enum Cmd {
     Import {
         /// The cluster: nats://HOST:PORT[,…].
         cluster: String,
+        /// The namespace the nodes use (their --cluster-namespace).
+        #[arg(long, default_value = "pmcp")]
+        cluster_namespace: String,
         /// A simulation's SQLite log.
         file: PathBuf,
         /// The id to give it in the cluster.
@@ -344,12 +356,12 @@ fn open_registry(c: Common, cluster: Option<Arc<physics_mcp::cluster::Cluster>>)
 fn run_portable(command: &Cmd) -> Option<anyhow::Result<()>> {
     use physics_mcp::cluster::portable;
     Some(match command {
-        Cmd::Export { cluster, sim_id, out } => connect_tool(cluster).and_then(|c| {
+        Cmd::Export { cluster, cluster_namespace, sim_id, out } => connect_tool(cluster, cluster_namespace).and_then(|c| {
             let events = portable::export(&c, sim_id, out).map_err(anyhow::Error::msg)?;
             println!("wrote {}: simulation {sim_id}, {events} events", out.display());
             Ok(())
         }),
-        Cmd::Import { cluster, file, new_id } => connect_tool(cluster).and_then(|c| {
+        Cmd::Import { cluster, cluster_namespace, file, new_id } => connect_tool(cluster, cluster_namespace).and_then(|c| {
             let id = portable::import(&c, file, new_id.as_deref()).map_err(anyhow::Error::msg)?;
             println!("imported {} as simulation {id}", file.display());
             Ok(())

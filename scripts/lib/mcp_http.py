@@ -1,7 +1,7 @@
 """The scripts' one MCP client over streamable HTTP (Python's standard library only): start the
 real server on a free loopback port with throwaway directories, and talk raw JSON-RPC over one
 kept-alive HTTP connection, so what a script measures is the server and its framing, not a
-client library. Used by sse_priming_bench.py and compare_pybullet.py.
+client library. Used by sse_priming_bench.py, compare_pybullet.py and cluster_bench.py.
 """
 
 import http.client
@@ -14,13 +14,13 @@ import threading
 PROTOCOL = "2025-11-25"
 
 
-def start(binary, env_extra, tmp):
-    """Start `binary serve` with data in tmp/data and workspace tmp/ws; return (process,
-    host:port). Its stderr is drained in the background (a long run logs more than a pipe
-    holds, and a full pipe would stall the server)."""
+def start(binary, env_extra, tmp, extra_args=()):
+    """Start `binary serve` with data in tmp/data and workspace tmp/ws (and `extra_args`, e.g.
+    --cluster); return (process, host:port). Its stderr is drained in the background (a long
+    run logs more than a pipe holds, and a full pipe would stall the server)."""
     env = dict(os.environ, **env_extra)
     proc = subprocess.Popen(
-        [binary, "serve", "--bind", "127.0.0.1:0", "--data", f"{tmp}/data", "--workspace", f"{tmp}/ws"],
+        [binary, "serve", "--bind", "127.0.0.1:0", "--data", f"{tmp}/data", "--workspace", f"{tmp}/ws", *extra_args],
         stderr=subprocess.PIPE,
         stdout=subprocess.DEVNULL,
         env=env,

@@ -27,8 +27,7 @@ pub struct Held {
 /// Why a lease was not taken.
 #[derive(Debug)]
 pub enum NotTaken {
-    /// Another node's lease lives (its name; this node's own name means an earlier run of
-    /// this node, whose lease lapses within the lease time).
+    /// Another node's lease lives (its name).
     Owned(String),
     /// The cluster failed.
     Failed(String),
@@ -42,7 +41,7 @@ impl Cluster {
 
     /// Takes the lease on `id` for this node (or confirms it holds it); returns its epoch.
     pub fn acquire(&self, id: &str) -> Result<u64, NotTaken> {
-        if let Some(epoch) = self.held_epoch(id) {
+        if let Some(epoch) = self.held_epoch(id).or_else(|| if self.reclaim(id) { self.held_epoch(id) } else { None }) {
             return Ok(epoch);
         }
         let leases = self.leases.clone();
@@ -52,8 +51,17 @@ impl Cluster {
             match leases.create(&key, node.clone().into()).await {
                 Ok(revision) => Ok(revision),
                 Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => {
-                    let owner = super::kv_get(&leases, &key).await.ok().flatten().map(|b| String::from_utf8_lossy(&b).into_owned());
-                    Err(NotTaken::Owned(owner.unwrap_or_else(|| "unknown".into())))
+                    let entry = leases.entry(&key).await.ok().flatten();
+                    let owner = entry.as_ref().map(|e| String::from_utf8_lossy(&e.value).into_owned());
+                    match (entry, owner) {
+                        // An earlier run of this node (names are unique among live nodes):
+                        // taken back at once, by compare-and-set on what it left.
+                        (Some(entry), Some(owner)) if owner == node => leases
+                            .update(&key, node.into(), entry.revision)
+                            .await
+                            .map_err(|e| NotTaken::Failed(e.to_string())),
+                        (_, owner) => Err(NotTaken::Owned(owner.unwrap_or_else(|| "unknown".into()))),
+                    }
                 }
                 Err(e) => Err(NotTaken::Failed(e.to_string())),
             }
@@ -69,9 +77,41 @@ impl Cluster {
         held.get(id).filter(|h| Instant::now() < h.valid_until).map(|h| h.epoch)
     }
 
-    /// Whether this node may serve `id` now.
+    /// Whether this node may serve `id` now: its lease is current, or was let lapse locally
+    /// (a renewal came late: a loaded machine, a paused process) but is still this node's in
+    /// the bucket, which a compare-and-set renewal proves before anything is served.
     pub fn owns(&self, id: &str) -> bool {
-        self.held_epoch(id).is_some()
+        self.held_epoch(id).is_some() || self.reclaim(id)
+    }
+
+    /// Renews a lease this node let lapse locally, if the bucket still holds this node's
+    /// revision of it (no other node took it since); otherwise forgets it.
+    fn reclaim(&self, id: &str) -> bool {
+        let Some(revision) = self.held.lock().unwrap_or_else(|p| p.into_inner()).get(id).map(|h| h.revision) else {
+            return false;
+        };
+        let (leases, key, node) = (self.leases.clone(), id.to_string(), self.config.node.clone());
+        let sent = Instant::now();
+        let renewed = self.run(async move { leases.update(&key, node.into(), revision).await });
+        let mut held = self.held.lock().unwrap_or_else(|p| p.into_inner());
+        match renewed {
+            Ok(next) => match held.get_mut(id) {
+                Some(h) if h.revision == revision => {
+                    h.revision = next;
+                    h.valid_until = sent + self.config.lease - self.margin();
+                    true
+                }
+                _ => false,
+            },
+            Err(_) => {
+                // Lost, unless the renewer renewed it meanwhile.
+                if held.get(id).is_some_and(|h| h.revision == revision) {
+                    held.remove(id);
+                    return false;
+                }
+                held.get(id).is_some_and(|h| Instant::now() < h.valid_until)
+            }
+        }
     }
 
     /// Gives up the lease on `id` (destroy, shutdown): another node may take it at once.
@@ -119,9 +159,12 @@ pub fn start_renewing(cluster: &Arc<Cluster>) {
                             h.valid_until = sent + cluster.config.lease - cluster.margin();
                         }
                     }
+                    // Lost, unless this process renewed it meanwhile (`reclaim`).
                     Err(e) if e.kind() == kv::UpdateErrorKind::WrongLastRevision => {
-                        tracing::warn!("lost the lease on simulation {id}: another node holds it");
-                        held.remove(&id);
+                        if held.get(&id).is_some_and(|h| h.revision == revision) {
+                            tracing::warn!("lost the lease on simulation {id}: another node holds it");
+                            held.remove(&id);
+                        }
                     }
                     // A transient failure: the lease still runs out on time if it persists.
                     Err(e) => tracing::warn!("could not renew the lease on simulation {id}: {e}"),

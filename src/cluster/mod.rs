@@ -32,6 +32,9 @@ pub struct ClusterConfig {
     pub urls: String,
     /// This node's name (in leases and takeover records; unique per live node).
     pub node: String,
+    /// The prefix of every stream, bucket and subject the server keeps, so several
+    /// deployments (or test runs) can share one NATS cluster.
+    pub namespace: String,
     /// How many streams the simulations' subjects are spread over (one Raft leader each).
     pub streams: u32,
     /// Replicas of every stream, bucket and object (3 survives one server's loss).
@@ -43,7 +46,7 @@ pub struct ClusterConfig {
 impl ClusterConfig {
     /// The defaults (`--cluster-streams 4 --cluster-replicas 3 --lease-ms 5000`).
     pub fn new(urls: &str, node: &str) -> ClusterConfig {
-        ClusterConfig { urls: urls.into(), node: node.into(), streams: 4, replicas: 3, lease: Duration::from_millis(5000) }
+        ClusterConfig { urls: urls.into(), node: node.into(), namespace: "pmcp".into(), streams: 4, replicas: 3, lease: Duration::from_millis(5000) }
     }
 }
 
@@ -94,6 +97,12 @@ impl Cluster {
         if config.node.is_empty() || config.node.contains(|c: char| c.is_whitespace() || c == '.') {
             anyhow::bail!("--node must be a non-empty name without spaces or dots, not {:?}", config.node);
         }
+        if config.namespace.is_empty()
+            || config.namespace.len() > 32
+            || !config.namespace.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            anyhow::bail!("--cluster-namespace must be 1 to 32 letters, digits, '_' or '-', not {:?}", config.namespace);
+        }
         if config.streams == 0 || config.replicas == 0 || config.lease < Duration::from_millis(500) {
             anyhow::bail!("--cluster-streams and --cluster-replicas must be at least 1 and --lease-ms at least 500");
         }
@@ -126,35 +135,37 @@ impl Cluster {
                 num_replicas: replicas,
                 ..Default::default()
             };
-            let settings = open_bucket(&js, bucket("pmcp_settings", Duration::ZERO, cfg.replicas)).await?;
+            let settings = open_bucket(&js, bucket(&format!("{}_settings", cfg.namespace), Duration::ZERO, cfg.replicas)).await?;
             // Cluster-wide settings: the first node's values hold for every node (subjects are
             // spread by the stream count; leases expire by the bucket's age).
             cfg.streams = agreed(&settings, "streams", cfg.streams as u64).await? as u32;
             cfg.lease = Duration::from_millis(agreed(&settings, "lease_ms", cfg.lease.as_millis() as u64).await?);
             for k in 0..cfg.streams {
                 let config = stream::Config {
-                    name: stream_name(k),
-                    subjects: vec![format!("pmcp.log.{k}.>")],
+                    name: stream_name(&cfg.namespace, k),
+                    subjects: vec![format!("{}.log.{k}.>", cfg.namespace)],
                     num_replicas: cfg.replicas,
                     duplicate_window: Duration::from_secs(120),
                     allow_direct: true,
                     ..Default::default()
                 };
-                js.get_or_create_stream(config).await.map_err(|e| anyhow::anyhow!("stream {}: {e}", stream_name(k)))?;
+                js.get_or_create_stream(config).await.map_err(|e| anyhow::anyhow!("stream {}: {e}", stream_name(&cfg.namespace, k)))?;
             }
-            let leases = open_bucket(&js, bucket("pmcp_leases", cfg.lease, cfg.replicas)).await?;
-            let index = open_bucket(&js, bucket("pmcp_sims", Duration::ZERO, cfg.replicas)).await?;
+            let leases = open_bucket(&js, bucket(&format!("{}_leases", cfg.namespace), cfg.lease, cfg.replicas)).await?;
+            let index = open_bucket(&js, bucket(&format!("{}_sims", cfg.namespace), Duration::ZERO, cfg.replicas)).await?;
             let js2 = js.clone();
+            let objects_name = format!("{}_objects", cfg.namespace);
+            let got_name = objects_name.clone();
             let objects = create_or_get(
                 js.create_object_store(object_store::Config {
-                    bucket: "pmcp_objects".into(),
+                    bucket: objects_name.clone(),
                     num_replicas: cfg.replicas,
                     ..Default::default()
                 }),
-                move || Box::pin(async move { js2.get_object_store("pmcp_objects").await }),
+                move || Box::pin(async move { js2.get_object_store(got_name).await }),
             )
             .await
-            .map_err(|e| anyhow::anyhow!("object store pmcp_objects: {e}"))?;
+            .map_err(|e| anyhow::anyhow!("object store {objects_name}: {e}"))?;
             anyhow::Ok((js, leases, index, settings, objects, cfg))
         })?;
         let cluster = Arc::new(Cluster {
@@ -189,7 +200,7 @@ impl Cluster {
     /// The stream and subject a simulation's log lives on (spread by a hash of its id).
     pub fn subject(&self, id: &str) -> (String, String) {
         let k = blake3::hash(id.as_bytes()).as_bytes()[0] as u32 % self.config.streams;
-        (stream_name(k), format!("pmcp.log.{k}.{id}"))
+        (stream_name(&self.config.namespace, k), format!("{}.log.{k}.{id}", self.config.namespace))
     }
 
     /// The saved-file MAC key every node uses: the first node's, shared through the cluster
@@ -250,9 +261,9 @@ pub(crate) async fn kv_get(store: &kv::Store, key: &str) -> Result<Option<bytes:
     }
 }
 
-/// The name of stream `k`.
-fn stream_name(k: u32) -> String {
-    format!("PMCP_LOG_{k}")
+/// The name of stream `k` of a namespace.
+fn stream_name(namespace: &str, k: u32) -> String {
+    format!("{namespace}_log_{k}")
 }
 
 /// What the cluster-wide index says of a simulation (list_simulations without asking owners).

@@ -32,7 +32,7 @@ impl SimReplica {
 
     /// Refuses to write once this node may no longer serve the simulation.
     fn check_lease(&self) -> Result<(), StoreError> {
-        if self.cluster.held_epoch(&self.id) == Some(self.epoch) {
+        if self.cluster.owns(&self.id) && self.cluster.held_epoch(&self.id) == Some(self.epoch) {
             Ok(())
         } else {
             Err(StoreError::Fenced(format!("this node's lease on simulation {} ran out", self.id)))

@@ -83,6 +83,7 @@ impl Registry {
         if cluster.owns(id) {
             return Some(sim);
         }
+        tracing::warn!("this node no longer holds the lease on simulation {id}: dropped from memory");
         self.evict(id);
         None
     }

@@ -16,6 +16,25 @@ use rmcp::transport::StreamableHttpClientTransport;
 use rmcp::{RoleClient, ServiceExt};
 use serde_json::{json, Value};
 
+/// With `PHYSICS_TEST_CLUSTER=nats://…` set, every server a test starts is a node of that
+/// JetStream cluster (its log of record there, its --data a cache): the suites that make
+/// sense for both backends run against both (`.ci/run`, docs/cluster.md).
+pub fn cluster_args(dir: &Path) -> Vec<String> {
+    match std::env::var("PHYSICS_TEST_CLUSTER") {
+        Ok(urls) if !urls.is_empty() => {
+            // One namespace per test directory: a server restarted over the same directory
+            // finds its simulations, and tests never see each other's.
+            let namespace = format!("t{}", &blake3::hash(dir.to_string_lossy().as_bytes()).to_hex()[..16]);
+            // The node's name too: a server restarted over the directory is the same node, and
+            // takes its simulations back at once.
+            ["--cluster", &urls, "--cluster-namespace", &namespace, "--node", &namespace, "--cluster-streams", "1", "--cluster-replicas", "1", "--lease-ms", "1000"]
+                .map(String::from)
+                .to_vec()
+        }
+        _ => Vec::new(),
+    }
+}
+
 /// A running server process.
 pub struct Server {
     child: Child,
@@ -60,6 +79,7 @@ impl Server {
             .arg("--workspace")
             .arg(&workspace)
             .args(extra)
+            .args(cluster_args(dir))
             .envs(env.iter().copied())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
