@@ -236,13 +236,23 @@ async fn open_bucket(js: &jetstream::Context, config: kv::Config) -> anyhow::Res
 /// The cluster's value of setting `key`: this node's `mine` if it is the first to say, else
 /// the stored one.
 async fn agreed(settings: &kv::Store, key: &str, mine: u64) -> anyhow::Result<u64> {
-    if settings.create(key, mine.to_string().into()).await.is_ok() {
-        return Ok(mine);
+    let started = std::time::Instant::now();
+    loop {
+        if settings.create(key, mine.to_string().into()).await.is_ok() {
+            return Ok(mine);
+        }
+        if let Some(b) = kv_get(settings, key).await.map_err(|e| anyhow::anyhow!("setting {key}: {e}"))? {
+            return String::from_utf8_lossy(&b)
+                .trim()
+                .parse()
+                .map_err(|_| anyhow::anyhow!("the cluster's setting {key} is unreadable"));
+        }
+        // Neither created nor there: the bucket is not ready yet.
+        if started.elapsed() > Duration::from_secs(10) {
+            anyhow::bail!("the cluster's setting {key} could be neither written nor read");
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
     }
-    let stored = kv_get(settings, key).await.map_err(|e| anyhow::anyhow!("setting {key}: {e}"))?;
-    stored
-        .and_then(|b| String::from_utf8_lossy(&b).trim().parse().ok())
-        .ok_or_else(|| anyhow::anyhow!("the cluster's setting {key} is unreadable"))
 }
 
 /// A key's value, retried for a few seconds while the bucket's replicas cannot answer yet
@@ -315,14 +325,22 @@ impl Cluster {
         use futures_util::StreamExt;
         let index = self.index.clone();
         self.run(async move {
-            let mut keys = match index.keys().await {
-                Ok(k) => k.boxed(),
-                Err(e) => return Err(e.to_string()),
+            let started = std::time::Instant::now();
+            let ids = loop {
+                let listed = async {
+                    let mut keys = index.keys().await.map_err(|e| e.to_string())?.boxed();
+                    let mut ids = Vec::new();
+                    while let Some(k) = keys.next().await {
+                        ids.push(k.map_err(|e| e.to_string())?);
+                    }
+                    Ok::<_, String>(ids)
+                };
+                match listed.await {
+                    Ok(ids) => break ids,
+                    Err(e) if started.elapsed() > Duration::from_secs(10) => return Err(e),
+                    Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+                }
             };
-            let mut ids = Vec::new();
-            while let Some(k) = keys.next().await {
-                ids.push(k.map_err(|e| e.to_string())?);
-            }
             let mut out = Vec::new();
             for id in ids {
                 if let Some(b) = kv_get(&index, &id).await? {

@@ -252,6 +252,9 @@ pub struct Log {
     acknowledged: Option<std::fs::File>,
     /// The log of record this file mirrors (cluster mode): every commit goes there first.
     replica: Option<Box<dyn super::Replica>>,
+    /// Cluster mode: a commit reached the log of record but not this file (a local write
+    /// failed), so this file is behind and is no longer written; the registry rebuilds it.
+    stale: bool,
 }
 
 /// Copies the WAL into the main file on its own connection (PASSIVE: never blocks the
@@ -415,6 +418,7 @@ impl Log {
             select_columns,
             acknowledged: None,
             replica: None,
+            stale: false,
         })
     }
 
@@ -520,6 +524,7 @@ impl Log {
             select_columns,
             acknowledged: None,
             replica: None,
+            stale: false,
         })
     }
 
@@ -551,6 +556,34 @@ impl Log {
         self.replica = Some(replica);
     }
 
+    /// Commits the buffered events alone.
+    fn write_pending(&mut self) -> Result<(), StoreError> {
+        let tx = self.conn.transaction()?;
+        for e in &self.pending {
+            insert_event(&tx, e)?;
+        }
+        tx.commit()?;
+        Ok(())
+    }
+
+    /// Whether this file fell behind the log of record it mirrors (see `stale`).
+    pub fn is_stale(&self) -> bool {
+        self.stale
+    }
+
+    /// After the log of record took a commit: a local write that fails leaves this file
+    /// behind, not the commit unmade — it is acknowledged, and the file is rebuilt.
+    fn behind_the_record(&mut self, failed: Result<(), StoreError>) -> Result<(), StoreError> {
+        match failed {
+            Err(e) if self.replica.is_some() => {
+                tracing::warn!("{} fell behind the cluster's log ({e}); it will be rebuilt from there", self.path.display());
+                self.stale = true;
+                Ok(())
+            }
+            other => other,
+        }
+    }
+
     /// Every blob stored (hash, bytes): what a whole log carries to the log of record when a
     /// simulation joins a cluster.
     pub fn blobs(&self) -> Result<Vec<(String, Vec<u8>)>, StoreError> {
@@ -580,30 +613,15 @@ impl Log {
         self.commit((inherited, parent), std::slice::from_ref(&root), seq, &[(seq, snapshot.0, snapshot.1)])
     }
 
-    fn commit(
+    /// The SQLite transaction of one commit: inherited chain and its snapshots (a fork),
+    /// buffered events, `events`, the head, `snapshots`.
+    fn write_commit(
         &mut self,
         (inherited, parent): (&[Event], Option<&dyn EventLog>),
         events: &[Event],
         head: u64,
         snapshots: &[Snap],
     ) -> Result<(), StoreError> {
-        let Some(last) = events.last() else { return Ok(()) };
-        if let Some(replica) = self.replica.as_mut() {
-            let mut all: Vec<Event> = inherited.iter().map(|e| Event { inherited: true, ..e.clone() }).collect();
-            let mut copied: Vec<(u64, Vec<u8>, String)> = Vec::new();
-            if let (Some(parent), Some(last)) = (parent, inherited.last()) {
-                for seq in parent.chain_snapshot_seqs(last.seq)? {
-                    if let Some((bytes, hash)) = parent.snapshot_at(seq)? {
-                        copied.push((seq, bytes, hash));
-                    }
-                }
-            }
-            all.extend(self.pending.iter().cloned());
-            all.extend(events.iter().cloned());
-            let mut snaps: Vec<Snap> = copied.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
-            snaps.extend_from_slice(snapshots);
-            replica.append(&all, head, &snaps)?;
-        }
         let tx = self.conn.transaction()?;
         for e in inherited {
             let mut e = e.clone();
@@ -635,6 +653,35 @@ impl Log {
             crate::crash_point!("snapshot_write");
         }
         tx.commit()?;
+        Ok(())
+    }
+
+    fn commit(
+        &mut self,
+        (inherited, parent): (&[Event], Option<&dyn EventLog>),
+        events: &[Event],
+        head: u64,
+        snapshots: &[Snap],
+    ) -> Result<(), StoreError> {
+        let Some(last) = events.last() else { return Ok(()) };
+        if let Some(replica) = self.replica.as_mut() {
+            let mut all: Vec<Event> = inherited.iter().map(|e| Event { inherited: true, ..e.clone() }).collect();
+            let mut copied: Vec<(u64, Vec<u8>, String)> = Vec::new();
+            if let (Some(parent), Some(last)) = (parent, inherited.last()) {
+                for seq in parent.chain_snapshot_seqs(last.seq)? {
+                    if let Some((bytes, hash)) = parent.snapshot_at(seq)? {
+                        copied.push((seq, bytes, hash));
+                    }
+                }
+            }
+            all.extend(self.pending.iter().cloned());
+            all.extend(events.iter().cloned());
+            let mut snaps: Vec<Snap> = copied.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
+            snaps.extend_from_slice(snapshots);
+            replica.append(&all, head, &snaps)?;
+        }
+        let written = if self.stale { Ok(()) } else { self.write_commit((inherited, parent), events, head, snapshots) };
+        self.behind_the_record(written)?;
         crate::crash_point!("after_commit");
         // The last root, change or move committed (a batch may hold reads, or only reads).
         let acked = events.iter().rev().find(|e| matches!(e.kind, Kind::Root | Kind::Change | Kind::Move));
@@ -790,11 +837,8 @@ impl super::EventLog for Log {
         if let Some(replica) = self.replica.as_mut() {
             replica.append(&self.pending, self.head_seq, &[])?;
         }
-        let tx = self.conn.transaction()?;
-        for e in &self.pending {
-            insert_event(&tx, e)?;
-        }
-        tx.commit()?;
+        let written = if self.stale { Ok(()) } else { self.write_pending() };
+        self.behind_the_record(written)?;
         self.pending.clear();
         Ok(())
     }

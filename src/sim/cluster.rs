@@ -80,10 +80,13 @@ impl Registry {
     /// from memory (its cache file stays until the next takeover rewrites it).
     fn held_sim(&self, cluster: &Cluster, id: &str) -> Option<SharedSim> {
         let sim = self.lookup(id)?;
-        if cluster.owns(id) {
+        // A cache that fell behind its log of record (a local write failed after the cluster
+        // took the commit) is rebuilt: dropped here, taken over again below.
+        let stale = sim.try_lock().is_ok_and(|s| s.log.is_stale());
+        if cluster.owns(id) && !stale {
             return Some(sim);
         }
-        tracing::warn!("this node no longer holds the lease on simulation {id}: dropped from memory");
+        tracing::warn!("simulation {id} dropped from memory: {}", if stale { "its cache fell behind the cluster's log" } else { "this node's lease on it ended" });
         self.evict(id);
         None
     }
@@ -143,7 +146,13 @@ impl Registry {
     /// The cluster's simulations this node does not hold, from the index.
     pub(crate) fn listed_elsewhere(&self, here: &[String]) -> Vec<(String, IndexEntry)> {
         let Some(cluster) = &self.cluster else { return Vec::new() };
-        cluster.index_all().unwrap_or_default().into_iter().filter(|(id, _)| !here.contains(id)).collect()
+        match cluster.index_all() {
+            Ok(all) => all.into_iter().filter(|(id, _)| !here.contains(id)).collect(),
+            Err(e) => {
+                tracing::warn!("could not list the cluster's simulations: {e}");
+                Vec::new()
+            }
+        }
     }
 
     /// Gives up every lease (graceful shutdown, after the flush): the simulations can be taken

@@ -24,6 +24,7 @@ pub fn cluster_args(dir: &Path) -> Vec<String> {
         Ok(urls) if !urls.is_empty() => {
             // One namespace per test directory: a server restarted over the same directory
             // finds its simulations, and tests never see each other's.
+            let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
             let namespace = format!("t{}", &blake3::hash(dir.to_string_lossy().as_bytes()).to_hex()[..16]);
             // The node's name too: a server restarted over the directory is the same node, and
             // takes its simulations back at once.
