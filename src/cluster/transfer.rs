@@ -91,7 +91,9 @@ impl Cluster {
                     }
                 }
             }
-            Err(StoreError::Cluster(format!("no acknowledgement within {APPEND_PATIENCE:?}: {last_error}")))
+            Err(StoreError::Cluster(format!(
+                "no acknowledgement within {APPEND_PATIENCE:?} ({last_error}); whether the call was recorded is known once the cluster answers again: get_history tells"
+            )))
         })
     }
 

@@ -252,8 +252,10 @@ pub struct Log {
     acknowledged: Option<std::fs::File>,
     /// The log of record this file mirrors (cluster mode): every commit goes there first.
     replica: Option<Box<dyn super::Replica>>,
-    /// Cluster mode: a commit reached the log of record but not this file (a local write
-    /// failed), so this file is behind and is no longer written; the registry rebuilds it.
+    /// Cluster mode: this file may be behind the log of record — a commit reached the record
+    /// but not this file (a local write failed), or the record did not answer whether it took
+    /// a commit, or refused it (another owner) — so it is no longer written; the registry
+    /// rebuilds it from the record before the simulation is served again.
     stale: bool,
 }
 
@@ -678,7 +680,7 @@ impl Log {
             all.extend(events.iter().cloned());
             let mut snaps: Vec<Snap> = copied.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
             snaps.extend_from_slice(snapshots);
-            replica.append(&all, head, &snaps)?;
+            replica.append(&all, head, &snaps).inspect_err(|_| self.stale = true)?;
         }
         let written = if self.stale { Ok(()) } else { self.write_commit((inherited, parent), events, head, snapshots) };
         self.behind_the_record(written)?;
@@ -835,7 +837,7 @@ impl super::EventLog for Log {
             return Ok(());
         }
         if let Some(replica) = self.replica.as_mut() {
-            replica.append(&self.pending, self.head_seq, &[])?;
+            replica.append(&self.pending, self.head_seq, &[]).inspect_err(|_| self.stale = true)?;
         }
         let written = if self.stale { Ok(()) } else { self.write_pending() };
         self.behind_the_record(written)?;
