@@ -126,3 +126,31 @@ fn private(path: &Path) {
         }
     }
 }
+
+/// The file that marks a data directory as a cluster node's cache (`serve --cluster`).
+const CLUSTER_CACHE_MARK: &str = ".cluster-cache";
+
+/// Checks that `data_dir` may serve this mode, and marks it: a cluster node empties its
+/// directory at start (a cache), so it refuses a directory holding an embedded server's logs
+/// (they would be deleted); an embedded server refuses a node's cache (its files are copies,
+/// not simulations of its own).
+pub fn claim_for(data_dir: &Path, cluster: bool) -> anyhow::Result<()> {
+    let mark = data_dir.join(CLUSTER_CACHE_MARK);
+    let has_logs = !logs(data_dir)?.is_empty();
+    match (cluster, mark.exists()) {
+        (true, false) if has_logs => anyhow::bail!(
+            "--data {} holds an embedded server's simulation logs, which a cluster node would delete \
+             (its --data is a cache); import them with `physics-mcp import` or pass another --data",
+            data_dir.display()
+        ),
+        (true, false) => std::fs::write(&mark, b"physics-mcp cluster cache\n")?,
+        (false, true) => anyhow::bail!(
+            "--data {} is a cluster node's cache (it holds {CLUSTER_CACHE_MARK}); pass another --data, \
+             or --cluster to serve it as that node",
+            data_dir.display()
+        ),
+        _ => {}
+    }
+    Ok(())
+}
+

@@ -617,6 +617,7 @@ impl Registry {
         data_dir::remove_partial_logs(&config.data_dir);
         let mut sims = BTreeMap::new();
         let mut damaged = BTreeMap::new();
+        data_dir::claim_for(&config.data_dir, cluster.is_some())?;
         if cluster.is_some() {
             for path in data_dir::logs(&config.data_dir)? {
                 remove_log_files(&path);
