@@ -41,33 +41,51 @@ impl Cluster {
 
     /// Takes the lease on `id` for this node (or confirms it holds it); returns its epoch.
     pub fn acquire(&self, id: &str) -> Result<u64, NotTaken> {
-        if let Some(epoch) = self.held_epoch(id).or_else(|| if self.reclaim(id) { self.held_epoch(id) } else { None }) {
+        if let Some(epoch) = self
+            .held_epoch(id)
+            .or_else(|| if self.reclaim(id) { self.held_epoch(id) } else { None })
+        {
             return Ok(epoch);
         }
         let leases = self.leases.clone();
         let (key, node) = (id.to_string(), self.config.node.clone());
         let sent = Instant::now();
         let taken = self.run(async move {
-            match leases.create(&key, node.clone().into()).await {
-                Ok(revision) => Ok(revision),
-                Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => {
-                    let entry = leases.entry(&key).await.ok().flatten();
-                    let owner = entry.as_ref().map(|e| String::from_utf8_lossy(&e.value).into_owned());
-                    match (entry, owner) {
-                        // An earlier run of this node (names are unique among live nodes):
-                        // taken back at once, by compare-and-set on what it left.
-                        (Some(entry), Some(owner)) if owner == node => leases
-                            .update(&key, node.into(), entry.revision)
-                            .await
-                            .map_err(|e| NotTaken::Failed(e.to_string())),
-                        (_, owner) => Err(NotTaken::Owned(owner.unwrap_or_else(|| "unknown".into()))),
+            let started = Instant::now();
+            loop {
+                match leases.create(&key, node.clone().into()).await {
+                    Ok(revision) => return Ok(revision),
+                    Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => {
+                        let entry = leases.entry(&key).await.ok().flatten();
+                        let owner = entry.as_ref().map(|e| String::from_utf8_lossy(&e.value).into_owned());
+                        return match (entry, owner) {
+                            // An earlier run of this node (names are unique among live nodes):
+                            // taken back at once, by compare-and-set on what it left.
+                            (Some(entry), Some(owner)) if owner == node => leases
+                                .update(&key, node.into(), entry.revision)
+                                .await
+                                .map_err(|e| NotTaken::Failed(e.to_string())),
+                            (_, owner) => Err(NotTaken::Owned(owner.unwrap_or_else(|| "unknown".into()))),
+                        };
                     }
+                    // A bucket not ready or a leader being elected: tried again for a while.
+                    Err(e) if started.elapsed() < super::PATIENCE => {
+                        tracing::debug!("taking the lease on {key}: {e}; retrying");
+                        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+                    }
+                    Err(e) => return Err(NotTaken::Failed(e.to_string())),
                 }
-                Err(e) => Err(NotTaken::Failed(e.to_string())),
             }
         })?;
         let valid_until = sent + self.config.lease - self.margin();
-        self.held.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), Held { epoch: taken, revision: taken, valid_until });
+        self.held.lock().unwrap_or_else(|p| p.into_inner()).insert(
+            id.to_string(),
+            Held {
+                epoch: taken,
+                revision: taken,
+                valid_until,
+            },
+        );
         Ok(taken)
     }
 
@@ -87,7 +105,13 @@ impl Cluster {
     /// Renews a lease this node let lapse locally, if the bucket still holds this node's
     /// revision of it (no other node took it since); otherwise forgets it.
     fn reclaim(&self, id: &str) -> bool {
-        let Some(revision) = self.held.lock().unwrap_or_else(|p| p.into_inner()).get(id).map(|h| h.revision) else {
+        let Some(revision) = self
+            .held
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .get(id)
+            .map(|h| h.revision)
+        else {
             return false;
         };
         let (leases, key, node) = (self.leases.clone(), id.to_string(), self.config.node.clone());
@@ -116,7 +140,9 @@ impl Cluster {
 
     /// Gives up the lease on `id` (destroy, shutdown): another node may take it at once.
     pub fn release(&self, id: &str) {
-        let Some(held) = self.held.lock().unwrap_or_else(|p| p.into_inner()).remove(id) else { return };
+        let Some(held) = self.held.lock().unwrap_or_else(|p| p.into_inner()).remove(id) else {
+            return;
+        };
         let leases = self.leases.clone();
         let key = id.to_string();
         self.run(async move {
@@ -126,7 +152,13 @@ impl Cluster {
 
     /// Gives up every lease (graceful shutdown).
     pub fn release_all(&self) {
-        let ids: Vec<String> = self.held.lock().unwrap_or_else(|p| p.into_inner()).keys().cloned().collect();
+        let ids: Vec<String> = self
+            .held
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .keys()
+            .cloned()
+            .collect();
         for id in ids {
             self.release(&id);
         }
@@ -150,7 +182,10 @@ pub fn start_renewing(cluster: &Arc<Cluster>) {
             };
             for (id, revision) in due {
                 let sent = Instant::now();
-                let renewed = cluster.leases.update(&id, cluster.config.node.clone().into(), revision).await;
+                let renewed = cluster
+                    .leases
+                    .update(&id, cluster.config.node.clone().into(), revision)
+                    .await;
                 let mut held = cluster.held.lock().unwrap_or_else(|p| p.into_inner());
                 match renewed {
                     Ok(next) => {

@@ -46,7 +46,14 @@ pub struct ClusterConfig {
 impl ClusterConfig {
     /// The defaults (`--cluster-streams 4 --cluster-replicas 3 --lease-ms 5000`).
     pub fn new(urls: &str, node: &str) -> ClusterConfig {
-        ClusterConfig { urls: urls.into(), node: node.into(), namespace: "pmcp".into(), streams: 4, replicas: 3, lease: Duration::from_millis(5000) }
+        ClusterConfig {
+            urls: urls.into(),
+            node: node.into(),
+            namespace: "pmcp".into(),
+            streams: 4,
+            replicas: 3,
+            lease: Duration::from_millis(5000),
+        }
     }
 }
 
@@ -95,13 +102,22 @@ impl Cluster {
     /// Connects to the cluster and makes sure its streams and buckets exist.
     pub fn connect(config: ClusterConfig) -> anyhow::Result<Arc<Cluster>> {
         if config.node.is_empty() || config.node.contains(|c: char| c.is_whitespace() || c == '.') {
-            anyhow::bail!("--node must be a non-empty name without spaces or dots, not {:?}", config.node);
+            anyhow::bail!(
+                "--node must be a non-empty name without spaces or dots, not {:?}",
+                config.node
+            );
         }
         if config.namespace.is_empty()
             || config.namespace.len() > 32
-            || !config.namespace.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            || !config
+                .namespace
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         {
-            anyhow::bail!("--cluster-namespace must be 1 to 32 letters, digits, '_' or '-', not {:?}", config.namespace);
+            anyhow::bail!(
+                "--cluster-namespace must be 1 to 32 letters, digits, '_' or '-', not {:?}",
+                config.namespace
+            );
         }
         if config.streams == 0 || config.replicas == 0 || config.lease < Duration::from_millis(500) {
             anyhow::bail!("--cluster-streams and --cluster-replicas must be at least 1 and --lease-ms at least 500");
@@ -135,7 +151,11 @@ impl Cluster {
                 num_replicas: replicas,
                 ..Default::default()
             };
-            let settings = open_bucket(&js, bucket(&format!("{}_settings", cfg.namespace), Duration::ZERO, cfg.replicas)).await?;
+            let settings = open_bucket(
+                &js,
+                bucket(&format!("{}_settings", cfg.namespace), Duration::ZERO, cfg.replicas),
+            )
+            .await?;
             // Cluster-wide settings: the first node's values hold for every node (subjects are
             // spread by the stream count; leases expire by the bucket's age).
             cfg.streams = agreed(&settings, "streams", cfg.streams as u64).await? as u32;
@@ -149,10 +169,20 @@ impl Cluster {
                     allow_direct: true,
                     ..Default::default()
                 };
-                js.get_or_create_stream(config).await.map_err(|e| anyhow::anyhow!("stream {}: {e}", stream_name(&cfg.namespace, k)))?;
+                patiently(|| js.get_or_create_stream(config.clone()))
+                    .await
+                    .map_err(|e| anyhow::anyhow!("stream {}: {e}", stream_name(&cfg.namespace, k)))?;
             }
-            let leases = open_bucket(&js, bucket(&format!("{}_leases", cfg.namespace), cfg.lease, cfg.replicas)).await?;
-            let index = open_bucket(&js, bucket(&format!("{}_sims", cfg.namespace), Duration::ZERO, cfg.replicas)).await?;
+            let leases = open_bucket(
+                &js,
+                bucket(&format!("{}_leases", cfg.namespace), cfg.lease, cfg.replicas),
+            )
+            .await?;
+            let index = open_bucket(
+                &js,
+                bucket(&format!("{}_sims", cfg.namespace), Duration::ZERO, cfg.replicas),
+            )
+            .await?;
             let js2 = js.clone();
             let objects_name = format!("{}_objects", cfg.namespace);
             let got_name = objects_name.clone();
@@ -186,9 +216,12 @@ impl Cluster {
     /// synchronous code (a call's thread, start-up, the CLI).
     pub fn run<T: Send + 'static>(&self, f: impl Future<Output = T> + Send + 'static) -> T {
         let (tx, rx) = std::sync::mpsc::sync_channel(1);
-        self.rt.as_ref().expect("runtime lives as long as the cluster").spawn(async move {
-            let _ = tx.send(f.await);
-        });
+        self.rt
+            .as_ref()
+            .expect("runtime lives as long as the cluster")
+            .spawn(async move {
+                let _ = tx.send(f.await);
+            });
         rx.recv().expect("a cluster task never drops its answer")
     }
 
@@ -200,7 +233,10 @@ impl Cluster {
     /// The stream and subject a simulation's log lives on (spread by a hash of its id).
     pub fn subject(&self, id: &str) -> (String, String) {
         let k = blake3::hash(id.as_bytes()).as_bytes()[0] as u32 % self.config.streams;
-        (stream_name(&self.config.namespace, k), format!("{}.log.{k}.{id}", self.config.namespace))
+        (
+            stream_name(&self.config.namespace, k),
+            format!("{}.log.{k}.{id}", self.config.namespace),
+        )
     }
 
     /// The saved-file MAC key every node uses: the first node's, shared through the cluster
@@ -218,7 +254,8 @@ impl Cluster {
             }
         });
         let stored = stored.map_err(|e| anyhow::anyhow!("the cluster's saved-file key: {e}"))?;
-        let hash = blake3::Hash::from_hex(stored.trim()).map_err(|e| anyhow::anyhow!("the cluster's saved-file key: {e}"))?;
+        let hash =
+            blake3::Hash::from_hex(stored.trim()).map_err(|e| anyhow::anyhow!("the cluster's saved-file key: {e}"))?;
         Ok(*hash.as_bytes())
     }
 }
@@ -228,9 +265,14 @@ async fn open_bucket(js: &jetstream::Context, config: kv::Config) -> anyhow::Res
     let name = config.bucket.clone();
     let js2 = js.clone();
     let n = name.clone();
-    create_or_get(js.create_key_value(config), move || Box::pin(async move { js2.get_key_value(n).await }))
-        .await
-        .map_err(|e| anyhow::anyhow!("bucket {name}: {e}"))
+    patiently(|| {
+        let (js2, n) = (js2.clone(), n.clone());
+        create_or_get(js.create_key_value(config.clone()), move || {
+            Box::pin(async move { js2.get_key_value(n).await })
+        })
+    })
+    .await
+    .map_err(|e| anyhow::anyhow!("bucket {name}: {e}"))
 }
 
 /// The cluster's value of setting `key`: this node's `mine` if it is the first to say, else
@@ -241,7 +283,10 @@ async fn agreed(settings: &kv::Store, key: &str, mine: u64) -> anyhow::Result<u6
         if settings.create(key, mine.to_string().into()).await.is_ok() {
             return Ok(mine);
         }
-        if let Some(b) = kv_get(settings, key).await.map_err(|e| anyhow::anyhow!("setting {key}: {e}"))? {
+        if let Some(b) = kv_get(settings, key)
+            .await
+            .map_err(|e| anyhow::anyhow!("setting {key}: {e}"))?
+        {
             return String::from_utf8_lossy(&b)
                 .trim()
                 .parse()
@@ -252,6 +297,30 @@ async fn agreed(settings: &kv::Store, key: &str, mine: u64) -> anyhow::Result<u6
             anyhow::bail!("the cluster's setting {key} could be neither written nor read");
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+/// How long a request that may fail for a passing reason (a bucket or stream just created, a
+/// leader being elected: "no responders", timeouts) is retried.
+pub const PATIENCE: Duration = Duration::from_secs(20);
+
+/// Runs `attempt` until it succeeds or [`PATIENCE`] has passed (then its last error).
+pub(crate) async fn patiently<T, E, F, Fut>(mut attempt: F) -> Result<T, E>
+where
+    F: FnMut() -> Fut,
+    Fut: Future<Output = Result<T, E>>,
+    E: std::fmt::Display,
+{
+    let started = std::time::Instant::now();
+    loop {
+        match attempt().await {
+            Ok(t) => return Ok(t),
+            Err(e) if started.elapsed() >= PATIENCE => return Err(e),
+            Err(e) => {
+                tracing::debug!("retrying a cluster request: {e}");
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        }
     }
 }
 
@@ -295,7 +364,12 @@ impl Cluster {
     pub fn index_put(&self, id: &str, entry: &IndexEntry) -> Result<(), String> {
         let index = self.index.clone();
         let (id, bytes) = (id.to_string(), serde_json::to_vec(entry).unwrap_or_default());
-        self.run(async move { index.put(id, bytes.into()).await.map(|_| ()).map_err(|e| e.to_string()) })
+        self.run(async move {
+            patiently(|| index.put(&id, bytes.clone().into()))
+                .await
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        })
     }
 
     /// Like `index_put`, without waiting (after a change: the entry is a convenience, the log

@@ -27,7 +27,14 @@ impl SimReplica {
     /// the lease of `epoch`.
     pub fn new(cluster: Arc<Cluster>, id: &str, expected: u64, epoch: u64) -> SimReplica {
         let subject = cluster.subject(id).1;
-        SimReplica { cluster, id: id.into(), subject, expected, epoch, blobs: Vec::new() }
+        SimReplica {
+            cluster,
+            id: id.into(),
+            subject,
+            expected,
+            epoch,
+            blobs: Vec::new(),
+        }
     }
 
     /// Refuses to write once this node may no longer serve the simulation.
@@ -35,7 +42,10 @@ impl SimReplica {
         if self.cluster.owns(&self.id) && self.cluster.held_epoch(&self.id) == Some(self.epoch) {
             Ok(())
         } else {
-            Err(StoreError::Fenced(format!("this node's lease on simulation {} ran out", self.id)))
+            Err(StoreError::Fenced(format!(
+                "this node's lease on simulation {} ran out",
+                self.id
+            )))
         }
     }
 }
@@ -43,7 +53,9 @@ impl SimReplica {
 impl Replica for SimReplica {
     fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError> {
         self.check_lease()?;
-        self.cluster.put_object(&blob_object(hash), bytes).map_err(StoreError::Cluster)?;
+        self.cluster
+            .put_object(&blob_object(hash), bytes)
+            .map_err(StoreError::Cluster)?;
         self.blobs.push(hash.to_string());
         Ok(())
     }
@@ -51,16 +63,30 @@ impl Replica for SimReplica {
     fn append(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError> {
         self.check_lease()?;
         for (_, bytes, hash) in snapshots {
-            self.cluster.put_object(&snapshot_object(hash), bytes).map_err(StoreError::Cluster)?;
+            self.cluster
+                .put_object(&snapshot_object(hash), bytes)
+                .map_err(StoreError::Cluster)?;
         }
         let commit = Commit {
             events: events.iter().map(WireEvent::from).collect(),
             head,
-            snapshots: snapshots.iter().map(|(seq, _, hash)| (*seq, hash.to_string())).collect(),
+            snapshots: snapshots
+                .iter()
+                .map(|(seq, _, hash)| (*seq, hash.to_string()))
+                .collect(),
             blobs: std::mem::take(&mut self.blobs),
         };
-        let msg_id = format!("{}.{}.{}.{}", self.id, self.expected, self.cluster.config().node, self.epoch);
-        match self.cluster.publish_commit(&self.subject, &commit, self.expected, &msg_id) {
+        let msg_id = format!(
+            "{}.{}.{}.{}",
+            self.id,
+            self.expected,
+            self.cluster.config().node,
+            self.epoch
+        );
+        match self
+            .cluster
+            .publish_commit(&self.subject, &commit, self.expected, &msg_id)
+        {
             Ok(seq) => {
                 self.expected = seq;
                 Ok(())

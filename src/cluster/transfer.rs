@@ -23,8 +23,13 @@ impl Cluster {
             if store.info(&name).await.is_ok_and(|i| !i.deleted) {
                 return Ok(());
             }
-            let mut reader = bytes.as_slice();
-            store.put(name.as_str(), &mut reader).await.map(|_| ()).map_err(|e| format!("storing {name}: {e}"))
+            super::patiently(|| {
+                let mut reader = bytes.as_slice();
+                let (store, name) = (&store, &name);
+                async move { store.put(name.as_str(), &mut reader).await.map(|_| ()) }
+            })
+            .await
+            .map_err(|e| format!("storing {name}: {e}"))
         })
     }
 
@@ -33,10 +38,16 @@ impl Cluster {
         let (store, name) = (self.objects.clone(), name.to_string());
         self.run(async move {
             use tokio::io::AsyncReadExt;
-            let mut object = store.get(&name).await.map_err(|e| format!("reading {name}: {e}"))?;
-            let mut bytes = Vec::new();
-            object.read_to_end(&mut bytes).await.map_err(|e| format!("reading {name}: {e}"))?;
-            Ok(bytes)
+            super::patiently(|| async {
+                let mut object = store.get(&name).await.map_err(|e| format!("reading {name}: {e}"))?;
+                let mut bytes = Vec::new();
+                object
+                    .read_to_end(&mut bytes)
+                    .await
+                    .map_err(|e| format!("reading {name}: {e}"))?;
+                Ok::<_, String>(bytes)
+            })
+            .await
         })
     }
 
@@ -44,7 +55,13 @@ impl Cluster {
     /// sequence. Retried (same message id, so a commit that landed is not written twice) while
     /// the cluster is unreachable or electing, up to [`APPEND_PATIENCE`]; a stale expectation
     /// is [`StoreError::Fenced`].
-    pub fn publish_commit(&self, subject: &str, commit: &Commit, expected: u64, msg_id: &str) -> Result<u64, StoreError> {
+    pub fn publish_commit(
+        &self,
+        subject: &str,
+        commit: &Commit,
+        expected: u64,
+        msg_id: &str,
+    ) -> Result<u64, StoreError> {
         let json = serde_json::to_vec(&Record::Commit(Commit {
             events: commit.events.clone(),
             head: commit.head,
@@ -55,7 +72,11 @@ impl Cluster {
         let payload = if json.len() > INLINE_COMMIT_MAX {
             let object = commit_object(&crate::digest::content_hash(&json));
             self.put_object(&object, &json).map_err(StoreError::Cluster)?;
-            serde_json::to_vec(&Record::Stored { object, bytes: json.len() }).map_err(|e| StoreError::Cluster(e.to_string()))?
+            serde_json::to_vec(&Record::Stored {
+                object,
+                bytes: json.len(),
+            })
+            .map_err(|e| StoreError::Cluster(e.to_string()))?
         } else {
             json
         };
@@ -63,7 +84,13 @@ impl Cluster {
     }
 
     /// Publishes one record fenced by `expected`, retrying what may be transient.
-    pub(crate) fn publish_fenced(&self, subject: &str, payload: Vec<u8>, expected: u64, msg_id: &str) -> Result<u64, StoreError> {
+    pub(crate) fn publish_fenced(
+        &self,
+        subject: &str,
+        payload: Vec<u8>,
+        expected: u64,
+        msg_id: &str,
+    ) -> Result<u64, StoreError> {
         let (js, subject, msg_id) = (self.js.clone(), subject.to_string(), msg_id.to_string());
         self.run(async move {
             let started = Instant::now();
@@ -102,54 +129,39 @@ impl Cluster {
         let (stream, subject) = self.subject(id);
         let js = self.js.clone();
         self.run(async move {
-            let stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
-            match stream.get_last_raw_message_by_subject(&subject).await {
-                Ok(m) => Ok(m.sequence),
-                Err(e) if e.kind() == LastRawMessageErrorKind::NoMessageFound => Ok(0),
-                Err(e) => Err(e.to_string()),
-            }
+            super::patiently(|| async {
+                let stream = js.get_stream_no_info(&stream).await.map_err(|e| e.to_string())?;
+                match stream.get_last_raw_message_by_subject(&subject).await {
+                    Ok(m) => Ok(m.sequence),
+                    Err(e) if e.kind() == LastRawMessageErrorKind::NoMessageFound => Ok(0),
+                    Err(e) => Err(e.to_string()),
+                }
+            })
+            .await
         })
     }
 
     /// Every commit on a simulation's subject in order, and the subject's last sequence.
     pub fn read_commits(&self, id: &str) -> Result<(Vec<Commit>, u64), String> {
-        use async_nats::jetstream::consumer::{pull, DeliverPolicy};
-        use futures_util::StreamExt;
         let last = self.last_sequence(id)?;
         if last == 0 {
             return Ok((Vec::new(), 0));
         }
         let (stream, subject) = self.subject(id);
         let js = self.js.clone();
-        let records: Vec<Vec<u8>> = self.run(async move {
-            let stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
-            let consumer = stream
-                .create_consumer(pull::OrderedConfig {
-                    filter_subject: subject,
-                    deliver_policy: DeliverPolicy::All,
-                    ..Default::default()
-                })
-                .await
-                .map_err(|e| e.to_string())?;
-            let mut messages = consumer.messages().await.map_err(|e| e.to_string())?;
-            let mut out = Vec::new();
-            while let Some(m) = messages.next().await {
-                let m = m.map_err(|e| e.to_string())?;
-                let seq = m.info().map_err(|e| e.to_string())?.stream_sequence;
-                out.push(m.payload.to_vec());
-                if seq >= last {
-                    break;
-                }
-            }
-            Ok::<_, String>(out)
-        })?;
+        let records: Vec<Vec<u8>> =
+            self.run(async move { super::patiently(|| read_subject(&js, &stream, &subject, last)).await })?;
         let mut commits = Vec::new();
         for bytes in records {
-            match serde_json::from_slice::<Record>(&bytes).map_err(|e| format!("a record of {id} does not decode: {e}"))? {
+            match serde_json::from_slice::<Record>(&bytes)
+                .map_err(|e| format!("a record of {id} does not decode: {e}"))?
+            {
                 Record::Commit(c) => commits.push(c),
                 Record::Stored { object, .. } => {
                     let json = self.get_object(&object)?;
-                    match serde_json::from_slice::<Record>(&json).map_err(|e| format!("{object} does not decode: {e}"))? {
+                    match serde_json::from_slice::<Record>(&json)
+                        .map_err(|e| format!("{object} does not decode: {e}"))?
+                    {
                         Record::Commit(c) => commits.push(c),
                         _ => return Err(format!("{object} is not a commit")),
                     }
@@ -181,12 +193,17 @@ impl Cluster {
                 }
                 snaps.push((*seq, bytes, hash.clone()));
             }
-            let events: Vec<Event> = commit.events.into_iter().map(Event::try_from).collect::<Result<_, _>>()?;
+            let events: Vec<Event> = commit
+                .events
+                .into_iter()
+                .map(Event::try_from)
+                .collect::<Result<_, _>>()?;
             let snaps: Vec<_> = snaps.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
             if events.is_empty() {
                 continue;
             }
-            log.import_commit(&events, commit.head, &snaps).map_err(|e| e.to_string())?;
+            log.import_commit(&events, commit.head, &snaps)
+                .map_err(|e| e.to_string())?;
         }
         Ok(last)
     }
@@ -207,7 +224,12 @@ impl Cluster {
             }
         }
         let events = log.all_events().map_err(|e| e.to_string())?;
-        let commit = Commit { events: events.iter().map(WireEvent::from).collect(), head: log.head_seq(), snapshots, blobs };
+        let commit = Commit {
+            events: events.iter().map(WireEvent::from).collect(),
+            head: log.head_seq(),
+            snapshots,
+            blobs,
+        };
         let subject = self.subject(id).1;
         let msg_id = format!("{id}.0.{}.{epoch}", self.config.node);
         self.publish_commit(&subject, &commit, 0, &msg_id).map_err(|e| match e {
@@ -219,9 +241,49 @@ impl Cluster {
     /// Records that this node took `id` over at the subject's sequence `seen`, fencing out any
     /// append an earlier owner prepared; returns the new last sequence.
     pub fn claim(&self, id: &str, seen: u64, epoch: u64) -> Result<u64, StoreError> {
-        let record = Record::Takeover { node: self.config.node.clone(), epoch };
+        let record = Record::Takeover {
+            node: self.config.node.clone(),
+            epoch,
+        };
         let payload = serde_json::to_vec(&record).map_err(|e| StoreError::Cluster(e.to_string()))?;
         let subject = self.subject(id).1;
-        self.publish_fenced(&subject, payload, seen, &format!("{id}.{seen}.{}.{epoch}.claim", self.config.node))
+        self.publish_fenced(
+            &subject,
+            payload,
+            seen,
+            &format!("{id}.{seen}.{}.{epoch}.claim", self.config.node),
+        )
     }
+}
+
+/// The payloads of a subject's messages up to stream sequence `last`, by an ordered consumer
+/// (one pass, not a request per message).
+async fn read_subject(
+    js: &async_nats::jetstream::Context,
+    stream: &str,
+    subject: &str,
+    last: u64,
+) -> Result<Vec<Vec<u8>>, String> {
+    use async_nats::jetstream::consumer::{pull, DeliverPolicy};
+    use futures_util::StreamExt;
+    let stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
+    let consumer = stream
+        .create_consumer(pull::OrderedConfig {
+            filter_subject: subject.to_string(),
+            deliver_policy: DeliverPolicy::All,
+            ..Default::default()
+        })
+        .await
+        .map_err(|e| e.to_string())?;
+    let mut messages = consumer.messages().await.map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    while let Some(m) = messages.next().await {
+        let m = m.map_err(|e| e.to_string())?;
+        let seq = m.info().map_err(|e| e.to_string())?.stream_sequence;
+        out.push(m.payload.to_vec());
+        if seq >= last {
+            break;
+        }
+    }
+    Ok(out)
 }

@@ -1,0 +1,22 @@
+//! Cluster mode (`serve --cluster nats://…`) against a real three-server NATS JetStream cluster:
+//! the same answers and logs as embedded mode, no acknowledged call lost when an owner node or a
+//! NATS server is killed, a paused owner fenced off, and logs moved in and out with
+//! `import`/`export`. Every test needs `nats-server` (`NATS_SERVER`, `PATH`, or the venv named in
+//! nats.rs) and is ignored by a plain `cargo test`:
+//!
+//!   cargo test --test cluster -- --ignored --test-threads=1
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod ledger;
+mod lockstep;
+mod nats;
+mod nodes;
+
+mod equivalence;
+mod fencing;
+mod import_export;
+mod nats_crash;
+mod owner_crash;
+mod smoke;
