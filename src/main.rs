@@ -80,7 +80,11 @@ impl ClusterArgs {
 
 /// A node name unique per process: the host's name and the process id.
 fn default_node_name() -> String {
-    let host = std::fs::read_to_string("/etc/hostname").map(|h| h.trim().replace('.', "-")).unwrap_or_default();
+    let mut buf = [0u8; 256];
+    // SAFETY: gethostname writes at most buf.len() bytes into our buffer.
+    let ok = unsafe { libc::gethostname(buf.as_mut_ptr().cast(), buf.len()) } == 0;
+    let len = buf.iter().position(|b| *b == 0).unwrap_or(buf.len());
+    let host = if ok { String::from_utf8_lossy(&buf[..len]).replace('.', "-") } else { String::new() };
     format!("{}-{}", if host.is_empty() { "node" } else { &host }, std::process::id())
 }
 

@@ -11,7 +11,7 @@ use async_nats::jetstream::stream::LastRawMessageErrorKind;
 
 use super::record::{blob_object, commit_object, snapshot_object, Commit, Record, WireEvent};
 use super::{Cluster, APPEND_PATIENCE, INLINE_COMMIT_MAX};
-use crate::log::sqlite::Log;
+use crate::log::whole::{as_one_commit, write_log, CommitParts};
 use crate::log::{Event, EventLog, StoreError, SyncMode};
 
 impl Cluster {
@@ -179,56 +179,42 @@ impl Cluster {
         if commits.is_empty() {
             return Err(format!("the cluster holds no log for simulation {id}"));
         }
-        let mut log = Log::create(path, id, sync).map_err(|e| e.to_string())?;
+        let mut parts = Vec::new();
         for commit in commits {
+            let mut blobs = Vec::new();
             for hash in &commit.blobs {
-                let bytes = self.get_object(&blob_object(hash))?;
-                log.put_blob(hash, &bytes).map_err(|e| e.to_string())?;
+                blobs.push((hash.clone(), self.get_object(&blob_object(hash))?));
             }
-            let mut snaps = Vec::new();
+            let mut snapshots = Vec::new();
             for (seq, hash) in &commit.snapshots {
                 let bytes = self.get_object(&snapshot_object(hash))?;
                 if crate::digest::content_hash(&bytes) != *hash {
                     return Err(format!("snapshot {hash} of {id} does not match its hash"));
                 }
-                snaps.push((*seq, bytes, hash.clone()));
+                snapshots.push((*seq, bytes, hash.clone()));
             }
-            let events: Vec<Event> = commit
-                .events
-                .into_iter()
-                .map(Event::try_from)
-                .collect::<Result<_, _>>()?;
-            let snaps: Vec<_> = snaps.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
-            if events.is_empty() {
-                continue;
-            }
-            log.import_commit(&events, commit.head, &snaps)
-                .map_err(|e| e.to_string())?;
+            let events = commit.events.into_iter().map(Event::try_from).collect::<Result<_, _>>()?;
+            parts.push(CommitParts { events, head: commit.head, snapshots, blobs });
         }
+        write_log(path, id, sync, parts).map_err(|e| e.to_string())?;
         Ok(last)
     }
 
-    /// Publishes a whole SQLite log as the first commit of an empty subject (refused if the
-    /// subject has anything: ids are unique in the cluster); returns its sequence.
-    pub fn upload(&self, id: &str, log: &Log, epoch: u64) -> Result<u64, String> {
-        let mut blobs = Vec::new();
-        for (hash, bytes) in log.blobs().map_err(|e| e.to_string())? {
-            self.put_object(&blob_object(&hash), &bytes)?;
-            blobs.push(hash);
+    /// Publishes a whole log as the first commit of an empty subject (refused if the subject
+    /// has anything: ids are unique in the cluster); returns its sequence.
+    pub fn upload(&self, id: &str, log: &dyn EventLog, epoch: u64) -> Result<u64, String> {
+        let whole = as_one_commit(log).map_err(|e| e.to_string())?;
+        for (hash, bytes) in &whole.blobs {
+            self.put_object(&blob_object(hash), bytes)?;
         }
-        let mut snapshots = Vec::new();
-        for seq in log.snapshot_seqs().map_err(|e| e.to_string())? {
-            if let Some((bytes, hash)) = log.snapshot_at(seq).map_err(|e| e.to_string())? {
-                self.put_object(&snapshot_object(&hash), &bytes)?;
-                snapshots.push((seq, hash));
-            }
+        for (_, bytes, hash) in &whole.snapshots {
+            self.put_object(&snapshot_object(hash), bytes)?;
         }
-        let events = log.all_events().map_err(|e| e.to_string())?;
         let commit = Commit {
-            events: events.iter().map(WireEvent::from).collect(),
-            head: log.head_seq(),
-            snapshots,
-            blobs,
+            events: whole.events.iter().map(WireEvent::from).collect(),
+            head: whole.head,
+            snapshots: whole.snapshots.iter().map(|(seq, _, hash)| (*seq, hash.clone())).collect(),
+            blobs: whole.blobs.iter().map(|(hash, _)| hash.clone()).collect(),
         };
         let subject = self.subject(id).1;
         let msg_id = format!("{id}.0.{}.{epoch}", self.config.node);

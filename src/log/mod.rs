@@ -12,6 +12,7 @@ pub mod fold;
 pub mod replay;
 pub mod sqlite;
 pub mod summary;
+pub mod whole;
 
 pub use sqlite::{Event, Kind, Snap, StoreError, SyncMode};
 
@@ -88,6 +89,8 @@ pub trait EventLog: crate::command::BlobSource + Send {
     fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError>;
     /// A blob's bytes.
     fn get_blob(&self, hash: &str) -> Option<Vec<u8>>;
+    /// Every blob (hash, bytes): what a whole log carries when it moves (cluster, export).
+    fn blobs(&self) -> Result<Vec<(String, Vec<u8>)>, StoreError>;
     /// Arguments as recorded: inline, or a blob reference when large.
     fn store_arguments(&mut self, args_json: String) -> String;
 

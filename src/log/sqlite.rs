@@ -586,14 +586,6 @@ impl Log {
         }
     }
 
-    /// Every blob stored (hash, bytes): what a whole log carries to the log of record when a
-    /// simulation joins a cluster.
-    pub fn blobs(&self) -> Result<Vec<(String, Vec<u8>)>, StoreError> {
-        let mut stmt = self.conn.prepare("SELECT hash, bytes FROM blobs ORDER BY hash")?;
-        let rows = stmt.query_map([], |r| Ok((r.get(0)?, r.get(1)?)))?.collect::<Result<_, _>>()?;
-        Ok(rows)
-    }
-
     /// Writes one commit of another log as it is (events with their flags, head, snapshots):
     /// how a cache is rebuilt from the log of record, and how `export` writes a file.
     pub fn import_commit(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError> {
@@ -782,6 +774,13 @@ impl super::EventLog for Log {
             params![hash, bytes],
         )?;
         Ok(())
+    }
+
+    /// Every blob stored, by hash.
+    fn blobs(&self) -> Result<Vec<(String, Vec<u8>)>, StoreError> {
+        let mut stmt = self.conn.prepare("SELECT hash, bytes FROM blobs ORDER BY hash")?;
+        let rows = stmt.query_map([], |r| Ok((r.get(0)?, r.get(1)?)))?.collect::<Result<_, _>>()?;
+        Ok(rows)
     }
 
     /// The bytes stored under `hash`.
