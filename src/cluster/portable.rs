@@ -23,6 +23,8 @@ pub fn export(cluster: &Cluster, id: &str, out: &Path) -> Result<usize, String> 
 /// never enters the cluster. Returns the id it has there.
 pub fn import(cluster: &Cluster, file: &Path, new_id: Option<&str>) -> Result<String, String> {
     let (_dir, staged, id) = whole::copy_as(file, new_id).map_err(|e| if new_id.is_some() { format!("--as: {e}") } else { e })?;
+    // Every recorded hash checked (results too) before anything reaches the cluster.
+    crate::log::replay::replay(&staged, None, |_, _| {}).map_err(|e| format!("{} does not verify: {e}", file.display()))?;
     let sim = Sim::recover(&staged, SyncMode::Normal).map_err(|e| format!("{} does not verify: {e}", file.display()))?;
     let entry = IndexEntry {
         name: sim.world().name().map(str::to_string),

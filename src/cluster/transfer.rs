@@ -80,7 +80,10 @@ impl Cluster {
         } else {
             json
         };
-        self.publish_fenced(subject, payload, expected, msg_id)
+        // Only a retry of these very bytes is a duplicate: another commit prepared at the same
+        // end (after an append whose outcome was unknown) must meet the sequence check instead.
+        let msg_id = format!("{msg_id}.{}", &crate::digest::content_hash(&payload)[..16]);
+        self.publish_fenced(subject, payload, expected, &msg_id)
     }
 
     /// Publishes one record fenced by `expected`, retrying what may be transient.

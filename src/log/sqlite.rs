@@ -568,6 +568,17 @@ impl Log {
         Ok(())
     }
 
+    /// Nothing more is committed through a file that may be behind its log of record: the
+    /// next append would be prepared against an end that may not be the record's.
+    fn refuse_if_behind(&self) -> Result<(), StoreError> {
+        if self.stale {
+            return Err(StoreError::Cluster(
+                "this node's copy of the log may be behind the cluster's; it is rebuilt on the next call".into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// Whether this file fell behind the log of record it mirrors (see `stale`).
     pub fn is_stale(&self) -> bool {
         self.stale
@@ -658,6 +669,7 @@ impl Log {
         snapshots: &[Snap],
     ) -> Result<(), StoreError> {
         let Some(last) = events.last() else { return Ok(()) };
+        self.refuse_if_behind()?;
         if let Some(replica) = self.replica.as_mut() {
             let mut all: Vec<Event> = inherited.iter().map(|e| Event { inherited: true, ..e.clone() }).collect();
             let mut copied: Vec<(u64, Vec<u8>, String)> = Vec::new();
@@ -674,7 +686,7 @@ impl Log {
             snaps.extend_from_slice(snapshots);
             replica.append(&all, head, &snaps).inspect_err(|_| self.stale = true)?;
         }
-        let written = if self.stale { Ok(()) } else { self.write_commit((inherited, parent), events, head, snapshots) };
+        let written = self.write_commit((inherited, parent), events, head, snapshots);
         self.behind_the_record(written)?;
         crate::crash_point!("after_commit");
         // The last root, change or move committed (a batch may hold reads, or only reads).
@@ -835,10 +847,11 @@ impl super::EventLog for Log {
         if self.pending.is_empty() {
             return Ok(());
         }
+        self.refuse_if_behind()?;
         if let Some(replica) = self.replica.as_mut() {
             replica.append(&self.pending, self.head_seq, &[]).inspect_err(|_| self.stale = true)?;
         }
-        let written = if self.stale { Ok(()) } else { self.write_pending() };
+        let written = self.write_pending();
         self.behind_the_record(written)?;
         self.pending.clear();
         Ok(())

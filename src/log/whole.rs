@@ -70,9 +70,11 @@ pub fn event_count(path: &Path) -> Result<usize, StoreError> {
 }
 
 /// A copy of the log `file` as simulation `new_id` (its own id when `None`), in a temporary
-/// directory (kept as long as the returned handle): the copy's own roots' commands and results
-/// name the new id, their result hashes recomputed; nothing else changes. Returns the copy's
-/// path and the id it has.
+/// directory (kept as long as the returned handle): every event of its own (not inherited from
+/// an ancestor) names the new id wherever it named the old one — arguments, command, result,
+/// summary — with its result hash recomputed (a read's, which hashes a result not kept, is
+/// dropped: `replay` then re-runs the read without checking it); the ids are UUID-like, so a
+/// textual replacement touches nothing else. Returns the copy's path and the id it has.
 pub fn copy_as(file: &Path, new_id: Option<&str>) -> Result<(tempfile::TempDir, PathBuf, String), String> {
     let source = Log::open_read_only(file).map_err(|e| format!("{}: {e}", file.display()))?;
     let old_id = source.simulation_id().map_err(|e| e.to_string())?;
@@ -85,8 +87,8 @@ pub fn copy_as(file: &Path, new_id: Option<&str>) -> Result<(tempfile::TempDir, 
         return Err(format!("{} holds no events", file.display()));
     }
     if old_id != id {
-        for e in whole.events.iter_mut().filter(|e| e.kind == Kind::Root && !e.inherited) {
-            rename_root(e, &old_id, &id)?;
+        for e in whole.events.iter_mut().filter(|e| !e.inherited) {
+            rename(e, &old_id, &id);
         }
     }
     let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
@@ -95,25 +97,18 @@ pub fn copy_as(file: &Path, new_id: Option<&str>) -> Result<(tempfile::TempDir, 
     Ok((dir, path, id))
 }
 
-/// A root event of `old_id` as one of `new_id`.
-fn rename_root(e: &mut Event, old_id: &str, new_id: &str) -> Result<(), String> {
-    let swap = |text: &str| -> Result<String, String> {
-        let mut v: serde_json::Value =
-            serde_json::from_str(text).map_err(|err| format!("event {} does not decode: {err}", e.seq))?;
-        if let Some(obj) = v.as_object_mut() {
-            if obj.get("simulation_id").and_then(|s| s.as_str()) == Some(old_id) {
-                obj.insert("simulation_id".into(), new_id.into());
-            }
-        }
-        Ok(v.to_string())
-    };
-    if let Some(command) = &e.command {
-        e.command = Some(swap(command)?);
+/// An event of `old_id` as one of `new_id`.
+fn rename(e: &mut Event, old_id: &str, new_id: &str) {
+    let swap = |text: &mut String| *text = text.replace(old_id, new_id);
+    swap(&mut e.arguments);
+    for field in [&mut e.command, &mut e.result, &mut e.summary].into_iter().flatten() {
+        swap(field);
     }
-    if let Some(result) = &e.result {
-        let renamed = swap(result)?;
-        e.result_hash = Some(crate::digest::result_hash(&renamed));
-        e.result = Some(renamed);
+    match (&e.result, &e.result_hash) {
+        (Some(result), Some(_)) => e.result_hash = Some(crate::digest::result_hash(result)),
+        // A read records the hash of what it returned, not the result itself: one that named
+        // the old id cannot be re-hashed here, so a renamed copy's reads go unchecked.
+        (None, Some(_)) if e.kind == Kind::Read => e.result_hash = None,
+        _ => {}
     }
-    Ok(())
 }

@@ -141,7 +141,7 @@ impl PhysicsServer {
     /// simulation was made with `gui = true`.
     fn viewer_url(&self, id: &str) -> Option<String> {
         let base = self.viewer_base.as_ref()?;
-        let gui = self.reg.get(id).ok().is_some_and(|sim| lock_sim(&sim).world().gui());
+        let gui = self.reg.get_local(id).is_some_and(|sim| lock_sim(&sim).world().gui());
         gui.then(|| format!("{base}/viewer/{id}"))
     }
 
@@ -183,7 +183,7 @@ impl PhysicsServer {
         f: impl FnOnce(&mut Sim, &Args, &Limits, X) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<T, String> {
         let id = value::string(&args, "sim_id")?;
-        let sim = self.reg.get(&id)?;
+        let sim = self.sim(&id).await?;
         let reg = self.reg.clone();
         let (out, moved) = tokio::task::spawn_blocking(move || {
             let prepared = prepare(&args);
@@ -289,6 +289,18 @@ impl PhysicsServer {
         Ok(out.reply(tool))
     }
 
+    /// The simulation `id`: in a cluster, found (or taken over) on the blocking pool, since
+    /// that may wait on the cluster; embedded, here.
+    pub(crate) async fn sim(&self, id: &str) -> Result<crate::sim::SharedSim, String> {
+        if !self.reg.in_cluster() {
+            return self.reg.get(id);
+        }
+        let (reg, id) = (self.reg.clone(), id.to_string());
+        tokio::task::spawn_blocking(move || reg.get(&id))
+            .await
+            .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?
+    }
+
     /// A read-only call on a simulation; recorded as a read event. Reads take microseconds,
     /// so when the simulation is idle they run right here instead of on the blocking pool;
     /// when a long call holds it, they wait on the pool like everything else.
@@ -299,8 +311,10 @@ impl PhysicsServer {
         f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         let id = value::string(&args, "sim_id")?;
-        let sim = self.reg.get(&id)?;
-        if let Ok(mut guard) = sim.try_lock() {
+        let sim = self.sim(&id).await?;
+        // In a cluster a read's buffered events are published when many wait: never on the
+        // async worker.
+        if let (false, Ok(mut guard)) = (self.reg.in_cluster(), sim.try_lock()) {
             let budget = self.reg.limits().max_reply_bytes;
             return guard.read_within(tool, &args, budget, |s| f(s, params::parse::<P>(tool, &args)?)).map(Json);
         }
@@ -355,7 +369,7 @@ impl ServerHandler for PhysicsServer {
                 self.log.send(&peer, LoggingLevel::Info, json!({"tool": tool, "refused": why.join(" ")}));
             }
         }
-        if let Some(sim) = sim_id.as_deref().and_then(|id| self.reg.get(id).ok()) {
+        if let Some(sim) = sim_id.as_deref().and_then(|id| self.reg.get_local(id)) {
             // A busy simulation keeps its stalls for a later call.
             let stalls = sim.try_lock().map(|mut s| s.take_stalls()).unwrap_or_default();
             for stall in stalls {

@@ -174,7 +174,7 @@ impl PhysicsServer {
     pub(super) async fn read_sim_resource(&self, uri: String) -> Result<ReadResourceResult, ErrorData> {
         let not_found = |why: String| ErrorData::resource_not_found(why, Some(json!({"uri": uri})));
         let (id, part) = parse(&uri).map_err(not_found)?;
-        let sim = self.reg.get(id).map_err(not_found)?;
+        let sim = self.sim(id).await.map_err(not_found)?;
         let (max_px, budget) = (self.reg.limits().max_image_px, self.reg.limits().max_reply_bytes);
         let at = uri.clone();
         let read = tokio::task::spawn_blocking(move || contents(&lock_sim(&sim), part, &at, max_px, budget))

@@ -42,7 +42,9 @@ impl Registry {
                 NotTaken::Failed(why) => format!("the cluster could not record simulation {id}: {why}"),
             })?;
             let seq = cluster.upload(&id, &sim.log, epoch).inspect_err(|_| cluster.release(&id))?;
-            cluster.index_put(&id, &index_entry(&sim))?;
+            cluster.index_put(&id, &index_entry(&sim)).inspect_err(|_| {
+                let _ = cluster.forget(&id);
+            })?;
             Ok::<_, Refusal>((seq, epoch))
         })();
         match joined {
@@ -129,6 +131,12 @@ impl Registry {
         built
     }
 
+    /// Held by destroy_simulation in a cluster, so no call takes the simulation over between
+    /// its leaving memory and leaving the cluster.
+    pub(crate) fn no_takeovers(&self) -> Option<std::sync::MutexGuard<'_, ()>> {
+        self.cluster.as_ref().map(|_| self.takeovers.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
     /// Removes a simulation from the cluster (destroy_simulation on its owner).
     pub(crate) fn forget_in_cluster(&self, id: &str) -> Result<(), Refusal> {
         match &self.cluster {
@@ -138,9 +146,10 @@ impl Registry {
     }
 
     /// How many simulations the cluster holds (for --max-sims, counted per cluster).
-    pub(crate) fn cluster_count(&self) -> Option<usize> {
-        let cluster = self.cluster.as_ref()?;
-        Some(cluster.index_all().map(|all| all.len()).unwrap_or(0))
+    pub(crate) fn cluster_count(&self) -> Result<Option<usize>, Refusal> {
+        let Some(cluster) = self.cluster.as_ref() else { return Ok(None) };
+        let all = cluster.index_all().map_err(|e| format!("The cluster could not count its simulations (--max-sims): {e}"))?;
+        Ok(Some(all.len()))
     }
 
     /// The cluster's simulations this node does not hold, from the index.

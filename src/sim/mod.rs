@@ -254,6 +254,11 @@ impl Sim {
             Err(sim_not_found(self.id()))
         } else if let Some(why) = &self.damaged {
             Err(sim_damaged(self.id(), why))
+        } else if self.log.is_stale() {
+            Err(format!(
+                "Simulation {} is being rebuilt from the cluster's log (this node's copy may be behind it); call again",
+                self.id()
+            ))
         } else {
             Ok(())
         }
@@ -712,7 +717,7 @@ impl Registry {
 
     /// Reserves room for `n` new simulations at once, all or none.
     pub(crate) fn reserve_many(&self, n: usize) -> Result<Vec<Slot<'_>>, Refusal> {
-        let in_cluster = self.cluster_count();
+        let in_cluster = self.cluster_count()?;
         let mut t = self.table();
         let live = in_cluster.unwrap_or(t.sims.len()) + t.reserved;
         let max = self.config.limits.max_sims;
@@ -758,6 +763,17 @@ impl Registry {
         self.lookup(id).ok_or_else(|| sim_not_found(id))
     }
 
+    /// Whether this registry is a cluster node (its `get` may then wait on the cluster).
+    pub fn in_cluster(&self) -> bool {
+        self.cluster.is_some()
+    }
+
+    /// The simulation if this process has it in memory, without asking the cluster (for
+    /// what only concerns a simulation already here: stalls, the viewer link).
+    pub fn get_local(&self, id: &str) -> Option<SharedSim> {
+        self.lookup(id)
+    }
+
     /// The simulation with this id if this process has it in memory.
     fn lookup(&self, id: &str) -> Option<SharedSim> {
         self.table().sims.get(id).cloned()
@@ -781,6 +797,7 @@ impl Registry {
         if self.cluster.is_some() {
             self.get(id)?;
         }
+        let _no_takeovers = self.no_takeovers();
         let sim = self.table().sims.remove(id).ok_or_else(|| sim_not_found(id))?;
         // Wait for any call in flight; then, still under the lock, mark it destroyed and close
         // its log before deleting the files, so a request that took the handle earlier finds

@@ -68,7 +68,7 @@ impl PhysicsServer {
         ct: CancellationToken,
     ) -> Result<Json<Swept>, String> {
         let id = value::string(&args, "sim_id")?;
-        let sim = self.reg.get(&id)?;
+        let sim = self.sim(&id).await?;
         // Counted from the parameters alone, for progress; the files the variants name are
         // read (and their models parsed) on the blocking pool, below.
         let (n, steps, keep) = params::parse::<Sweep>("run_sweep", &args).map_or((1, 1, false), |p| {

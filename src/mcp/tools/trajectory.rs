@@ -141,7 +141,7 @@ impl PhysicsServer {
         measure: impl FnOnce(&T, &E) -> usize + Send + 'static,
     ) -> Result<(T, E), String> {
         let id = value::string(&args, "sim_id")?;
-        let sim = self.reg.get(&id)?;
+        let sim = self.sim(&id).await?;
         let budget = self.reg.limits().max_reply_bytes;
         tokio::task::spawn_blocking(move || {
             let parsed = parse(&args);
