@@ -392,6 +392,21 @@ fn insert_event(tx: &rusqlite::Transaction, e: &Event) -> Result<(), StoreError>
     Ok(())
 }
 
+/// Every snapshot `parent` holds on the inherited chain (a fork copies them), one at a time.
+fn each_inherited_snapshot(
+    (inherited, parent): (&[Event], Option<&dyn EventLog>),
+    take: &mut dyn FnMut(u64, Vec<u8>, String) -> Result<(), StoreError>,
+) -> Result<(), StoreError> {
+    if let (Some(parent), Some(last)) = (parent, inherited.last()) {
+        for seq in parent.chain_snapshot_seqs(last.seq)? {
+            if let Some((bytes, hash)) = parent.snapshot_at(seq)? {
+                take(seq, bytes, hash)?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A snapshot to commit: (the seq of the event it is taken at, its bytes, its content hash).
 pub type Snap<'a> = (u64, &'a [u8], &'a str);
 
@@ -633,16 +648,10 @@ impl Log {
             e.inherited = true;
             insert_event(&tx, &e)?;
         }
-        if let (Some(parent), Some(last)) = (parent, inherited.last()) {
-            for seq in parent.chain_snapshot_seqs(last.seq)? {
-                if let Some((bytes, hash)) = parent.snapshot_at(seq)? {
-                    tx.execute(
-                        "INSERT INTO snapshots (seq, hash, bytes) VALUES (?1, ?2, ?3)",
-                        params![seq as i64, hash, bytes],
-                    )?;
-                }
-            }
-        }
+        each_inherited_snapshot((inherited, parent), &mut |seq, bytes, hash| {
+            tx.execute("INSERT INTO snapshots (seq, hash, bytes) VALUES (?1, ?2, ?3)", params![seq as i64, hash, bytes])?;
+            Ok(())
+        })?;
         for e in &self.pending {
             insert_event(&tx, e)?;
         }
@@ -673,13 +682,10 @@ impl Log {
         if let Some(replica) = self.replica.as_mut() {
             let mut all: Vec<Event> = inherited.iter().map(|e| Event { inherited: true, ..e.clone() }).collect();
             let mut copied: Vec<(u64, Vec<u8>, String)> = Vec::new();
-            if let (Some(parent), Some(last)) = (parent, inherited.last()) {
-                for seq in parent.chain_snapshot_seqs(last.seq)? {
-                    if let Some((bytes, hash)) = parent.snapshot_at(seq)? {
-                        copied.push((seq, bytes, hash));
-                    }
-                }
-            }
+            each_inherited_snapshot((inherited, parent), &mut |seq, bytes, hash| {
+                copied.push((seq, bytes, hash));
+                Ok(())
+            })?;
             all.extend(self.pending.iter().cloned());
             all.extend(events.iter().cloned());
             let mut snaps: Vec<Snap> = copied.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();

@@ -14,6 +14,7 @@ mod lockstep;
 mod nats;
 mod nodes;
 
+mod big_batch;
 mod equivalence;
 mod fencing;
 mod import_export;

@@ -1,0 +1,57 @@
+//! An all-or-nothing batch of the most calls one request may hold (10,000) on a cluster node:
+//! one commit far over NATS's 1 MiB max payload, so it goes to the object store and one small
+//! message commits it. Acknowledged, it is in the log whole — the exported log replays, with
+//! every call's event — and after the node is killed another node takes it over whole.
+
+use serde_json::{json, Value};
+
+use crate::nats::NatsCluster;
+use crate::nodes::{events, export_and_verify, Node};
+
+/// The calls in the batch (the most `batch` takes).
+const CALLS: usize = 10_000;
+
+#[tokio::test(flavor = "multi_thread")]
+#[ignore = "needs nats-server: cargo test --test cluster -- --ignored"]
+async fn a_ten_thousand_call_batch_is_one_commit_that_survives_its_owner() {
+    let nats = NatsCluster::start();
+    let root = tempfile::tempdir().unwrap();
+    let workspace = root.path().join("workspace");
+    std::fs::create_dir_all(&workspace).unwrap();
+    let mut a = Node::start(root.path(), "a", &nats, &workspace, &["--lease-ms", "1000"]);
+    let b = Node::start(root.path(), "b", &nats, &workspace, &["--lease-ms", "1000"]);
+    let ca = a.client().await;
+    let sim = ca.new_sim(json!({})).await;
+    let calls: Vec<Value> = (0..CALLS)
+        .map(|i| json!({"tool": "add_sphere", "arguments": {"radius": 0.05, "position": [(i % 100) as f64 * 0.2, (i / 100) as f64 * 0.2, 1.0]}}))
+        .collect();
+    let done = ca.call("batch", json!({"sim_id": sim, "calls": calls})).await;
+    assert_eq!(done["results"].as_array().map(Vec::len), Some(CALLS), "one result per call");
+    let (head, hash) = (done["head_seq"].as_u64().expect("head_seq"), done["state_hash"].clone());
+
+    // The owner dies; the other node takes the whole batch over.
+    a.kill9();
+    let cb = b.client().await;
+    let started = std::time::Instant::now();
+    let last = json!({"sim_id": sim, "object_id": CALLS - 1});
+    loop {
+        match cb.try_call("get_object_state", last.clone()).await {
+            Ok(_) => break,
+            Err(e) if started.elapsed() < std::time::Duration::from_secs(30) => {
+                assert!(crate::nodes::owned_elsewhere(&e), "unexpected refusal: {e}");
+                tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+            }
+            Err(e) => panic!("no takeover within 30 s: {e}"),
+        }
+    }
+    let listed = cb.call("list_simulations", json!({})).await;
+    let entry = listed["simulations"].as_array().unwrap().iter().find(|s| s["simulation_id"] == json!(sim)).cloned();
+    assert_eq!(entry.map(|e| e["objects"].clone()), Some(json!(CALLS)), "the node that took it over has every object");
+
+    let out = tempfile::tempdir().unwrap();
+    let (file, summary) = export_and_verify(&nats.urls(), &sim, out.path(), "big_batch");
+    assert_eq!(summary["final_hash"], hash, "the exported log folds to the hash the batch reported");
+    let changes = events(&file).iter().filter(|e| e.tool == "add_sphere" && e.ok).count();
+    assert_eq!(changes, CALLS, "every call of the batch is an event of the log");
+    eprintln!("10,000-call batch: head {head}, taken over in {:?}", started.elapsed());
+}
