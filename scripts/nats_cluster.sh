@@ -51,8 +51,19 @@ if [[ "$cmd" == start ]]; then
     echo "nats_cluster.sh: no JetStream meta leader within 60 s" >&2
     exit 1
 elif [[ "$cmd" == stop ]]; then
+    # Stopped and gone before this returns: a server still writing its store would make the
+    # caller's removal of the directory fail.
     for f in "$dir"/n*.pid; do
       [[ -f "$f" ]] && kill "$(cat "$f")" 2>/dev/null || true
+    done
+    for f in "$dir"/n*.pid; do
+      [[ -f "$f" ]] || continue
+      pid="$(cat "$f")"
+      for _ in $(seq 1 100); do
+        kill -0 "$pid" 2>/dev/null || break
+        sleep 0.1
+      done
+      kill -9 "$pid" 2>/dev/null || true
     done
 else
   echo "nats_cluster.sh: start or stop" >&2
