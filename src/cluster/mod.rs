@@ -327,17 +327,7 @@ where
 /// A key's value, retried for a few seconds while the bucket's replicas cannot answer yet
 /// (a bucket just created, a server just lost: direct gets see "no responders").
 pub(crate) async fn kv_get(store: &kv::Store, key: &str) -> Result<Option<bytes::Bytes>, String> {
-    let started = std::time::Instant::now();
-    loop {
-        match store.get(key).await {
-            Ok(v) => return Ok(v),
-            Err(e) if started.elapsed() < Duration::from_secs(10) => {
-                tracing::debug!("reading {key}: {e}; retrying");
-                tokio::time::sleep(Duration::from_millis(100)).await;
-            }
-            Err(e) => return Err(e.to_string()),
-        }
-    }
+    patiently(|| store.get(key)).await.map_err(|e| e.to_string())
 }
 
 /// The name of stream `k` of a namespace.
@@ -399,22 +389,15 @@ impl Cluster {
         use futures_util::StreamExt;
         let index = self.index.clone();
         self.run(async move {
-            let started = std::time::Instant::now();
-            let ids = loop {
-                let listed = async {
-                    let mut keys = index.keys().await.map_err(|e| e.to_string())?.boxed();
-                    let mut ids = Vec::new();
-                    while let Some(k) = keys.next().await {
-                        ids.push(k.map_err(|e| e.to_string())?);
-                    }
-                    Ok::<_, String>(ids)
-                };
-                match listed.await {
-                    Ok(ids) => break ids,
-                    Err(e) if started.elapsed() > Duration::from_secs(10) => return Err(e),
-                    Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+            let ids = patiently(|| async {
+                let mut keys = index.keys().await.map_err(|e| e.to_string())?.boxed();
+                let mut ids = Vec::new();
+                while let Some(k) = keys.next().await {
+                    ids.push(k.map_err(|e| e.to_string())?);
                 }
-            };
+                Ok::<_, String>(ids)
+            })
+            .await?;
             let mut out = Vec::new();
             for id in ids {
                 if let Some(b) = kv_get(&index, &id).await? {

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::{Cluster, IndexEntry};
+use super::Cluster;
 use crate::log::whole;
 use crate::log::SyncMode;
 use crate::sim::Sim;
@@ -26,11 +26,7 @@ pub fn import(cluster: &Cluster, file: &Path, new_id: Option<&str>) -> Result<St
     // Every recorded hash checked (results too) before anything reaches the cluster.
     crate::log::replay::replay(&staged, None, |_, _| {}).map_err(|e| format!("{} does not verify: {e}", file.display()))?;
     let sim = Sim::recover(&staged, SyncMode::Normal).map_err(|e| format!("{} does not verify: {e}", file.display()))?;
-    let entry = IndexEntry {
-        name: sim.world().name().map(str::to_string),
-        objects: sim.world().object_count(),
-        simulation_time: sim.world().current_time(),
-    };
+    let entry = crate::sim::cluster::index_entry(&sim);
     let epoch = cluster
         .acquire(&id)
         .map_err(|_| format!("a simulation with id {id} already exists in the cluster; pass --as NEW_ID"))?;

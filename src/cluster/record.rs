@@ -72,6 +72,13 @@ pub struct WireEvent {
 
 impl From<&Event> for WireEvent {
     fn from(e: &Event) -> WireEvent {
+        WireEvent::from((e, e.inherited))
+    }
+}
+
+/// An event with whether it is recorded as inherited (a fork's copied chain).
+impl From<(&Event, bool)> for WireEvent {
+    fn from((e, inherited): (&Event, bool)) -> WireEvent {
         WireEvent {
             seq: e.seq,
             kind: e.kind.as_str().into(),
@@ -82,7 +89,7 @@ impl From<&Event> for WireEvent {
             version: e.version,
             ok: e.ok,
             mutates: e.mutates,
-            inherited: e.inherited,
+            inherited,
             result: e.result.clone(),
             result_hash: e.result_hash.clone(),
             state_hash: e.state_hash.clone(),

@@ -60,7 +60,7 @@ impl Replica for SimReplica {
         Ok(())
     }
 
-    fn append(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError> {
+    fn append(&mut self, events: &[(&Event, bool)], head: u64, snapshots: &[Snap]) -> Result<(), StoreError> {
         self.check_lease()?;
         for (_, bytes, hash) in snapshots {
             self.cluster
@@ -68,7 +68,7 @@ impl Replica for SimReplica {
                 .map_err(StoreError::Cluster)?;
         }
         let commit = Commit {
-            events: events.iter().map(WireEvent::from).collect(),
+            events: events.iter().map(|&e| WireEvent::from(e)).collect(),
             head,
             snapshots: snapshots
                 .iter()
@@ -76,6 +76,7 @@ impl Replica for SimReplica {
                 .collect(),
             blobs: std::mem::take(&mut self.blobs),
         };
+        let blobs = commit.blobs.clone();
         let msg_id = format!(
             "{}.{}.{}.{}",
             self.id,
@@ -85,14 +86,14 @@ impl Replica for SimReplica {
         );
         match self
             .cluster
-            .publish_commit(&self.subject, &commit, self.expected, &msg_id)
+            .publish_commit(&self.subject, commit, self.expected, &msg_id)
         {
             Ok(seq) => {
                 self.expected = seq;
                 Ok(())
             }
             Err(e) => {
-                self.blobs = commit.blobs;
+                self.blobs = blobs;
                 Err(e)
             }
         }

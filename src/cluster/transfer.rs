@@ -58,16 +58,11 @@ impl Cluster {
     pub fn publish_commit(
         &self,
         subject: &str,
-        commit: &Commit,
+        commit: Commit,
         expected: u64,
         msg_id: &str,
     ) -> Result<u64, StoreError> {
-        let json = serde_json::to_vec(&Record::Commit(Commit {
-            events: commit.events.clone(),
-            head: commit.head,
-            snapshots: commit.snapshots.clone(),
-            blobs: commit.blobs.clone(),
-        }))
+        let json = serde_json::to_vec(&Record::Commit(commit))
         .map_err(|e| StoreError::Cluster(e.to_string()))?;
         let payload = if json.len() > INLINE_COMMIT_MAX {
             let object = commit_object(&crate::digest::content_hash(&json));
@@ -221,7 +216,7 @@ impl Cluster {
         };
         let subject = self.subject(id).1;
         let msg_id = format!("{id}.0.{}.{epoch}", self.config.node);
-        self.publish_commit(&subject, &commit, 0, &msg_id).map_err(|e| match e {
+        self.publish_commit(&subject, commit, 0, &msg_id).map_err(|e| match e {
             StoreError::Fenced(_) => format!("a simulation with id {id} already exists in the cluster"),
             e => e.to_string(),
         })

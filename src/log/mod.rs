@@ -5,7 +5,8 @@
 //! A simulation *is* its log; the world in memory is a cache equal to the fold of it. The
 //! trait is what the rest of the server uses a log through: appends fenced by the seq they
 //! expect to follow, reads of events and chains, blobs and snapshots, the head. SQLite is
-//! the embedded backend; a replicated one (docs/design.md "Cluster mode") would be a second.
+//! the embedded backend; in cluster mode a SQLite log is the cache of a replicated log of
+//! record that every commit reaches first ([`Replica`], `crate::cluster`, docs/cluster.md).
 
 pub mod data_dir;
 pub mod fold;
@@ -22,10 +23,10 @@ pub use sqlite::{Event, Kind, Snap, StoreError, SyncMode};
 pub trait Replica: Send {
     /// Makes a blob durable in the log of record (before the event that names it).
     fn put_blob(&mut self, hash: &str, bytes: &[u8]) -> Result<(), StoreError>;
-    /// Appends one commit, all or nothing: `events` (inherited ones flagged), the new `head`
-    /// and the snapshots taken with it. Refused ([`StoreError::Fenced`]) when another owner
-    /// wrote since.
-    fn append(&mut self, events: &[Event], head: u64, snapshots: &[Snap]) -> Result<(), StoreError>;
+    /// Appends one commit, all or nothing: `events` (each with whether it is inherited: a
+    /// fork's copied chain is recorded flagged), the new `head` and the snapshots taken with
+    /// it. Refused ([`StoreError::Fenced`]) when another owner wrote since.
+    fn append(&mut self, events: &[(&Event, bool)], head: u64, snapshots: &[Snap]) -> Result<(), StoreError>;
 }
 
 /// Why an append was not made.

@@ -680,14 +680,13 @@ impl Log {
         let Some(last) = events.last() else { return Ok(()) };
         self.refuse_if_behind()?;
         if let Some(replica) = self.replica.as_mut() {
-            let mut all: Vec<Event> = inherited.iter().map(|e| Event { inherited: true, ..e.clone() }).collect();
+            let mut all: Vec<(&Event, bool)> = inherited.iter().map(|e| (e, true)).collect();
             let mut copied: Vec<(u64, Vec<u8>, String)> = Vec::new();
             each_inherited_snapshot((inherited, parent), &mut |seq, bytes, hash| {
                 copied.push((seq, bytes, hash));
                 Ok(())
             })?;
-            all.extend(self.pending.iter().cloned());
-            all.extend(events.iter().cloned());
+            all.extend(self.pending.iter().chain(events).map(|e| (e, e.inherited)));
             let mut snaps: Vec<Snap> = copied.iter().map(|(s, b, h)| (*s, b.as_slice(), h.as_str())).collect();
             snaps.extend_from_slice(snapshots);
             replica.append(&all, head, &snaps).inspect_err(|_| self.stale = true)?;
@@ -855,7 +854,8 @@ impl super::EventLog for Log {
         }
         self.refuse_if_behind()?;
         if let Some(replica) = self.replica.as_mut() {
-            replica.append(&self.pending, self.head_seq, &[]).inspect_err(|_| self.stale = true)?;
+            let pending: Vec<(&Event, bool)> = self.pending.iter().map(|e| (e, e.inherited)).collect();
+            replica.append(&pending, self.head_seq, &[]).inspect_err(|_| self.stale = true)?;
         }
         let written = self.write_pending();
         self.behind_the_record(written)?;

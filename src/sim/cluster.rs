@@ -13,7 +13,7 @@ use crate::log::EventLog;
 use crate::sim::{remove_log_files, sim_not_found, Registry, SharedSim, Sim};
 use crate::value::Refusal;
 
-/// The standard "owned elsewhere" sentence: forwarding between live nodes is part 2.
+/// The standard "owned elsewhere" sentence (forwarding calls between live nodes is not built).
 pub fn owned_elsewhere(id: &str, node: &str) -> Refusal {
     format!("Simulation {id} is owned by node {node}; send calls for it to that node (a node takes a simulation over only once its owner's lease lapses)")
 }

@@ -6,7 +6,7 @@
 use serde_json::{json, Value};
 
 use crate::nats::NatsCluster;
-use crate::nodes::{events, export_and_verify, Node};
+use crate::nodes::{shared_workspace, events, export_and_verify, Node};
 
 /// The calls in the batch (the most `batch` takes).
 const CALLS: usize = 10_000;
@@ -16,8 +16,7 @@ const CALLS: usize = 10_000;
 async fn a_ten_thousand_call_batch_is_one_commit_that_survives_its_owner() {
     let nats = NatsCluster::start();
     let root = tempfile::tempdir().unwrap();
-    let workspace = root.path().join("workspace");
-    std::fs::create_dir_all(&workspace).unwrap();
+    let workspace = shared_workspace(root.path());
     let mut a = Node::start(root.path(), "a", &nats, &workspace, &["--lease-ms", "1000"]);
     let b = Node::start(root.path(), "b", &nats, &workspace, &["--lease-ms", "1000"]);
     let ca = a.client().await;

@@ -14,7 +14,7 @@ use crate::common::hard::{rng, seed};
 use crate::common::Server;
 use crate::lockstep::{Ids, Lockstep, Side};
 use crate::nats::NatsCluster;
-use crate::nodes::{event_args, events, export_and_verify, Node, Outcome};
+use crate::nodes::{shared_workspace, event_args, events, export_and_verify, Node, Outcome};
 
 /// Calls in the script (at least; the last operation may add a refresh).
 const CALLS: usize = 520;
@@ -366,8 +366,7 @@ async fn embedded_and_cluster_answer_alike_and_the_exported_logs_replay() {
     let embedded = Server::start(emb_dir.path(), &[]);
     embedded.copy_fixtures();
     let root = tempfile::tempdir().unwrap();
-    let workspace = root.path().join("workspace");
-    std::fs::create_dir_all(&workspace).unwrap();
+    let workspace = shared_workspace(root.path());
     let mut node = Node::start(root.path(), "a", &nats, &workspace, &[]);
     node.server().copy_fixtures();
 

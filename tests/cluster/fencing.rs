@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 
 use crate::common::Client;
 use crate::nats::NatsCluster;
-use crate::nodes::{attempt, event_args, events, export_and_verify, owned_elsewhere, signal, Node, Outcome};
+use crate::nodes::{shared_workspace, attempt, event_args, events, export_and_verify, owned_elsewhere, signal, Node, Outcome};
 use physics_mcp::log::sqlite::Event;
 
 /// The lease both nodes run with, in ms.
@@ -89,8 +89,7 @@ fn assert_owned_elsewhere(what: &str, outcome: &Outcome) {
 async fn a_thawed_former_owner_neither_answers_stale_nor_writes() {
     let nats = NatsCluster::start();
     let root = tempfile::tempdir().unwrap();
-    let workspace = root.path().join("workspace");
-    std::fs::create_dir_all(&workspace).unwrap();
+    let workspace = shared_workspace(root.path());
     let lease = ["--lease-ms", LEASE_MS];
     let a = Node::start(root.path(), "a", &nats, &workspace, &lease);
     let b = Node::start(root.path(), "b", &nats, &workspace, &lease);

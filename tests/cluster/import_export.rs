@@ -9,7 +9,7 @@ use serde_json::json;
 
 use crate::common::recorded_logs;
 use crate::nats::NatsCluster;
-use crate::nodes::{events, export_and_verify, import, import_ok, listed_ids, log_sim_id, Node};
+use crate::nodes::{shared_workspace, events, export_and_verify, import, import_ok, listed_ids, log_sim_id, Node};
 use physics_mcp::log::sqlite::{Event, Kind};
 
 /// A log put into the cluster: its file, the id it got there, and whether `--as` renamed it.
@@ -85,8 +85,7 @@ fn import_all(urls: &str) -> Vec<Imported> {
 async fn every_recorded_log_round_trips_through_the_cluster() {
     let nats = NatsCluster::start();
     let root = tempfile::tempdir().unwrap();
-    let workspace = root.path().join("workspace");
-    std::fs::create_dir_all(&workspace).unwrap();
+    let workspace = shared_workspace(root.path());
     let node = Node::start(root.path(), "a", &nats, &workspace, &[]);
     let urls = nats.urls();
     let imported = import_all(&urls);

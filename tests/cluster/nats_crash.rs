@@ -11,7 +11,7 @@ use serde_json::json;
 use crate::common::hard::{rng, seed};
 use crate::ledger::{ground, Ledger, Stream};
 use crate::nats::NatsCluster;
-use crate::nodes::{attempt, events, export_and_verify, signal, Node, Outcome};
+use crate::nodes::{shared_workspace, attempt, events, export_and_verify, signal, Node, Outcome};
 
 /// Calls acknowledged before the kill, to be sure the stream runs at full speed when it comes.
 const WARM_UP: usize = 30;
@@ -28,8 +28,7 @@ async fn calls_resume_after_a_nats_server_dies_and_none_acknowledged_is_lost() {
     let mut rng = rng(seed());
     let mut nats = NatsCluster::start();
     let root = tempfile::tempdir().unwrap();
-    let workspace = root.path().join("workspace");
-    std::fs::create_dir_all(&workspace).unwrap();
+    let workspace = shared_workspace(root.path());
     let node = Node::start(root.path(), "a", &nats, &workspace, &[]);
     let c = node.client().await;
     let sim = c.new_sim(json!({})).await;

@@ -33,6 +33,14 @@ pub fn owned_elsewhere(refusal: &str) -> bool {
     refusal.contains(OWNED_ELSEWHERE)
 }
 
+/// The workspace every node of a test shares (`root/workspace`, created): in cluster mode
+/// user files live in one directory all nodes see.
+pub fn shared_workspace(root: &Path) -> PathBuf {
+    let workspace = root.join("workspace");
+    std::fs::create_dir_all(&workspace).unwrap();
+    workspace
+}
+
 /// One physics-mcp process in cluster mode. It keeps its directory (data cache, the
 /// workspace link) across `kill9`/`restart`, as a machine that reboots does.
 pub struct Node {

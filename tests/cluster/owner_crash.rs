@@ -11,7 +11,7 @@ use crate::common::hard::{rng, seed};
 use crate::common::Client;
 use crate::ledger::{ground, Ledger, Stream};
 use crate::nats::NatsCluster;
-use crate::nodes::{attempt, events, export_and_verify, owned_elsewhere, percentile_ms, signal, Node, Outcome};
+use crate::nodes::{shared_workspace, attempt, events, export_and_verify, owned_elsewhere, percentile_ms, signal, Node, Outcome};
 
 /// Owner kills.
 const ROUNDS: usize = 20;
@@ -72,8 +72,7 @@ async fn a_killed_owner_is_taken_over_and_no_acknowledged_call_is_lost() {
     let mut rng = rng(seed());
     let nats = NatsCluster::start();
     let root = tempfile::tempdir().unwrap();
-    let workspace = root.path().join("workspace");
-    std::fs::create_dir_all(&workspace).unwrap();
+    let workspace = shared_workspace(root.path());
     let lease = ["--lease-ms", LEASE_MS];
     let mut nodes = [Node::start(root.path(), "a", &nats, &workspace, &lease), Node::start(root.path(), "b", &nats, &workspace, &lease)];
 
