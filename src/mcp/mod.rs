@@ -26,6 +26,7 @@ pub mod session_limit;
 mod subscriptions;
 mod tools;
 pub mod transport;
+mod viewer_relay;
 
 
 use std::sync::{Arc, LazyLock};

@@ -206,7 +206,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         config,
     );
     let token: Option<Arc<str>> = opts.token.as_deref().map(Arc::from);
-    let viewer = crate::seeing::viewer::router(reg.clone())
+    let viewer = super::viewer_relay::relayed(crate::seeing::viewer::router(reg.clone()), &reg)
         .route_layer(middleware::from_fn_with_state(Arc::new(hosts_for_viewer), require_known_host));
     let mcp = axum::Router::new()
         .nest_service("/mcp", service)
