@@ -53,12 +53,15 @@ pub(super) struct Outgoing<'a> {
 }
 
 impl PhysicsServer {
+    /// Whether this server may send calls elsewhere: a cluster node's, serving its own clients
+    /// (a call another node forwarded here runs here).
+    pub(super) fn routes(&self) -> bool {
+        self.reg.in_cluster() && !self.forwarded
+    }
+
     /// Where a call for `out.sim` runs: here, or at its owner (its answer).
     pub(super) async fn route(&self, out: Outgoing<'_>) -> Routed {
-        let Some(cluster) = self.reg.cluster().cloned() else { return Routed::Here };
-        if self.forwarded {
-            return Routed::Here;
-        }
+        let Some(cluster) = self.reg.cluster().cloned().filter(|_| self.routes()) else { return Routed::Here };
         let call = uuid::Uuid::new_v4().to_string();
         let request = serde_json::json!({"jsonrpc": "2.0", "id": 1, "method": out.method, "params": out.params});
         let payload: bytes::Bytes = serde_json::to_vec(&request).unwrap_or_default().into();
