@@ -339,18 +339,6 @@ impl PhysicsServer {
     }
 }
 
-/// A tool call's params as forwarded: as the client sent them, with the request's `_meta`
-/// (so a progress token reaches the owner's progress reports).
-fn call_params(request: &CallToolRequestParams, cx: &RequestContext<RoleServer>) -> serde_json::Value {
-    let mut params = serde_json::to_value(request).unwrap_or_default();
-    if let (Some(p), Ok(meta)) = (params.as_object_mut(), serde_json::to_value(&cx.meta)) {
-        if meta.as_object().is_some_and(|m| !m.is_empty()) {
-            p.insert("_meta".into(), meta);
-        }
-    }
-    params
-}
-
 // rmcp marks MCP logging and resources/subscribe deprecated (SEP-2577, 2026-07-28); clients
 // of 2025-11-25 and before still use them, so this server keeps serving them.
 #[allow(deprecated)]
@@ -388,18 +376,10 @@ impl ServerHandler for PhysicsServer {
         let tool = request.name.clone();
         let sim_id = request.arguments.as_ref().and_then(|a| a.get("sim_id")).and_then(|v| v.as_str()).map(str::to_owned);
         let read_only = self.tool_router.map.get(tool.as_ref()).and_then(|r| r.attr.annotations.as_ref()).and_then(|a| a.read_only_hint) == Some(true);
-        // Only a cluster node forwards (the params are copied for it; embedded, nothing is).
-        let routed = match sim_id.as_deref().filter(|_| self.routes()) {
-            Some(id) => self.route(routing::Outgoing { sim: id, method: "tools/call", params: call_params(&request, &cx), peer: Some(peer.clone()), ct: cx.ct.clone() }).await,
-            None => routing::Routed::Here,
-        };
-        let answered = match routed {
-            routing::Routed::Here => self.tool_router.call(ToolCallContext::new(self, request, cx)).await?,
-            routing::Routed::Answered(answer) => {
-                let result = answer.and_then(|v| serde_json::from_value::<CallToolResult>(v).map_err(|e| ErrorData::internal_error(format!("Internal error: the owner's answer could not be read: {e}"), None)))?;
-                CallToolResponse::Complete(result)
-            }
-            routing::Routed::Lost(why) => CallToolResponse::Complete(CallToolResult::error(vec![rmcp::model::ContentBlock::text(why)])),
+        // Only a cluster node routes (embedded, the call runs here untouched).
+        let answered = match sim_id.as_deref().filter(|_| self.routes()) {
+            Some(id) => self.routed_call(id, request, cx).await?,
+            None => self.tool_router.call(ToolCallContext::new(self, request, cx)).await?,
         };
         let response = match answered {
             CallToolResponse::Complete(r) => CallToolResponse::Complete(reply::fit(&tool, r, self.reg.limits().max_reply_bytes, read_only)),

@@ -13,7 +13,9 @@ use std::time::{Duration, Instant};
 
 use async_nats::HeaderMap;
 use futures_util::StreamExt;
-use rmcp::model::{ErrorData, ServerJsonRpcMessage, ServerNotification};
+use rmcp::handler::server::tool::ToolCallContext;
+use rmcp::model::{CallToolRequestParams, CallToolResponse, CallToolResult, ContentBlock, ErrorData, ServerJsonRpcMessage, ServerNotification};
+use rmcp::service::RequestContext;
 use rmcp::{Peer, RoleServer};
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
@@ -134,6 +136,53 @@ impl PhysicsServer {
             _ => {}
         }
     }
+}
+
+impl PhysicsServer {
+    /// A tool call for simulation `id` on a cluster node: forwarded to its owner, or run here.
+    /// Run here and refused because a lease still shows (the instant a dead owner's lease
+    /// lapses, the replicas expire it one by one), it is routed again until the wait ends —
+    /// nothing was recorded of it.
+    pub(super) async fn routed_call(&self, id: &str, request: CallToolRequestParams, cx: RequestContext<RoleServer>) -> Result<CallToolResponse, ErrorData> {
+        let give_up = Instant::now() + self.reg.cluster().map_or(Duration::ZERO, |c| c.config().lease) + Duration::from_secs(5);
+        loop {
+            let out = Outgoing { sim: id, method: "tools/call", params: call_params(&request, &cx), peer: Some(cx.peer.clone()), ct: cx.ct.clone() };
+            match self.route(out).await {
+                Routed::Here => {
+                    let answer = self.tool_router.call(ToolCallContext::new(self, request.clone(), cx.clone())).await?;
+                    if refused_as_owned_elsewhere(&answer) && Instant::now() < give_up {
+                        tokio::time::sleep(RETRY_PAUSE).await;
+                        continue;
+                    }
+                    return Ok(answer);
+                }
+                Routed::Answered(answer) => {
+                    let result = serde_json::from_value::<CallToolResult>(answer?)
+                        .map_err(|e| ErrorData::internal_error(format!("Internal error: the owner's answer could not be read: {e}"), None))?;
+                    return Ok(CallToolResponse::Complete(result));
+                }
+                Routed::Lost(why) => return Ok(CallToolResponse::Complete(CallToolResult::error(vec![ContentBlock::text(why)]))),
+            }
+        }
+    }
+}
+
+/// Whether a call run here was refused because another node's lease still shows.
+fn refused_as_owned_elsewhere(answer: &CallToolResponse) -> bool {
+    let CallToolResponse::Complete(r) = answer else { return false };
+    r.is_error == Some(true) && r.content.iter().filter_map(|c| c.as_text()).any(|t| t.text.contains(crate::sim::cluster::OWNED_BY))
+}
+
+/// A tool call's params as forwarded: as the client sent them, with the request's `_meta`
+/// (so a progress token reaches the owner's progress reports).
+fn call_params(request: &CallToolRequestParams, cx: &RequestContext<RoleServer>) -> Value {
+    let mut params = serde_json::to_value(request).unwrap_or_default();
+    if let (Some(p), Ok(meta)) = (params.as_object_mut(), serde_json::to_value(&cx.meta)) {
+        if meta.as_object().is_some_and(|m| !m.is_empty()) {
+            p.insert("_meta".into(), meta);
+        }
+    }
+    params
 }
 
 /// What one attempt came to.

@@ -245,9 +245,7 @@ impl Sim {
         }
         if changes {
             self.redo.clear();
-            if let Some(cluster) = &self.cluster {
-                cluster.index_touch(self.id(), &crate::sim::cluster::index_entry(self));
-            }
+            self.index_changed();
         }
         Ok((carried, answer))
     }

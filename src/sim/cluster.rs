@@ -17,7 +17,7 @@ use crate::value::Refusal;
 /// lease lived and the owner took none of its attempts (`mcp::routing` forwards calls to live
 /// owners and waits out a dead one's lease first, so a client rarely sees it).
 pub fn owned_elsewhere(id: &str, node: &str) -> Refusal {
-    format!("Simulation {id} is owned by node {node}; send calls for it to that node (a node takes a simulation over only once its owner's lease lapses)")
+    format!("Simulation {id} {OWNED_BY} {node}; send calls for it to that node (a node takes a simulation over only once its owner's lease lapses)")
 }
 
 /// The index entry a simulation's owner writes.
@@ -28,6 +28,20 @@ pub(crate) fn index_entry(sim: &Sim) -> IndexEntry {
         simulation_time: sim.world().current_time(),
     }
 }
+
+impl Sim {
+    /// In a cluster, rewrites this simulation's index entry after its head moved (a change,
+    /// an undo or redo), so list_simulations on other nodes shows what it shows here.
+    pub(crate) fn index_changed(&self) {
+        if let Some(cluster) = &self.cluster {
+            cluster.index_touch(self.id(), &index_entry(self));
+        }
+    }
+}
+
+/// The words an "owned elsewhere" refusal holds (routing retries a call refused so in the
+/// instant a dead owner's lease lapses: replicas expire it one by one).
+pub const OWNED_BY: &str = "is owned by node";
 
 impl Registry {
     /// Gives a complete simulation its final name and, in a cluster, makes it the cluster's:

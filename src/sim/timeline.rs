@@ -166,6 +166,7 @@ impl Sim {
         self.world = world;
         self.state_hash = state_hash;
         (self.work_since_snapshot, self.changes_since_snapshot) = counters;
+        self.index_changed();
         Ok(())
     }
 
