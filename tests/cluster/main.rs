@@ -16,6 +16,7 @@ mod lockstep;
 mod nats;
 mod nodes;
 
+mod balancer_crash;
 mod big_batch;
 mod equivalence;
 mod fencing;
