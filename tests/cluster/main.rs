@@ -22,6 +22,7 @@ mod equivalence;
 mod fencing;
 mod import_export;
 mod nats_crash;
+mod notifications;
 mod owner_crash;
 mod round_robin;
 mod smoke;
