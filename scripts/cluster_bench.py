@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Cluster mode's cost, measured in one run (docs/cluster.md "Measured"): add_box and
-get_object_state latency on an embedded server and on a cluster node that owns the simulation
-(a 3-server NATS JetStream cluster on loopback, R3 streams), as ratios; then appends per second
-on one simulation and on four at once (spread over the streams).
+get_object_state latency on an embedded server, on a cluster node that owns the simulation and
+through another node that forwards the calls to the owner (a 3-server NATS JetStream cluster on
+loopback, R3 streams), as ratios; then appends per second on one simulation and on four at once
+(spread over the streams).
 
   PHYSICS_MCP_BIN=target/release/physics-mcp python3 scripts/cluster_bench.py [--calls N]
 
@@ -72,10 +73,15 @@ def pct(xs, p):
     return xs[min(len(xs) - 1, int(p / 100 * len(xs)))]
 
 
-def latencies(hostport, n):
-    s = mcp_http.Session(hostport)
-    s.open("cluster-bench")
-    sim = s.call("create_simulation", {})["simulation_id"]
+def latencies(hostport, n, via=None):
+    """Latencies of calls on a simulation made on `hostport`, sent to `via` (default: the same)."""
+    owner = mcp_http.Session(hostport)
+    owner.open("cluster-bench")
+    sim = owner.call("create_simulation", {})["simulation_id"]
+    s = owner
+    if via:
+        s = mcp_http.Session(via)
+        s.open("cluster-bench")
     add = timed(s, "add_box", {"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]}, n)
     get = timed(s, "get_object_state", {"sim_id": sim, "object_id": 0}, 3 * n)
     return add, get
@@ -117,17 +123,21 @@ def main():
         try:
             embedded, e_addr = mcp_http.start(binary, {}, f"{tmp}/embedded")
             node, c_addr = mcp_http.start(binary, {}, f"{tmp}/node", ["--cluster", urls, "--node", "bench"])
-            servers = [embedded, node]
+            other, o_addr = mcp_http.start(binary, {}, f"{tmp}/other", ["--cluster", urls, "--node", "bench2"])
+            servers = [embedded, node, other]
             rows = []
-            for name, addr in (("embedded", e_addr), ("cluster owner", c_addr)):
-                add, get = latencies(addr, a.calls)
+            for name, addr, via in (("embedded", e_addr, None), ("cluster owner", c_addr, None), ("forwarded", c_addr, o_addr)):
+                add, get = latencies(addr, a.calls, via)
                 rows.append((name, add, get))
             print(f"{'':16} {'add_box p50':>12} {'p99':>8} {'get_object_state p50':>21} {'p99':>8}  (ms, {a.calls} adds, {3 * a.calls} gets)")
             for name, add, get in rows:
                 print(f"{name:16} {statistics.median(add):12.3f} {pct(add, 99):8.3f} {statistics.median(get):21.3f} {pct(get, 99):8.3f}")
-            (_, ea, eg), (_, ca, cg) = rows
+            (_, ea, eg), (_, ca, cg), (_, fa, fg) = rows
             print(f"ratio cluster/embedded: add_box p50 {statistics.median(ca) / statistics.median(ea):.2f}x, "
                   f"get_object_state p50 {statistics.median(cg) / statistics.median(eg):.2f}x")
+            print(f"ratio forwarded/embedded: add_box p50 {statistics.median(fa) / statistics.median(ea):.2f}x, "
+                  f"get_object_state p50 {statistics.median(fg) / statistics.median(eg):.2f}x; "
+                  f"forwarding adds {statistics.median(fg) - statistics.median(cg):.3f} ms to a read")
             one = appends_per_second(c_addr, 1, a.seconds)
             four = appends_per_second(c_addr, 4, a.seconds)
             e_one = appends_per_second(e_addr, 1, a.seconds)

@@ -12,6 +12,7 @@
 //! The rest of the server is synchronous; this module owns a small tokio runtime of its own
 //! and blocks on it ([`Cluster::run`]), whatever thread calls.
 
+pub mod calls;
 pub mod lease;
 pub mod portable;
 pub mod record;

@@ -13,17 +13,20 @@
 //! JSON Schema 2020-12 by `schema::plain` (input schemas by `schema::input`, also leaner; see
 //! `tools`). Every reply passes the reply budget (`reply::fit`, in `call_tool`).
 
+pub(crate) mod forwarded;
 mod instructions;
 mod logging;
 pub(crate) mod progress;
 mod prompts;
 pub(crate) mod reply;
 mod resources;
+mod routing;
 mod schema;
 pub mod session_limit;
 mod subscriptions;
 mod tools;
 pub mod transport;
+mod viewer_relay;
 
 
 use std::sync::{Arc, LazyLock};
@@ -81,6 +84,8 @@ pub struct PhysicsServer {
     session: u64,
     /// This session's logging level (`logging/setLevel`).
     log: logging::SessionLog,
+    /// Whether this server runs calls other nodes forwarded (it never forwards them again).
+    forwarded: bool,
     tool_router: ToolRouter<PhysicsServer>,
 }
 
@@ -95,8 +100,20 @@ impl PhysicsServer {
             viewer_base: None,
             session: NEXT_SESSION.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             log: logging::SessionLog::default(),
+            forwarded: false,
             tool_router: Self::tools(),
         }
+    }
+
+    /// The server that runs calls forwarded from other nodes (`forwarded`): it runs them here
+    /// whatever the lease says (the owner checked it), and its log lines at `warning` and
+    /// above (a snapshot stall) travel back to the caller, who passes them to its client at
+    /// that client's level (refusals the caller logs itself, from the answer).
+    fn for_forwarded_calls(&self) -> Self {
+        let log = logging::SessionLog::default();
+        #[allow(deprecated)]
+        log.set(LoggingLevel::Warning);
+        Self { forwarded: true, log, ..self.clone() }
     }
 
     /// Every tool, with plain input and output schemas. Built once per process: a session
@@ -196,7 +213,7 @@ impl PhysicsServer {
         .await
         .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?;
         if moved {
-            self.sessions.subscriptions().head_moved(&id);
+            self.sessions.head_moved(&id);
         }
         out
     }
@@ -322,6 +339,18 @@ impl PhysicsServer {
     }
 }
 
+/// A tool call's params as forwarded: as the client sent them, with the request's `_meta`
+/// (so a progress token reaches the owner's progress reports).
+fn call_params(request: &CallToolRequestParams, cx: &RequestContext<RoleServer>) -> serde_json::Value {
+    let mut params = serde_json::to_value(request).unwrap_or_default();
+    if let (Some(p), Ok(meta)) = (params.as_object_mut(), serde_json::to_value(&cx.meta)) {
+        if meta.as_object().is_some_and(|m| !m.is_empty()) {
+            p.insert("_meta".into(), meta);
+        }
+    }
+    params
+}
+
 // rmcp marks MCP logging and resources/subscribe deprecated (SEP-2577, 2026-07-28); clients
 // of 2025-11-25 and before still use them, so this server keeps serving them.
 #[allow(deprecated)]
@@ -359,7 +388,19 @@ impl ServerHandler for PhysicsServer {
         let tool = request.name.clone();
         let sim_id = request.arguments.as_ref().and_then(|a| a.get("sim_id")).and_then(|v| v.as_str()).map(str::to_owned);
         let read_only = self.tool_router.map.get(tool.as_ref()).and_then(|r| r.attr.annotations.as_ref()).and_then(|a| a.read_only_hint) == Some(true);
-        let response = match self.tool_router.call(ToolCallContext::new(self, request, cx)).await? {
+        let routed = match sim_id.as_deref() {
+            Some(id) => self.route(routing::Outgoing { sim: id, method: "tools/call", params: call_params(&request, &cx), peer: Some(peer.clone()), ct: cx.ct.clone() }).await,
+            None => routing::Routed::Here,
+        };
+        let answered = match routed {
+            routing::Routed::Here => self.tool_router.call(ToolCallContext::new(self, request, cx)).await?,
+            routing::Routed::Answered(answer) => {
+                let result = answer.and_then(|v| serde_json::from_value::<CallToolResult>(v).map_err(|e| ErrorData::internal_error(format!("Internal error: the owner's answer could not be read: {e}"), None)))?;
+                CallToolResponse::Complete(result)
+            }
+            routing::Routed::Lost(why) => CallToolResponse::Complete(CallToolResult::error(vec![rmcp::model::ContentBlock::text(why)])),
+        };
+        let response = match answered {
             CallToolResponse::Complete(r) => CallToolResponse::Complete(reply::fit(&tool, r, self.reg.limits().max_reply_bytes, read_only)),
             other => other,
         };
@@ -446,6 +487,21 @@ impl ServerHandler for PhysicsServer {
         request: ReadResourceRequestParams,
         _cx: RequestContext<RoleServer>,
     ) -> Result<ReadResourceResponse, ErrorData> {
+        if let Some(id) = resources::sim_of_uri(&request.uri) {
+            let params = serde_json::to_value(&request).unwrap_or_default();
+            let out = routing::Outgoing { sim: &id, method: "resources/read", params, peer: None, ct: _cx.ct.clone() };
+            match self.route(out).await {
+                routing::Routed::Here => {}
+                routing::Routed::Answered(answer) => {
+                    return answer.and_then(|v| {
+                        serde_json::from_value::<rmcp::model::ReadResourceResult>(v)
+                            .map(Into::into)
+                            .map_err(|e| ErrorData::internal_error(format!("Internal error: the owner's answer could not be read: {e}"), None))
+                    });
+                }
+                routing::Routed::Lost(why) => return Err(ErrorData::internal_error(why, Some(json!({"uri": request.uri})))),
+            }
+        }
         self.read_sim_resource(request.uri).await.map(Into::into)
     }
 

@@ -66,6 +66,11 @@ impl Part {
 }
 
 /// Splits `sim://{id}/{part}`.
+/// The simulation a `sim://` resource URI names (for routing a read to its owner).
+pub(super) fn sim_of_uri(uri: &str) -> Option<String> {
+    parse(uri).ok().map(|(id, _)| id.to_string())
+}
+
 fn parse(uri: &str) -> Result<(&str, Part), String> {
     let rest = uri
         .strip_prefix("sim://")
@@ -187,14 +192,36 @@ impl PhysicsServer {
 }
 
 /// What every session of one server shares: the live sessions' peers (for resource-list
-/// notifications) and the resource subscriptions.
+/// notifications) and the resource subscriptions — and, in a cluster, the other nodes, told
+/// of every change here so their subscribers hear it too (`forwarded::hear`).
 #[derive(Clone, Default)]
 pub struct Sessions {
     peers: Arc<Mutex<Vec<Peer<RoleServer>>>>,
     subscriptions: Subscriptions,
+    cluster: Option<Arc<crate::cluster::Cluster>>,
 }
 
 impl Sessions {
+    /// The sessions of a server whose registry may be a cluster node's.
+    pub fn of(reg: &crate::sim::Registry) -> Sessions {
+        Sessions { cluster: reg.cluster().cloned(), ..Sessions::default() }
+    }
+
+    /// A simulation's head moved here: this node's subscribers hear it (paced), and so do
+    /// the other nodes'.
+    pub fn head_moved(&self, id: &str) {
+        self.subscriptions.head_moved(id);
+        self.tell("moved", id);
+    }
+
+    /// Tells the other nodes of a change here (in the background).
+    fn tell(&self, what: &'static str, payload: &str) {
+        if let Some(cluster) = self.cluster.clone() {
+            let payload = payload.to_string();
+            tokio::spawn(async move { cluster.tell(what, payload).await });
+        }
+    }
+
     /// Remembers a session once its client has initialized.
     pub fn join(&self, peer: Peer<RoleServer>) {
         if let Ok(mut peers) = self.peers.lock() {
@@ -208,10 +235,16 @@ impl Sessions {
         &self.subscriptions
     }
 
-    /// Tells every live session (and every `subscriptions/listen` stream that asked) that the
-    /// resource list changed (a simulation came or went). Sent in the background: a slow or
-    /// gone client never holds up the tool's reply.
+    /// A simulation came or went here: every session on every node hears it.
     pub fn resource_list_changed(&self) {
+        self.notify_list_changed();
+        self.tell("listed", "");
+    }
+
+    /// Tells every live session here (and every `subscriptions/listen` stream that asked)
+    /// that the resource list changed. Sent in the background: a slow or gone client never
+    /// holds up the tool's reply.
+    pub fn notify_list_changed(&self) {
         let peers: Vec<Peer<RoleServer>> = match self.peers.lock() {
             Ok(mut peers) => {
                 peers.retain(|p| !p.is_transport_closed());

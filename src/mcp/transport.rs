@@ -193,16 +193,20 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         .with_allowed_origins(origins)
         .with_cancellation_token(ct.child_token());
     let server_reg = reg.clone();
-    let sessions = Sessions::default();
+    let sessions = Sessions::of(&reg);
     let viewer_base: Arc<str> = Arc::from(format!("http://{local}"));
     let manager = session_manager(opts.max_sessions);
+    if let Some(cluster) = reg.cluster() {
+        let template = PhysicsServer::new(reg.clone(), sessions.clone()).with_viewer(viewer_base.clone());
+        super::forwarded::start(template, cluster.clone());
+    }
     let service = StreamableHttpService::new(
         move || Ok(PhysicsServer::new(server_reg.clone(), sessions.clone()).with_viewer(viewer_base.clone())),
         manager,
         config,
     );
     let token: Option<Arc<str>> = opts.token.as_deref().map(Arc::from);
-    let viewer = crate::seeing::viewer::router(reg.clone())
+    let viewer = super::viewer_relay::relayed(crate::seeing::viewer::router(reg.clone()), &reg)
         .route_layer(middleware::from_fn_with_state(Arc::new(hosts_for_viewer), require_known_host));
     let mcp = axum::Router::new()
         .nest_service("/mcp", service)
@@ -231,7 +235,11 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
 
 /// Serves MCP over stdin/stdout (logs go to stderr) until stdin closes.
 pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
-    let service = PhysicsServer::new(reg.clone(), Sessions::default())
+    let sessions = Sessions::of(&reg);
+    if let Some(cluster) = reg.cluster() {
+        super::forwarded::start(PhysicsServer::new(reg.clone(), sessions.clone()), cluster.clone());
+    }
+    let service = PhysicsServer::new(reg.clone(), sessions)
         .serve(rmcp::transport::stdio())
         .await?;
     // Input ended (the client went away) or a signal: either way, stop and flush.

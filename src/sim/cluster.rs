@@ -13,7 +13,9 @@ use crate::log::EventLog;
 use crate::sim::{remove_log_files, sim_not_found, Registry, SharedSim, Sim};
 use crate::value::Refusal;
 
-/// The standard "owned elsewhere" sentence (forwarding calls between live nodes is not built).
+/// The "owned elsewhere" sentence: what a call gets that reached a node while another node's
+/// lease lived and the owner took none of its attempts (`mcp::routing` forwards calls to live
+/// owners and waits out a dead one's lease first, so a client rarely sees it).
 pub fn owned_elsewhere(id: &str, node: &str) -> Refusal {
     format!("Simulation {id} is owned by node {node}; send calls for it to that node (a node takes a simulation over only once its owner's lease lapses)")
 }

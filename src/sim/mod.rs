@@ -763,6 +763,11 @@ impl Registry {
         self.lookup(id).ok_or_else(|| sim_not_found(id))
     }
 
+    /// The cluster this registry is a node of, if any.
+    pub fn cluster(&self) -> Option<&Arc<crate::cluster::Cluster>> {
+        self.cluster.as_ref()
+    }
+
     /// Whether this registry is a cluster node (its `get` may then wait on the cluster).
     pub fn in_cluster(&self) -> bool {
         self.cluster.is_some()

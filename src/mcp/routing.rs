@@ -1,0 +1,238 @@
+//! Any node answers any call (cluster mode, docs/cluster.md "Routing"): a call naming a
+//! simulation another live node owns is forwarded to that node over NATS and its answer passed
+//! back — progress and log lines on the way, the client's cancellation the other way. A
+//! simulation without a live owner is served here (taken over). Embedded, nothing changes.
+//!
+//! A forwarded call costs one NATS round trip, not a refold: the owner runs it exactly as if
+//! its client had sent it there (`forwarded`). Retries are safe: every attempt of one call
+//! carries one call id, which the owner runs at most once, and a node that lost the lease
+//! runs nothing (its appends are fenced besides).
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use async_nats::HeaderMap;
+use futures_util::StreamExt;
+use rmcp::model::{ErrorData, ServerJsonRpcMessage, ServerNotification};
+use rmcp::{Peer, RoleServer};
+use serde_json::Value;
+use tokio_util::sync::CancellationToken;
+
+use super::PhysicsServer;
+use crate::cluster::calls::{self, Kind};
+use crate::cluster::Cluster;
+
+/// How long a call waits for an owner to take it before asking again (the owner may be
+/// paused, or gone without NATS having noticed yet).
+const ACCEPT_WITHIN: Duration = Duration::from_secs(2);
+/// The pause between two attempts while an owner cannot be reached and its lease lives.
+const RETRY_PAUSE: Duration = Duration::from_millis(100);
+
+/// What became of a call sent to another node.
+pub(super) enum Routed {
+    /// Run here: this node owns the simulation, nobody does (it is taken over here), or this
+    /// is not a cluster.
+    Here,
+    /// The owner's answer: a JSON-RPC result, or its error.
+    Answered(Result<Value, ErrorData>),
+    /// The owner took the call and then went silent: its outcome is unknown (the sentence).
+    Lost(String),
+}
+
+/// A call on its way: what to send and to whom the notes go.
+pub(super) struct Outgoing<'a> {
+    /// The simulation the call is for.
+    pub sim: &'a str,
+    /// The JSON-RPC method and its params (with `_meta`, so a progress token travels).
+    pub method: &'static str,
+    pub params: Value,
+    /// The caller's client, for progress and log notes (none: a resource read).
+    pub peer: Option<Peer<RoleServer>>,
+    /// The caller's cancellation.
+    pub ct: CancellationToken,
+}
+
+impl PhysicsServer {
+    /// Where a call for `out.sim` runs: here, or at its owner (its answer).
+    pub(super) async fn route(&self, out: Outgoing<'_>) -> Routed {
+        let Some(cluster) = self.reg.cluster().cloned() else { return Routed::Here };
+        if self.forwarded {
+            return Routed::Here;
+        }
+        let call = uuid::Uuid::new_v4().to_string();
+        let request = serde_json::json!({"jsonrpc": "2.0", "id": 1, "method": out.method, "params": out.params});
+        let payload: bytes::Bytes = serde_json::to_vec(&request).unwrap_or_default().into();
+        let give_up = Instant::now() + cluster.config().lease + Duration::from_secs(5);
+        let mut line: Option<Line> = None;
+        loop {
+            if self.reg.get_local(out.sim).is_some() && cluster.held_epoch(out.sim).is_some() {
+                return Routed::Here;
+            }
+            let owner = match cluster.lease_holder(out.sim).await {
+                Ok(Some(owner)) if owner != cluster.config().node => owner,
+                // Nobody holds it (taken over here), this node does, or the cluster cannot say
+                // (the call here will say so).
+                _ => return Routed::Here,
+            };
+            // One inbox for every attempt of this call: a late answer to an earlier attempt
+            // is still heard.
+            if line.as_ref().is_none_or(|l| l.owner != owner) {
+                match Line::open(&cluster, &owner, &call).await {
+                    Ok(l) => line = Some(l),
+                    Err(_) => return Routed::Here,
+                }
+            }
+            let l = line.as_mut().expect("opened above");
+            let notes = |note: &[u8]| {
+                if let Some(peer) = &out.peer {
+                    self.relay_note(note, peer);
+                }
+            };
+            match l.send(&cluster, (out.sim, payload.clone()), &out.ct, &notes).await {
+                Attempt::Done(routed) => return routed,
+                Attempt::Unserved if Instant::now() < give_up => tokio::time::sleep(RETRY_PAUSE).await,
+                // The owner's lease outlived the wait: the call here refuses, naming it.
+                Attempt::Unserved => return Routed::Here,
+            }
+        }
+    }
+
+    /// Sends a note from the owner on to this call's client: progress as it came, a log line
+    /// through this session's level.
+    fn relay_note(&self, note: &[u8], peer: &Peer<RoleServer>) {
+        let Ok(ServerJsonRpcMessage::Notification(n)) = serde_json::from_slice::<ServerJsonRpcMessage>(note) else { return };
+        match n.notification {
+            ServerNotification::ProgressNotification(p) => {
+                let peer = peer.clone();
+                tokio::spawn(async move {
+                    let _ = peer.notify_progress(p.params).await;
+                });
+            }
+            #[allow(deprecated)]
+            ServerNotification::LoggingMessageNotification(m) => self.log.send(peer, m.params.level, m.params.data),
+            _ => {}
+        }
+    }
+}
+
+/// What one attempt came to.
+enum Attempt {
+    Done(Routed),
+    /// Nobody took the call (no such node, not the owner, no answer in time): ask again.
+    Unserved,
+}
+
+/// The caller's end of a call to one owner: its inbox subscription.
+struct Line {
+    owner: String,
+    inbox: String,
+    replies: async_nats::Subscriber,
+    client: async_nats::Client,
+    /// Published to when the client cancels (also when this call is dropped unanswered).
+    cancel: String,
+}
+
+impl Line {
+    async fn open(cluster: &Arc<Cluster>, owner: &str, call: &str) -> Result<Line, String> {
+        let client = cluster.nats();
+        let inbox = client.new_inbox();
+        let replies = client.subscribe(inbox.clone()).await.map_err(|e| e.to_string())?;
+        Ok(Line { owner: owner.to_string(), inbox, replies, client, cancel: cluster.cancel_subject(call) })
+    }
+
+    /// Sends the call once and follows its answer.
+    async fn send(&mut self, cluster: &Cluster, (sim, payload): (&str, bytes::Bytes), ct: &CancellationToken, notes: &(dyn Fn(&[u8]) + Sync)) -> Attempt {
+        let mut headers = HeaderMap::new();
+        headers.insert(calls::CALL, self.cancel.rsplit('.').next().unwrap_or_default());
+        headers.insert(calls::SIM, sim);
+        let sent = self
+            .client
+            .publish_with_reply_and_headers(cluster.calls_subject(&self.owner), self.inbox.clone(), headers, payload)
+            .await;
+        if sent.is_err() {
+            return Attempt::Unserved;
+        }
+        let mut guard = CancelOnDrop { client: self.client.clone(), subject: self.cancel.clone(), armed: false };
+        let mut accepted = false;
+        let mut cancelled = false;
+        let mut answer = Vec::new();
+        loop {
+            let wait = if accepted { cluster.silence_limit() } else { ACCEPT_WITHIN };
+            let next = tokio::select! {
+                m = tokio::time::timeout(wait, self.replies.next()) => m,
+                _ = ct.cancelled(), if !cancelled => {
+                    cancelled = true;
+                    guard.fire().await;
+                    continue;
+                }
+            };
+            let message = match next {
+                Ok(Some(m)) => m,
+                Ok(None) | Err(_) if !accepted => return Attempt::Unserved,
+                Ok(None) | Err(_) => {
+                    guard.armed = false;
+                    return Attempt::Done(Routed::Lost(format!(
+                        "Simulation {sim}'s owner, node {}, stopped answering during this call; whether it was recorded is unknown (get_history tells once the simulation is served again)",
+                        self.owner
+                    )));
+                }
+            };
+            if message.status == Some(async_nats::StatusCode::NO_RESPONDERS) {
+                return Attempt::Unserved;
+            }
+            match Kind::of(&message) {
+                Some(Kind::Accepted) => {
+                    accepted = true;
+                    guard.armed = true;
+                }
+                Some(Kind::NotOwner) => return Attempt::Unserved,
+                Some(Kind::Beat) if cancelled => guard.fire().await,
+                Some(Kind::Beat) | None => {}
+                Some(Kind::Note) => notes(&message.payload),
+                Some(Kind::Part) => answer.extend_from_slice(&message.payload),
+                Some(Kind::Last) => {
+                    guard.armed = false;
+                    answer.extend_from_slice(&message.payload);
+                    return Attempt::Done(Routed::Answered(response_of(&answer)));
+                }
+            }
+        }
+    }
+}
+
+/// The result (or error) of a JSON-RPC response.
+fn response_of(bytes: &[u8]) -> Result<Value, ErrorData> {
+    let broken = || ErrorData::internal_error("Internal error: the owner's answer could not be read", None);
+    match serde_json::from_slice::<ServerJsonRpcMessage>(bytes).map_err(|_| broken())? {
+        ServerJsonRpcMessage::Response(r) => serde_json::to_value(&r.result).map_err(|_| broken()),
+        ServerJsonRpcMessage::Error(e) => Err(e.error),
+        _ => Err(broken()),
+    }
+}
+
+/// Tells the owner to stop a call when the client cancels — or when this side stops waiting
+/// for an accepted call (the caller's request was dropped).
+struct CancelOnDrop {
+    client: async_nats::Client,
+    subject: String,
+    armed: bool,
+}
+
+impl CancelOnDrop {
+    async fn fire(&self) {
+        let _ = self.client.publish(self.subject.clone(), bytes::Bytes::new()).await;
+    }
+}
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        if self.armed {
+            let (client, subject) = (self.client.clone(), self.subject.clone());
+            if let Ok(rt) = tokio::runtime::Handle::try_current() {
+                rt.spawn(async move {
+                    let _ = client.publish(subject, bytes::Bytes::new()).await;
+                });
+            }
+        }
+    }
+}
