@@ -89,6 +89,16 @@ async fn take_over(b: &Node, sim: &str, frozen_at: Instant) -> (Client, Vec<Sent
     }
 }
 
+/// Thaws a frozen process when dropped, so a failing test does not leave its node stopped
+/// (its sockets open, its clients waiting) while the test unwinds.
+struct ThawOnDrop(u32);
+
+impl Drop for ThawOnDrop {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("kill").args(["-CONT", &self.0.to_string()]).status();
+    }
+}
+
 /// "1.2ms before" / "3s after": when `t` was, next to `mark`.
 fn relative(t: Instant, mark: Instant) -> String {
     match t.checked_duration_since(mark) {
@@ -124,6 +134,7 @@ async fn a_thawed_former_owner_neither_answers_stale_nor_writes() {
     tokio::time::sleep(Duration::from_millis(400)).await;
     signal(a.pid(), "STOP");
     let frozen_at = Instant::now();
+    let _thaw = ThawOnDrop(a.pid());
     let (cb, b_calls) = take_over(&b, &sim, frozen_at).await;
     eprintln!("B took over {:?} after the freeze ({} attempts)", frozen_at.elapsed(), b_calls.len());
     tokio::time::sleep(FROZEN_AT_LEAST.saturating_sub(frozen_at.elapsed())).await;

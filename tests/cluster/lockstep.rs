@@ -5,7 +5,7 @@
 //! `sim#N` by its order of first appearance on that side; fields that may legitimately differ
 //! are dropped (`VOLATILE`).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::time::Duration;
 
 use serde_json::{Map, Value};
@@ -236,17 +236,23 @@ fn sort_key(renamed: &str) -> (usize, String) {
     (renamed.strip_prefix("sim#").and_then(|n| n.parse().ok()).unwrap_or(usize::MAX), renamed.to_string())
 }
 
+/// Calls a difference report lists before the one that differed.
+const RECENT: usize = 16;
+
 /// The two servers, the calls made so far, and per tool how many were accepted and refused.
 pub struct Lockstep {
     pub a: Side,
     pub b: Side,
     pub calls: usize,
     pub tally: BTreeMap<String, (usize, usize)>,
+    /// The last `RECENT` calls (their templates, and server a's answer renamed), for a
+    /// difference report.
+    recent: VecDeque<String>,
 }
 
 impl Lockstep {
     pub fn new(a: Side, b: Side) -> Lockstep {
-        Lockstep { a, b, calls: 0, tally: BTreeMap::new() }
+        Lockstep { a, b, calls: 0, tally: BTreeMap::new(), recent: VecDeque::new() }
     }
 
     /// Makes one call on both servers (slot placeholders bound per server), panics at the first
@@ -254,15 +260,27 @@ impl Lockstep {
     pub async fn call(&mut self, tool: &str, template: Value) -> Outcome {
         let (oa, ob) = tokio::join!(self.a.call(tool, &template), self.b.call(tool, &template));
         let (na, nb) = (self.a.normalise(tool, &oa), self.b.normalise(tool, &ob));
+        // The template names simulations by slot (`$sim:N`, the script's numbering).
+        let args = &template;
         assert!(
             na == nb,
-            "call #{} {tool} {template} differs:\n  {}: {}\n  {}: {}",
+            "call #{} {tool} {args} differs:\n  {}: {}\n  {}: {}\nthe calls before it:\n{}",
             self.calls,
             self.a.label,
             na,
             self.b.label,
-            nb
+            nb,
+            self.recent.iter().map(|c| format!("  {c}")).collect::<Vec<_>>().join("\n")
         );
+        let mut said = na.to_string();
+        if said.len() > 240 {
+            said.truncate(said.char_indices().nth(240).map_or(said.len(), |(i, _)| i));
+            said.push('…');
+        }
+        self.recent.push_back(format!("#{} {tool} {args} → {said}", self.calls));
+        if self.recent.len() > RECENT {
+            self.recent.pop_front();
+        }
         self.a.register(tool, &oa);
         self.b.register(tool, &ob);
         assert_eq!(self.a.sims.len(), self.b.sims.len());

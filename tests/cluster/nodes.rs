@@ -226,7 +226,7 @@ pub fn wait_exited(pid: u32) {
 
 /// Runs the physics-mcp binary with `args` and returns its output.
 pub fn cli(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_physics-mcp")).args(args).output().expect("run physics-mcp")
+    Command::new(crate::common::bin()).args(args).output().expect("run physics-mcp")
 }
 
 /// Panics with the command's output unless it exited 0.
