@@ -89,7 +89,6 @@ async fn owners_killed_behind_a_round_robin_balancer_lose_no_acknowledged_call()
             let (tool, args) = stream.next_call();
             calls += 1;
             let outcome = attempt(&clients[to], tool, args.clone(), CALL_LIMIT).await;
-            ledger.record(tool, &outcome);
             let node = &nodes[to].name;
             match (&outcome, killed) {
                 // Sent after the kill: must be answered.
@@ -97,13 +96,18 @@ async fn owners_killed_behind_a_round_robin_balancer_lose_no_acknowledged_call()
                     answered_after += 1;
                     first_answer.get_or_insert(k.elapsed());
                 }
-                (other, Some(_)) => panic!("round {round}: node {node} answered {tool} {args}, sent after the owner {} was killed, with {other:?}", nodes[owner].name),
+                (other, Some(k)) => panic!(
+                    "round {round}: node {node} answered {tool} {args}, sent after the owner {} was killed, with {other:?} {:?} after the kill",
+                    nodes[owner].name,
+                    k.elapsed()
+                ),
                 // Sent before the kill (or while it happened).
                 (Outcome::Ok(_), None) => {}
                 (Outcome::Lost(_), None) if to == owner => in_flight_unknown += 1,
                 (Outcome::Refused(e), None) if to != owner && stopped_answering(e) => in_flight_unknown += 1,
                 (other, None) => panic!("round {round}: node {node} answered {tool} {args} with {other:?} (the owner {} was being killed)", nodes[owner].name),
             }
+            ledger.record(tool, &outcome);
         }
         timer.join().expect("kill timer");
         let took = first_answer.expect("an answer after the kill");

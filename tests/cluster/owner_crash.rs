@@ -36,11 +36,12 @@ async fn stream_until_killed(c: &Client, pid: u32, after: Duration, stream: &mut
     loop {
         let (tool, args) = stream.next_call();
         let outcome = attempt(c, tool, args.clone(), CALL_LIMIT).await;
+        if let Outcome::Refused(e) = &outcome {
+            panic!("the owner refused {tool} {args}: {e}");
+        }
         ledger.record(tool, &outcome);
-        match outcome {
-            Outcome::Ok(_) => {}
-            Outcome::Lost(_) => break,
-            Outcome::Refused(e) => panic!("the owner refused {tool} {args}: {e}"),
+        if let Outcome::Lost(_) = outcome {
+            break;
         }
     }
     timer.join().expect("kill timer")
@@ -53,12 +54,12 @@ async fn take_over(survivor: &Node, killed_at: Instant, stream: &mut Stream, led
     let c = survivor.client().await;
     let (tool, args) = stream.next_call();
     let outcome = attempt(&c, tool, args.clone(), CALL_LIMIT).await;
-    ledger.record(tool, &outcome);
+    let took = killed_at.elapsed();
     match &outcome {
         Outcome::Ok(_) => {}
-        other => panic!("node {} answered {tool} {args}, sent after the owner was killed, with {other:?}", survivor.name),
+        other => panic!("node {} answered {tool} {args}, sent after the owner was killed, with {other:?} {took:?} after the kill", survivor.name),
     }
-    let took = killed_at.elapsed();
+    ledger.record(tool, &outcome);
     assert!(took < TAKEOVER_WITHIN, "node {} took {took:?} after the kill to answer", survivor.name);
     took
 }
