@@ -9,7 +9,7 @@
 //! - The owner answers on that inbox: `accepted` (it holds S and runs the call), or `not-owner`;
 //!   then `beat`s while the call runs, `note`s (progress, log lines), and the answer in `part`s
 //!   ending with `last` (an answer of up to the 1 MiB reply budget does not fit one message).
-//! - A caller whose client cancels publishes to `{ns}.cancel.{call}`.
+//! - A caller whose client cancels publishes to `{ns}.cancel.{node}.{call}`.
 //! - Head moves and simulations coming or going are told to every node on `{ns}.news.*`, so
 //!   subscribers on any node hear of changes made on any other.
 
@@ -87,9 +87,34 @@ impl Cluster {
         format!("{}.call.{node}", self.config.namespace)
     }
 
-    /// Where a forwarded call's cancellation is sent.
-    pub fn cancel_subject(&self, call: &str) -> String {
-        format!("{}.cancel.{call}", self.config.namespace)
+    /// Where the cancellation of a call forwarded to `node` is sent (`*` for `call`: every
+    /// cancellation for that node, which it subscribes to once).
+    pub fn cancel_subject(&self, node: &str, call: &str) -> String {
+        format!("{}.cancel.{node}.{call}", self.config.namespace)
+    }
+
+    /// The node last seen holding `id`'s lease (a hint: a call sent there on it is refused
+    /// with `not-owner` if the lease moved, and the lease is read again).
+    pub fn owner_hint(&self, id: &str) -> Option<String> {
+        self.owners.lock().unwrap_or_else(|p| p.into_inner()).get(id).cloned()
+    }
+
+    /// Remembers (or, with none, forgets) the node holding `id`'s lease.
+    pub fn note_owner(&self, id: &str, owner: Option<&str>) {
+        let mut owners = self.owners.lock().unwrap_or_else(|p| p.into_inner());
+        match owner {
+            Some(node) => {
+                // A bound, not a cache policy: a node routing to many simulations forgets
+                // hints wholesale and reads the leases again.
+                if owners.len() >= 100_000 {
+                    owners.clear();
+                }
+                owners.insert(id.to_string(), node.to_string());
+            }
+            None => {
+                owners.remove(id);
+            }
+        }
     }
 
     /// Where news of one kind (`moved`, `listed`) reaches every node.
@@ -154,6 +179,5 @@ pub async fn answer_whole(client: &async_nats::Client, inbox: &str, bytes: Vec<u
         answer(client, inbox, Kind::Part, bytes.slice(start..start + PART)).await?;
         start += PART;
     }
-    answer(client, inbox, Kind::Last, bytes.slice(start..)).await?;
-    client.flush().await.map_err(|e| e.to_string())
+    answer(client, inbox, Kind::Last, bytes.slice(start..)).await
 }

@@ -75,6 +75,8 @@ pub struct Cluster {
     objects: object_store::ObjectStore,
     config: ClusterConfig,
     held: Arc<Mutex<HashMap<String, lease::Held>>>,
+    /// Where calls for simulations other nodes own were last sent (`calls::owner_hint`).
+    owners: Mutex<HashMap<String, String>>,
 }
 
 impl Drop for Cluster {
@@ -208,6 +210,7 @@ impl Cluster {
             objects,
             config,
             held: Arc::default(),
+            owners: Mutex::default(),
         });
         lease::start_renewing(&cluster);
         Ok(cluster)

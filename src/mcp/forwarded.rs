@@ -29,13 +29,22 @@ const REMEMBER: Duration = Duration::from_secs(600);
 pub fn start(server: PhysicsServer, cluster: Arc<Cluster>) {
     let server = server.for_forwarded_calls();
     let sessions = server.sessions.clone();
-    let seen: Arc<Mutex<HashMap<String, Instant>>> = Arc::default();
-    let c = cluster.clone();
+    let running = Running::default();
+    let (c, r) = (cluster.clone(), running.clone());
     tokio::spawn(async move {
-        let Some(mut calls) = subscribe(&c, c.calls_subject(&c.config().node)).await else { return };
-        while let Some(message) = calls.next().await {
-            let (server, cluster, seen) = (server.clone(), c.clone(), seen.clone());
-            tokio::spawn(async move { serve_one(server, cluster, message, seen).await });
+        let me = c.config().node.clone();
+        let Some(mut calls) = subscribe(&c, c.calls_subject(&me)).await else { return };
+        // Every cancellation for this node on one subscription (`Running::cancel`).
+        let Some(mut cancels) = subscribe(&c, c.cancel_subject(&me, "*")).await else { return };
+        loop {
+            tokio::select! {
+                Some(message) = calls.next() => {
+                    let (server, cluster, running) = (server.clone(), c.clone(), r.clone());
+                    tokio::spawn(async move { serve_one(server, cluster, message, running).await });
+                }
+                Some(cancel) = cancels.next() => r.cancel(cancel.subject.rsplit('.').next().unwrap_or_default()),
+                else => return,
+            }
         }
     });
     tokio::spawn(async move {
@@ -71,28 +80,70 @@ fn hear(sessions: &Sessions, cluster: &Cluster, message: &async_nats::Message) {
     }
 }
 
+/// The forwarded calls this node has taken: each id (remembered for `REMEMBER`, so a retry
+/// is not run again) with its cancellation.
+#[derive(Clone, Default)]
+struct Running(Arc<Mutex<Taken>>);
+
+#[derive(Default)]
+struct Taken {
+    calls: HashMap<String, CancellationToken>,
+    /// The ids in the order taken, to forget them `REMEMBER` later without a scan.
+    order: std::collections::VecDeque<(Instant, String)>,
+}
+
+impl Running {
+    fn taken(&self) -> std::sync::MutexGuard<'_, Taken> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Takes call `id` unless it was taken before; its cancellation token.
+    fn take(&self, id: &str) -> Option<CancellationToken> {
+        let mut taken = self.taken();
+        while taken.order.front().is_some_and(|(at, _)| at.elapsed() >= REMEMBER) {
+            if let Some((_, old)) = taken.order.pop_front() {
+                taken.calls.remove(&old);
+            }
+        }
+        if taken.calls.contains_key(id) {
+            return None;
+        }
+        let ct = CancellationToken::new();
+        taken.calls.insert(id.to_string(), ct.clone());
+        taken.order.push_back((Instant::now(), id.to_string()));
+        Some(ct)
+    }
+
+    /// Forgets call `id` (it was not run: it may be sent again).
+    fn drop_call(&self, id: &str) {
+        self.taken().calls.remove(id);
+    }
+
+    /// The caller's client cancelled call `id`.
+    fn cancel(&self, id: &str) {
+        if let Some(ct) = self.taken().calls.get(id) {
+            ct.cancel();
+        }
+    }
+}
+
 /// Runs one forwarded call (at most once per call id) and answers it.
-async fn serve_one(server: PhysicsServer, cluster: Arc<Cluster>, message: async_nats::Message, seen: Arc<Mutex<HashMap<String, Instant>>>) {
+async fn serve_one(server: PhysicsServer, cluster: Arc<Cluster>, message: async_nats::Message, running: Running) {
     let Some(inbox) = message.reply.as_ref().map(|r| r.to_string()) else { return };
     let (Some(call), Some(sim)) = (header(&message, calls::CALL), header(&message, calls::SIM)) else { return };
-    {
-        let mut seen = seen.lock().unwrap_or_else(|p| p.into_inner());
-        seen.retain(|_, at| at.elapsed() < REMEMBER);
-        // A retry of a call already taken: its answer goes to the same inbox.
-        if seen.contains_key(call) {
-            return;
-        }
-        seen.insert(call.to_string(), Instant::now());
-    }
+    // A retry of a call already taken: its answer goes to the same inbox.
+    let Some(ct) = running.take(call) else { return };
     let client = cluster.nats();
-    let (c, id) = (cluster.clone(), sim.to_string());
-    let owns = tokio::task::spawn_blocking(move || c.owns(&id)).await.unwrap_or(false);
+    // The lease, re-proved by compare-and-set (a blocking round trip) only if it lapsed here.
+    let owns = cluster.held_epoch(sim).is_some() || {
+        let (c, id) = (cluster.clone(), sim.to_string());
+        tokio::task::spawn_blocking(move || c.owns(&id)).await.unwrap_or(false)
+    };
     if !owns {
-        seen.lock().unwrap_or_else(|p| p.into_inner()).remove(call);
+        running.drop_call(call);
         let _ = answer(&client, &inbox, Kind::NotOwner, bytes::Bytes::new()).await;
         return;
     }
-    let Ok(mut cancels) = client.subscribe(cluster.cancel_subject(call)).await else { return };
     if answer(&client, &inbox, Kind::Accepted, bytes::Bytes::new()).await.is_err() {
         return;
     }
@@ -105,7 +156,6 @@ async fn serve_one(server: PhysicsServer, cluster: Arc<Cluster>, message: async_
         }
     };
     let (transport, mut out) = OneshotTransport::<RoleServer>::new(request);
-    let ct = CancellationToken::new();
     let service = rmcp::service::serve_directly_with_ct(server, transport, None, ct.clone());
     tokio::spawn(async move {
         let _ = service.waiting().await;
@@ -115,7 +165,9 @@ async fn serve_one(server: PhysicsServer, cluster: Arc<Cluster>, message: async_
     let last = loop {
         tokio::select! {
             m = out.recv() => match m {
-                Some(m @ (ServerJsonRpcMessage::Response(_) | ServerJsonRpcMessage::Error(_))) => break Some(m),
+                Some(m @ (ServerJsonRpcMessage::Response(_) | ServerJsonRpcMessage::Error(_))) => {
+                    break Some(m)
+                }
                 Some(note) => {
                     let _ = answer(&client, &inbox, Kind::Note, serde_json::to_vec(&note).unwrap_or_default().into()).await;
                 }
@@ -124,7 +176,6 @@ async fn serve_one(server: PhysicsServer, cluster: Arc<Cluster>, message: async_
             _ = beat.tick() => {
                 let _ = answer(&client, &inbox, Kind::Beat, bytes::Bytes::new()).await;
             }
-            Some(_) = cancels.next() => ct.cancel(),
         }
     };
     // Cancelled: the caller's client expects no answer, but the caller waits for one.

@@ -388,7 +388,8 @@ impl ServerHandler for PhysicsServer {
         let tool = request.name.clone();
         let sim_id = request.arguments.as_ref().and_then(|a| a.get("sim_id")).and_then(|v| v.as_str()).map(str::to_owned);
         let read_only = self.tool_router.map.get(tool.as_ref()).and_then(|r| r.attr.annotations.as_ref()).and_then(|a| a.read_only_hint) == Some(true);
-        let routed = match sim_id.as_deref() {
+        // Only a cluster node forwards (the params are copied for it; embedded, nothing is).
+        let routed = match sim_id.as_deref().filter(|_| self.routes()) {
             Some(id) => self.route(routing::Outgoing { sim: id, method: "tools/call", params: call_params(&request, &cx), peer: Some(peer.clone()), ct: cx.ct.clone() }).await,
             None => routing::Routed::Here,
         };
@@ -487,7 +488,7 @@ impl ServerHandler for PhysicsServer {
         request: ReadResourceRequestParams,
         _cx: RequestContext<RoleServer>,
     ) -> Result<ReadResourceResponse, ErrorData> {
-        if let Some(id) = resources::sim_of_uri(&request.uri) {
+        if let Some(id) = resources::sim_of_uri(&request.uri).filter(|_| self.routes()) {
             let params = serde_json::to_value(&request).unwrap_or_default();
             let out = routing::Outgoing { sim: &id, method: "resources/read", params, peer: None, ct: _cx.ct.clone() };
             match self.route(out).await {

@@ -53,29 +53,44 @@ pub(super) struct Outgoing<'a> {
 }
 
 impl PhysicsServer {
+    /// Whether this server may send calls elsewhere: a cluster node's, serving its own clients
+    /// (a call another node forwarded here runs here).
+    pub(super) fn routes(&self) -> bool {
+        self.reg.in_cluster() && !self.forwarded
+    }
+
     /// Where a call for `out.sim` runs: here, or at its owner (its answer).
     pub(super) async fn route(&self, out: Outgoing<'_>) -> Routed {
-        let Some(cluster) = self.reg.cluster().cloned() else { return Routed::Here };
-        if self.forwarded {
-            return Routed::Here;
-        }
+        let Some(cluster) = self.reg.cluster().cloned().filter(|_| self.routes()) else { return Routed::Here };
         let call = uuid::Uuid::new_v4().to_string();
         let request = serde_json::json!({"jsonrpc": "2.0", "id": 1, "method": out.method, "params": out.params});
         let payload: bytes::Bytes = serde_json::to_vec(&request).unwrap_or_default().into();
         let give_up = Instant::now() + cluster.config().lease + Duration::from_secs(5);
         let mut line: Option<Line> = None;
+        // The owner last seen is tried first (no lease read); once it refuses, the lease.
+        let mut hint = cluster.owner_hint(out.sim);
         loop {
             if self.reg.get_local(out.sim).is_some() && cluster.held_epoch(out.sim).is_some() {
                 return Routed::Here;
             }
-            let owner = match cluster.lease_holder(out.sim).await {
-                Ok(Some(owner)) if owner != cluster.config().node => owner,
-                // Nobody holds it (taken over here), this node does, or the cluster cannot say
-                // (the call here will say so).
-                _ => return Routed::Here,
+            let hinted = hint.is_some();
+            let owner = match hint.take() {
+                Some(owner) => owner,
+                None => match cluster.lease_holder(out.sim).await {
+                    Ok(Some(owner)) if owner != cluster.config().node => {
+                        cluster.note_owner(out.sim, Some(&owner));
+                        owner
+                    }
+                    // Nobody holds it (taken over here), this node does, or the cluster cannot
+                    // say (the call here will say so).
+                    _ => {
+                        cluster.note_owner(out.sim, None);
+                        return Routed::Here;
+                    }
+                },
             };
-            // One inbox for every attempt of this call: a late answer to an earlier attempt
-            // is still heard.
+            // One inbox for every attempt of this call at one owner: a late answer to an
+            // earlier attempt is still heard.
             if line.as_ref().is_none_or(|l| l.owner != owner) {
                 match Line::open(&cluster, &owner, &call).await {
                     Ok(l) => line = Some(l),
@@ -90,9 +105,15 @@ impl PhysicsServer {
             };
             match l.send(&cluster, (out.sim, payload.clone()), &out.ct, &notes).await {
                 Attempt::Done(routed) => return routed,
-                Attempt::Unserved if Instant::now() < give_up => tokio::time::sleep(RETRY_PAUSE).await,
-                // The owner's lease outlived the wait: the call here refuses, naming it.
-                Attempt::Unserved => return Routed::Here,
+                Attempt::Unserved => cluster.note_owner(out.sim, None),
+            }
+            // A stale hint costs one refusal; a live lease whose holder does not answer, a pause.
+            if !hinted {
+                if Instant::now() >= give_up {
+                    // The owner's lease outlived the wait: the call here refuses, naming it.
+                    return Routed::Here;
+                }
+                tokio::time::sleep(RETRY_PAUSE).await;
             }
         }
     }
@@ -125,6 +146,7 @@ enum Attempt {
 /// The caller's end of a call to one owner: its inbox subscription.
 struct Line {
     owner: String,
+    call: String,
     inbox: String,
     replies: async_nats::Subscriber,
     client: async_nats::Client,
@@ -137,13 +159,13 @@ impl Line {
         let client = cluster.nats();
         let inbox = client.new_inbox();
         let replies = client.subscribe(inbox.clone()).await.map_err(|e| e.to_string())?;
-        Ok(Line { owner: owner.to_string(), inbox, replies, client, cancel: cluster.cancel_subject(call) })
+        Ok(Line { owner: owner.to_string(), call: call.to_string(), inbox, replies, client, cancel: cluster.cancel_subject(owner, call) })
     }
 
     /// Sends the call once and follows its answer.
     async fn send(&mut self, cluster: &Cluster, (sim, payload): (&str, bytes::Bytes), ct: &CancellationToken, notes: &(dyn Fn(&[u8]) + Sync)) -> Attempt {
         let mut headers = HeaderMap::new();
-        headers.insert(calls::CALL, self.cancel.rsplit('.').next().unwrap_or_default());
+        headers.insert(calls::CALL, self.call.as_str());
         headers.insert(calls::SIM, sim);
         let sent = self
             .client
