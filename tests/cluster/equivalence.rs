@@ -305,8 +305,9 @@ async fn refresh(run: &mut Lockstep, script: &mut Script, slot: usize) {
     }
 }
 
-/// Runs the script on two servers' clients; returns the live slots' ids on each.
-async fn lockstep(a: Side, b: Side, seed: u64) -> (Lockstep, Vec<usize>) {
+/// Runs the script on two servers' clients (or groups of nodes, tests/cluster/round_robin.rs);
+/// returns the run and the live slots.
+pub(crate) async fn lockstep(a: Side, b: Side, seed: u64) -> (Lockstep, Vec<usize>) {
     let mut run = Lockstep::new(a, b);
     let mut script = Script { rng: rng(seed), slots: Vec::new(), saves: 0 };
     run_script(&mut run, &mut script).await;
@@ -339,7 +340,7 @@ fn assert_covers(run: &Lockstep) {
 /// Compares two logs of the same simulation made by two servers, event for event, with ids
 /// renamed (each log's own renaming from `ia`/`ib`, the servers' directory renamings: the same
 /// when the logs agree).
-fn assert_same_events(a: &Path, b: &Path, mut ia: Ids, mut ib: Ids) {
+pub(crate) fn assert_same_events(a: &Path, b: &Path, mut ia: Ids, mut ib: Ids) {
     let (ea, eb) = (events(a), events(b));
     for (x, y) in ea.iter().zip(&eb) {
         let view = |e: &physics_mcp::log::sqlite::Event, ids: &mut Ids| {

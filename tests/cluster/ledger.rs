@@ -59,13 +59,19 @@ pub struct Ledger {
 }
 
 impl Ledger {
-    /// Notes a call's outcome. A refusal because another node owns the simulation applied
-    /// nothing (the contract); any other refusal or a lost reply is unknown.
+    /// Notes a call's outcome. A refusal or a lost reply is unknown: the owner a forwarded
+    /// call reached may have died with it ("stopped answering"), a node may have lost the
+    /// cluster's acknowledgement; the stream's calls are valid, so no refusal here is the
+    /// ordinary kind that changes nothing. (Part 1's "owned by another node" refusal, which did
+    /// change nothing, no longer exists: such a call is forwarded.)
     pub fn record(&mut self, tool: &str, outcome: &Outcome) {
         match outcome {
             Outcome::Ok(v) => self.acked.push((tool.to_string(), identity(tool, v))),
-            Outcome::Refused(e) if owned_elsewhere(e) => {}
-            Outcome::Refused(_) | Outcome::Lost(_) => self.unknown += 1,
+            Outcome::Refused(e) => {
+                assert!(!owned_elsewhere(e), "{tool} was refused as owned by another node, which routing forwards: {e}");
+                self.unknown += 1;
+            }
+            Outcome::Lost(_) => self.unknown += 1,
         }
     }
 

@@ -1,15 +1,17 @@
 //! Two servers driven call for call with the same arguments, each reply compared as soon as
-//! both are in: the equivalence test's engine. Simulation ids differ between servers (fresh
-//! UUIDs), so every UUID in a reply is renamed `sim#N` by its order of first appearance on that
-//! server; fields that may legitimately differ are dropped (`VOLATILE`).
+//! both are in: the equivalence tests' engine. A side is one server through one session, or
+//! several cluster nodes called round-robin (a session on each, or stateless requests).
+//! Simulation ids differ between servers (fresh UUIDs), so every UUID in a reply is renamed
+//! `sim#N` by its order of first appearance on that side; fields that may legitimately differ
+//! are dropped (`VOLATILE`).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::time::Duration;
 
 use serde_json::{Map, Value};
 
 use crate::common::Client;
-use crate::nodes::{attempt, Outcome};
+use crate::nodes::{attempt, attempt_stateless, Outcome};
 
 /// Reply fields that differ between two correct servers given the same calls, as found by
 /// running the script against two embedded servers
@@ -32,15 +34,25 @@ impl Ids {
     /// Also renames `server`'s workspace and data directories, as given and as resolved (a
     /// node's workspace is a symlink).
     pub fn with_dirs_of(server: &crate::common::Server) -> Ids {
+        Ids::with_dirs_of_all(&[server])
+    }
+
+    /// Also renames the workspace and data directories of every server of `servers` (the nodes
+    /// one side's calls are spread over: each has its own data directory, and a refusal may
+    /// name any of them).
+    pub fn with_dirs_of_all(servers: &[&crate::common::Server]) -> Ids {
         let mut dirs = Vec::new();
-        for (dir, name) in [(&server.workspace, "<workspace>"), (&server.data, "<data>")] {
-            dirs.push((dir.display().to_string(), name));
-            if let Ok(real) = dir.canonicalize() {
-                dirs.push((real.display().to_string(), name));
+        for server in servers {
+            for (dir, name) in [(&server.workspace, "<workspace>"), (&server.data, "<data>")] {
+                dirs.push((dir.display().to_string(), name));
+                if let Ok(real) = dir.canonicalize() {
+                    dirs.push((real.display().to_string(), name));
+                }
             }
         }
         // Longest first, so a path is not half-replaced by a prefix of it.
         dirs.sort_by_key(|d| std::cmp::Reverse(d.0.len()));
+        dirs.dedup();
         Ids { seen: HashMap::new(), dirs }
     }
 
@@ -110,10 +122,25 @@ fn is_uuid(s: &str) -> bool {
         && s.char_indices().all(|(i, c)| if matches!(i, 8 | 13 | 18 | 23) { c == '-' } else { c.is_ascii_hexdigit() })
 }
 
-/// One of the two servers: its client, its ids for the script's simulation slots, its renaming.
+/// How one side's calls reach its server or servers.
+enum Via {
+    /// One MCP session (2025-11-25): every call on it.
+    Session(Client),
+    /// One MCP session per node: call i goes to session i mod n, as a balancer spreading
+    /// calls over nodes would send them.
+    RoundRobin(Vec<Client>),
+    /// Stateless 2026-07-28 requests over plain HTTP: call i goes to URL i mod n (one URL for
+    /// a single server).
+    Stateless { http: reqwest::Client, urls: Vec<String> },
+}
+
+/// One of the two servers (or groups of nodes): how it is called, its ids for the script's
+/// simulation slots, its renaming.
 pub struct Side {
     pub label: &'static str,
-    pub client: Client,
+    via: Via,
+    /// Calls sent so far (picks the next session or URL).
+    sent: usize,
     /// Slot i of the script is simulation `sims[i]` on this server.
     pub sims: Vec<String>,
     pub ids: Ids,
@@ -122,7 +149,20 @@ pub struct Side {
 impl Side {
     /// `server`'s side of the run (its directories renamed in what it says), through `client`.
     pub fn new(label: &'static str, server: &crate::common::Server, client: Client) -> Side {
-        Side { label, client, sims: Vec::new(), ids: Ids::with_dirs_of(server) }
+        Side { label, via: Via::Session(client), sent: 0, sims: Vec::new(), ids: Ids::with_dirs_of(server) }
+    }
+
+    /// A side whose calls go round-robin over `clients` (one session on each of `servers`).
+    pub fn round_robin(label: &'static str, servers: &[&crate::common::Server], clients: Vec<Client>) -> Side {
+        assert!(!clients.is_empty());
+        Side { label, via: Via::RoundRobin(clients), sent: 0, sims: Vec::new(), ids: Ids::with_dirs_of_all(servers) }
+    }
+
+    /// A side whose calls are stateless 2026-07-28 requests, round-robin over `servers`' URLs.
+    pub fn stateless(label: &'static str, servers: &[&crate::common::Server]) -> Side {
+        assert!(!servers.is_empty());
+        let urls = servers.iter().map(|s| s.url.clone()).collect();
+        Side { label, via: Via::Stateless { http: reqwest::Client::new(), urls }, sent: 0, sims: Vec::new(), ids: Ids::with_dirs_of_all(servers) }
     }
 
     /// The script's arguments with each `"$sim:N"` string replaced by this server's id of slot N.
@@ -138,11 +178,22 @@ impl Side {
         }
     }
 
-    /// Makes the call; a lost call fails the test (both servers must stay up).
-    async fn call(&self, tool: &str, template: &Value) -> Outcome {
-        let outcome = attempt(&self.client, tool, self.bind(template), CALL_LIMIT).await;
+    /// Makes the call (on the next session or URL of a round-robin side); a lost call fails
+    /// the test (every server must stay up).
+    async fn call(&mut self, tool: &str, template: &Value) -> Outcome {
+        let n = self.sent;
+        self.sent += 1;
+        let args = self.bind(template);
+        let (outcome, to) = match &self.via {
+            Via::Session(c) => (attempt(c, tool, args, CALL_LIMIT).await, String::new()),
+            Via::RoundRobin(cs) => (attempt(&cs[n % cs.len()], tool, args, CALL_LIMIT).await, format!(" (session {})", n % cs.len())),
+            Via::Stateless { http, urls } => {
+                let url = &urls[n % urls.len()];
+                (attempt_stateless(http, url, n as u64 + 1, tool, args, CALL_LIMIT).await, format!(" (to {url})"))
+            }
+        };
         if let Outcome::Lost(e) = &outcome {
-            panic!("{}: {tool} {template} got no answer: {e}", self.label);
+            panic!("{}: {tool} {template}{to} got no answer: {e}", self.label);
         }
         outcome
     }
@@ -185,17 +236,23 @@ fn sort_key(renamed: &str) -> (usize, String) {
     (renamed.strip_prefix("sim#").and_then(|n| n.parse().ok()).unwrap_or(usize::MAX), renamed.to_string())
 }
 
+/// Calls a difference report lists before the one that differed.
+const RECENT: usize = 16;
+
 /// The two servers, the calls made so far, and per tool how many were accepted and refused.
 pub struct Lockstep {
     pub a: Side,
     pub b: Side,
     pub calls: usize,
     pub tally: BTreeMap<String, (usize, usize)>,
+    /// The last `RECENT` calls (their templates, and server a's answer renamed), for a
+    /// difference report.
+    recent: VecDeque<String>,
 }
 
 impl Lockstep {
     pub fn new(a: Side, b: Side) -> Lockstep {
-        Lockstep { a, b, calls: 0, tally: BTreeMap::new() }
+        Lockstep { a, b, calls: 0, tally: BTreeMap::new(), recent: VecDeque::new() }
     }
 
     /// Makes one call on both servers (slot placeholders bound per server), panics at the first
@@ -203,15 +260,27 @@ impl Lockstep {
     pub async fn call(&mut self, tool: &str, template: Value) -> Outcome {
         let (oa, ob) = tokio::join!(self.a.call(tool, &template), self.b.call(tool, &template));
         let (na, nb) = (self.a.normalise(tool, &oa), self.b.normalise(tool, &ob));
+        // The template names simulations by slot (`$sim:N`, the script's numbering).
+        let args = &template;
         assert!(
             na == nb,
-            "call #{} {tool} {template} differs:\n  {}: {}\n  {}: {}",
+            "call #{} {tool} {args} differs:\n  {}: {}\n  {}: {}\nthe calls before it:\n{}",
             self.calls,
             self.a.label,
             na,
             self.b.label,
-            nb
+            nb,
+            self.recent.iter().map(|c| format!("  {c}")).collect::<Vec<_>>().join("\n")
         );
+        let mut said = na.to_string();
+        if said.len() > 240 {
+            said.truncate(said.char_indices().nth(240).map_or(said.len(), |(i, _)| i));
+            said.push('…');
+        }
+        self.recent.push_back(format!("#{} {tool} {args} → {said}", self.calls));
+        if self.recent.len() > RECENT {
+            self.recent.pop_front();
+        }
         self.a.register(tool, &oa);
         self.b.register(tool, &ob);
         assert_eq!(self.a.sims.len(), self.b.sims.len());

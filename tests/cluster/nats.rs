@@ -270,3 +270,60 @@ fn read_tail(path: &Path, max: usize) -> String {
         Err(e) => format!("({}: {e})", path.display()),
     }
 }
+
+/// The namespace the tests' nodes run in (they pass no `--cluster-namespace`: the default).
+pub const NAMESPACE: &str = "pmcp";
+
+/// The lease bucket (`{namespace}_leases`), read from the test's side of NATS: which node holds
+/// a simulation now. A test that must kill "the owner" asks here rather than guessing it.
+pub struct Leases {
+    store: async_nats::jetstream::kv::Store,
+}
+
+impl Leases {
+    /// Opens the bucket (the first node made it) over the servers `urls` (comma-joined).
+    pub async fn open(urls: &str) -> Leases {
+        let addrs: Vec<async_nats::ServerAddr> = urls.split(',').map(|u| u.parse().unwrap_or_else(|e| panic!("NATS url {u}: {e}"))).collect();
+        let client = async_nats::connect(addrs).await.expect("connect to NATS");
+        let js = async_nats::jetstream::new(client);
+        let bucket = format!("{NAMESPACE}_leases");
+        let store = js.get_key_value(bucket.clone()).await.unwrap_or_else(|e| panic!("open the bucket {bucket}: {e}"));
+        Leases { store }
+    }
+
+    /// The name of the node whose lease on `sim` lives now; `None` when no node holds it (its
+    /// holder's lease lapsed and nobody took it yet). The entry is the node's name (a JSON
+    /// object's `node` field is read too, should the entry ever carry more).
+    pub async fn holder(&self, sim: &str) -> Option<String> {
+        let started = Instant::now();
+        let value = loop {
+            match self.store.get(sim).await {
+                Ok(v) => break v?,
+                // Right after a server was lost, a direct get may find no responders for a
+                // moment: asked again.
+                Err(e) if started.elapsed() < Duration::from_secs(10) => {
+                    eprintln!("reading the lease of {sim}: {e}; retrying");
+                    tokio::time::sleep(Duration::from_millis(100)).await;
+                }
+                Err(e) => panic!("reading the lease of {sim}: {e}"),
+            }
+        };
+        let text = String::from_utf8_lossy(&value).into_owned();
+        match serde_json::from_str::<Value>(&text) {
+            Ok(Value::Object(o)) => Some(o.get("node").and_then(Value::as_str).unwrap_or_else(|| panic!("a lease entry with no node: {text}")).to_string()),
+            _ => Some(text),
+        }
+    }
+
+    /// Waits (up to `within`) until some node holds `sim`, and returns its name.
+    pub async fn wait_holder(&self, sim: &str, within: Duration) -> String {
+        let started = Instant::now();
+        loop {
+            if let Some(h) = self.holder(sim).await {
+                return h;
+            }
+            assert!(started.elapsed() < within, "no node held {sim} within {within:?}");
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+}

@@ -12,8 +12,15 @@ use serde_json::Value;
 use crate::common::{Client, Server};
 use crate::nats::NatsCluster;
 
-/// The sentence a node refuses a call with when another live node holds the simulation's
-/// lease (the contract's wording; one place to change if the wording or routing changes).
+/// The words of the refusal a node answers a forwarded call with when the simulation's owner
+/// died (or stopped) while the call was with it: whether it was applied is unknown, as for a
+/// lost call (the contract's wording; one place to change if it changes). Since routing, a call
+/// on a simulation owned elsewhere is forwarded to its owner (or waits for the takeover when
+/// the owner died), so no node refuses a call because another one owns the simulation.
+pub const STOPPED_ANSWERING: &str = "stopped answering";
+
+/// The refusal part 1 answered a call on a simulation another live node owned. Routing
+/// forwards such calls instead, so a test seeing it fails.
 pub const OWNED_ELSEWHERE: &str = "is owned by node";
 
 /// The variable with which tests/common makes every server it starts a cluster node. These
@@ -28,7 +35,13 @@ pub fn assert_no_ambient_cluster() {
     }
 }
 
-/// Whether a refusal says another node owns the simulation.
+/// Whether a refusal says the owner the call was forwarded to stopped answering (the
+/// outcome is unknown).
+pub fn stopped_answering(refusal: &str) -> bool {
+    refusal.contains(STOPPED_ANSWERING)
+}
+
+/// Whether a refusal is part 1's "owned by another node" (which routing must never answer).
 pub fn owned_elsewhere(refusal: &str) -> bool {
     refusal.contains(OWNED_ELSEWHERE)
 }
@@ -135,9 +148,85 @@ pub async fn attempt(c: &Client, tool: &str, args: Value, limit: Duration) -> Ou
     }
 }
 
+/// The protocol revision whose requests are stateless (no `initialize`, no session).
+pub const STATELESS_REVISION: &str = "2026-07-28";
+
+/// One stateless 2026-07-28 `tools/call` over plain HTTP to `url` (as a client behind a load
+/// balancer sends it: no session, every request on its own; see tests/protocol/revisions.rs),
+/// read like `attempt`: a JSON-RPC error, an HTTP error, a broken connection or no answer
+/// within `limit` is `Lost`.
+pub async fn attempt_stateless(http: &reqwest::Client, url: &str, id: u64, tool: &str, args: Value, limit: Duration) -> Outcome {
+    let params = serde_json::json!({
+        "name": tool,
+        "arguments": args,
+        "_meta": {
+            "io.modelcontextprotocol/protocolVersion": STATELESS_REVISION,
+            "io.modelcontextprotocol/clientCapabilities": {},
+            "io.modelcontextprotocol/clientInfo": {"name": "cluster-test", "version": "0"},
+        },
+    });
+    let body = serde_json::json!({"jsonrpc": "2.0", "id": id, "method": "tools/call", "params": params});
+    let request = http
+        .post(url)
+        .header("Content-Type", "application/json")
+        .header("Accept", "application/json, text/event-stream")
+        .header("MCP-Protocol-Version", STATELESS_REVISION)
+        .header("Mcp-Method", "tools/call")
+        .header("Mcp-Name", tool)
+        .body(body.to_string());
+    let exchange = async {
+        let response = request.send().await.map_err(|e| format!("POST {url}: {e}"))?;
+        let status = response.status();
+        if response.headers().get("mcp-session-id").is_some() {
+            return Err(format!("a stateless request to {url} was given a session"));
+        }
+        let text = response.text().await.map_err(|e| format!("reading the reply of {url}: {e}"))?;
+        if !status.is_success() {
+            return Err(format!("HTTP {status} from {url}: {text}"));
+        }
+        let messages: Vec<Value> = if text.trim_start().starts_with('{') {
+            serde_json::from_str(&text).into_iter().collect()
+        } else {
+            text.lines().filter_map(|l| l.strip_prefix("data:")).filter_map(|d| serde_json::from_str(d.trim()).ok()).collect()
+        };
+        messages.into_iter().find(|m| m["id"] == serde_json::json!(id)).ok_or_else(|| format!("no response with id {id} in {text}"))
+    };
+    let reply = match tokio::time::timeout(limit, exchange).await {
+        Err(_) => return Outcome::Lost(format!("no reply within {limit:?}")),
+        Ok(Err(e)) => return Outcome::Lost(e),
+        Ok(Ok(reply)) => reply,
+    };
+    let result = &reply["result"];
+    if result.is_null() {
+        return Outcome::Lost(format!("JSON-RPC error: {}", reply["error"]));
+    }
+    if result["isError"] == Value::Bool(true) {
+        let text = result["content"].as_array().into_iter().flatten().filter_map(|c| c["text"].as_str()).collect::<Vec<_>>().join(" ");
+        return Outcome::Refused(text);
+    }
+    Outcome::Ok(result.get("structuredContent").cloned().unwrap_or(Value::Null))
+}
+
+/// Waits (up to 10 s) until process `pid`, sent SIGKILL, has exited (a zombie not yet reaped,
+/// or gone): from then on its sockets are closed, so NATS and every peer see it dead.
+pub fn wait_exited(pid: u32) {
+    let started = std::time::Instant::now();
+    loop {
+        let state = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok().and_then(|s| {
+            // The state follows the command name, which is in parentheses and may hold spaces.
+            s.rsplit_once(')').and_then(|(_, rest)| rest.split_whitespace().next().map(str::to_string))
+        });
+        match state.as_deref() {
+            None | Some("Z") | Some("X") => return,
+            _ if started.elapsed() > Duration::from_secs(10) => panic!("process {pid} still runs 10 s after SIGKILL"),
+            _ => std::thread::sleep(Duration::from_millis(1)),
+        }
+    }
+}
+
 /// Runs the physics-mcp binary with `args` and returns its output.
 pub fn cli(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_physics-mcp")).args(args).output().expect("run physics-mcp")
+    Command::new(crate::common::bin()).args(args).output().expect("run physics-mcp")
 }
 
 /// Panics with the command's output unless it exited 0.

@@ -36,6 +36,17 @@ pub fn cluster_args(dir: &Path) -> Vec<String> {
     }
 }
 
+/// The physics-mcp binary the tests run: `PHYSICS_MCP_BIN` when set, else the one cargo built
+/// for this test. The override is for a target directory shared by several worktrees, where
+/// another worktree's build may replace `target/debug/physics-mcp` while a long suite runs: copy
+/// the binary aside after building and point this at the copy.
+pub fn bin() -> PathBuf {
+    match std::env::var_os("PHYSICS_MCP_BIN") {
+        Some(p) if !p.is_empty() => PathBuf::from(p),
+        _ => PathBuf::from(env!("CARGO_BIN_EXE_physics-mcp")),
+    }
+}
+
 /// A running server process.
 pub struct Server {
     child: Child,
@@ -74,7 +85,7 @@ impl Server {
     pub fn start_with_env(dir: &Path, extra: &[&str], env: &[(&str, &str)]) -> Server {
         let data = dir.join("data");
         let workspace = dir.join("workspace");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_physics-mcp"))
+        let mut child = Command::new(bin())
             .args(["serve", "--bind", "127.0.0.1:0", "--data"])
             .arg(&data)
             .arg("--workspace")
@@ -122,7 +133,7 @@ impl Server {
 
     /// Starts a server expected to refuse to start; returns its stderr.
     pub fn start_failure(args: &[&str]) -> (bool, String) {
-        let out = Command::new(env!("CARGO_BIN_EXE_physics-mcp"))
+        let out = Command::new(bin())
             .args(args)
             .stdin(Stdio::null())
             .output()
@@ -374,7 +385,7 @@ pub mod hard;
 /// panics with its output unless it replays.
 pub fn assert_replays(data: &Path, id: &str) {
     let path = data.join(format!("{id}.sqlite"));
-    let out = Command::new(env!("CARGO_BIN_EXE_physics-mcp")).arg("replay").arg(&path).output().unwrap();
+    let out = Command::new(bin()).arg("replay").arg(&path).output().unwrap();
     assert!(
         out.status.success(),
         "replay of {id} failed: {}{}",
