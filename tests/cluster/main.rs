@@ -15,6 +15,7 @@ mod nats;
 mod nodes;
 
 mod big_batch;
+mod distributed_sweep;
 mod equivalence;
 mod fencing;
 mod import_export;
