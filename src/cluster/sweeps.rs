@@ -82,6 +82,9 @@ pub struct WorkItem {
     pub keep: bool,
     /// Steps between progress messages (about 100 for the whole sweep).
     pub report_every: u64,
+    /// The sweeping node's engine build: a node of another build (a rolling upgrade) gives the
+    /// item back, since its results could differ.
+    pub engine: String,
 }
 
 /// A run's result, as a worker reports it.
@@ -409,6 +412,12 @@ impl Delivery<'_> {
     /// got no answer).
     pub fn release(self) {
         self.settle(AckKind::Nak(None));
+    }
+
+    /// Given back, to be delivered again in a while, preferably to another node (this node
+    /// cannot run it: another engine build).
+    pub fn decline(self) {
+        self.settle(AckKind::Nak(Some(PULL_WAIT)));
     }
 
     fn settle(mut self, kind: AckKind) {

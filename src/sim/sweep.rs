@@ -9,7 +9,9 @@
 //! simulation only records the sweep as one read (or refused) event.
 //!
 //! On a cluster node the variants run on every node's sweepers instead of here
-//! (`sweep_across`, `sweep_worker`); what this module does with their results is the same.
+//! (`sweep_across`, `sweep_worker`), and a kept fork is published by the node that ran it as
+//! soon as its variant is done (destroyed again if the sweep is refused); the sweep is decided
+//! from their results here, as ever.
 
 use std::sync::Mutex;
 

@@ -24,6 +24,9 @@ const POLL: Duration = Duration::from_millis(100);
 /// Progress messages a whole sweep sends, about (as many as a request's progress notifications).
 const PROGRESS_MESSAGES: u64 = 100;
 
+/// How long a refused kept sweep waits for live nodes to destroy the forks they kept.
+const GONE_WAIT: Duration = Duration::from_secs(3);
+
 /// What every variant of a sweep shares, as the nodes get it.
 pub(crate) struct Across {
     /// Each variant's calls as the client sent them.
@@ -82,6 +85,7 @@ impl Registry {
                 observe: observe.clone(),
                 keep,
                 report_every: report_every.max(1),
+                engine: crate::engine::ENGINE_BUILD.to_string(),
             })
             .collect();
         nodes.lend(&parent, at, &sweep, Arc::new(source));
@@ -131,25 +135,44 @@ impl Registry {
     }
 
     /// Destroys kept forks on whichever nodes hold them (a sweep refused or cancelled after
-    /// they were kept). Each holder is told; a fork whose node died meanwhile is taken over
-    /// here once its lease lapses, then destroyed (waiting at most three lease times).
+    /// they were kept): every node is told, and the sweep waits (up to [`GONE_WAIT`]) until the
+    /// cluster lists none of them, as a single node's refused sweep leaves none behind. A fork
+    /// whose node died meanwhile is taken over once its lease lapses, then destroyed — on a
+    /// thread of its own (for at most three lease times): the swept simulation is locked here,
+    /// and a takeover is never waited for under a simulation's lock.
     fn discard_across(&self, forks: Vec<RemoteFork>) {
         let (Some(nodes), Some(cluster), Some(first)) = (self.sweepers(), self.cluster.clone(), forks.first()) else { return };
-        let ids: Vec<String> = forks.iter().map(|f| f.id.clone()).collect();
-        nodes.queue.tell_over(&first.sweep, ids.clone());
-        let deadline = Instant::now() + cluster.config().lease * 3;
-        for id in ids {
-            while !crate::shutdown::requested() {
-                if matches!(cluster.index_get(&id), Ok(None)) || self.destroy(&id).is_ok() {
-                    break;
-                }
-                if Instant::now() > deadline {
-                    tracing::warn!("kept sweep variant {id} could not be destroyed; destroy_simulation removes it");
-                    break;
-                }
-                std::thread::sleep(Duration::from_millis(200));
+        let mut left: Vec<String> = forks.iter().map(|f| f.id.clone()).collect();
+        nodes.queue.tell_over(&first.sweep, left.clone());
+        let waiting = Instant::now();
+        loop {
+            left.retain(|id| !matches!(cluster.index_get(id), Ok(None)));
+            if left.is_empty() || waiting.elapsed() > GONE_WAIT {
+                break;
             }
+            std::thread::sleep(Duration::from_millis(50));
         }
+        if left.is_empty() {
+            return;
+        }
+        let reg = nodes.reg.clone();
+        std::thread::spawn(move || {
+            let deadline = Instant::now() + cluster.config().lease * 3;
+            for id in left {
+                while !crate::shutdown::requested() {
+                    let Some(reg) = reg.upgrade() else { return };
+                    if matches!(cluster.index_get(&id), Ok(None)) || reg.destroy(&id).is_ok() {
+                        break;
+                    }
+                    if Instant::now() > deadline {
+                        tracing::warn!("kept sweep variant {id} could not be destroyed; destroy_simulation removes it");
+                        break;
+                    }
+                    drop(reg);
+                    std::thread::sleep(Duration::from_millis(200));
+                }
+            }
+        });
     }
 }
 

@@ -47,6 +47,8 @@ struct Source {
 pub(crate) struct NodeSweeps {
     pub(super) queue: SweepQueue,
     plan: Planner,
+    /// The registry the sweepers work for (weak: they stop when it is gone).
+    pub(super) reg: Weak<Registry>,
     sources: Mutex<BTreeMap<(String, u64), Source>>,
     over: Mutex<BTreeMap<String, Instant>>,
 }
@@ -62,15 +64,16 @@ impl Registry {
     pub fn start_sweepers(self: &Arc<Self>, plan: Planner) -> anyhow::Result<()> {
         let Some(cluster) = &self.cluster else { return Ok(()) };
         let queue = SweepQueue::open(cluster).map_err(|e| anyhow::anyhow!("the cluster's sweep queue: {e}"))?;
-        let nodes = Arc::new(NodeSweeps { queue, plan, sources: Mutex::default(), over: Mutex::default() });
+        let reg = Arc::downgrade(self);
+        let nodes = Arc::new(NodeSweeps { queue, plan, reg, sources: Mutex::default(), over: Mutex::default() });
         if self.sweeps.set(nodes.clone()).is_err() {
             anyhow::bail!("this node's sweepers are already running");
         }
-        let (heard, reg) = (nodes.clone(), Arc::downgrade(self));
-        nodes.queue.on_over(move |sweep, over| heard.sweep_over(&reg, sweep, over)).map_err(anyhow::Error::msg)?;
+        let heard = nodes.clone();
+        nodes.queue.on_over(move |sweep, over| heard.sweep_over(sweep, over)).map_err(anyhow::Error::msg)?;
         for k in 0..std::thread::available_parallelism().map_or(1, |n| n.get()) {
-            let (nodes, reg) = (nodes.clone(), Arc::downgrade(self));
-            std::thread::Builder::new().name(format!("sweeper-{k}")).spawn(move || nodes.pull(&reg))?;
+            let nodes = nodes.clone();
+            std::thread::Builder::new().name(format!("sweeper-{k}")).spawn(move || nodes.pull())?;
         }
         Ok(())
     }
@@ -98,10 +101,10 @@ impl Registry {
 impl NodeSweeps {
     /// A sweeper's loop: one variant at a time, until shutdown (a variant pulled as it begins
     /// is given back at once).
-    fn pull(self: &Arc<Self>, reg: &Weak<Registry>) {
+    fn pull(self: &Arc<Self>) {
         while !crate::shutdown::requested() {
             match self.queue.next() {
-                Ok(Some(d)) => match reg.upgrade() {
+                Ok(Some(d)) => match self.reg.upgrade() {
                     Some(reg) if !crate::shutdown::requested() => self.work_on(&reg, d),
                     _ => return d.release(),
                 },
@@ -118,16 +121,20 @@ impl NodeSweeps {
     /// one stopped by this node's shutdown, or whose result got no answer, is given back.
     fn work_on(self: &Arc<Self>, reg: &Registry, mut d: Delivery<'_>) {
         let item = d.item().clone();
+        if item.engine != crate::engine::ENGINE_BUILD {
+            return d.decline();
+        }
         d.heartbeat();
         if self.is_over(&item.sweep_id) || !self.queue.listening(&item.sweep_id) {
             return d.finish();
         }
         let ran = self.run(reg, &item);
-        tracing::info!(target: "physics_mcp::sweep", "variant {} of sweep {} ran on node {}", item.index, item.sweep_id, self.queue.node());
+        // Stopped by this node's shutdown (run again elsewhere) or by the sweep's end: no result.
         if ran.1.is_err() && (crate::shutdown::requested() || self.is_over(&item.sweep_id)) {
             discard(ran.0);
             return if crate::shutdown::requested() { d.release() } else { d.finish() };
         }
+        tracing::info!(target: "physics_mcp::sweep", "variant {} of sweep {} ran on node {}", item.index, item.sweep_id, self.queue.node());
         let (fork, outcome) = settle(reg, item.keep, item.index, ran);
         let answer = self.queue.report(&item.sweep_id, &Report { index: item.index, node: self.queue.node().to_string(), fork: fork.clone(), outcome });
         if let Some(id) = fork.filter(|_| answer != Answer::Accepted) {
@@ -186,7 +193,8 @@ impl NodeSweeps {
             let mut sources = lock(&self.sources);
             let s = sources.entry((parent.to_string(), at)).or_insert_with(|| Source {
                 made: Made::default(),
-                file: Some(crate::log::sqlite::partial_path(&reg.path_for(&format!("{parent}.at{at}")))),
+                // A name of its own: the file of an earlier copy may still be being deleted.
+                file: Some(crate::log::sqlite::partial_path(&reg.path_for(&format!("{parent}.at{at}.{}", uuid::Uuid::new_v4().simple())))),
                 users: 0,
                 sweeps: BTreeSet::new(),
                 last_used: Instant::now(),
@@ -256,12 +264,12 @@ impl NodeSweeps {
 
     /// A sweep is over (heard from the cluster, on its runtime: the file work and the
     /// destruction of discarded kept forks are done on a thread of their own).
-    fn sweep_over(&self, reg: &Weak<Registry>, sweep: String, over: Over) {
+    fn sweep_over(&self, sweep: String, over: Over) {
         let files = self.mark_over(&sweep);
         if files.is_empty() && over.discard.is_empty() {
             return;
         }
-        let reg = reg.clone();
+        let reg = self.reg.clone();
         std::thread::spawn(move || {
             files.iter().for_each(|f| remove_log_files(f));
             let Some(reg) = reg.upgrade() else { return };
