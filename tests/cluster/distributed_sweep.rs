@@ -3,7 +3,10 @@
 //! server does: the same state hashes, poses, velocities and ranking. Then the same sweep again
 //! with a node that is not the swept simulation's owner killed (kill -9) half-way: its variants
 //! are redelivered to the other nodes and the answer is still the embedded one; the forks it
-//! keeps are exactly one per variant, each a real simulation with the variant's state.
+//! keeps are exactly one per variant, each a real simulation with the variant's state; a kept
+//! sweep with a refused variant leaves none of its forks behind. Last,
+//! another node stopped with SIGTERM half-way through a sweep exits cleanly within the shutdown
+//! deadline, giving its variants back, and the answer is still the embedded one.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
@@ -122,12 +125,12 @@ async fn a_sweep_spreads_over_the_nodes_and_survives_a_killed_one() {
     let variants = variants(seed);
 
     // 1. Spread over the nodes, the same answer as one embedded server.
-    let expected = e.call("run_sweep", sweep(&sim_e, &variants, false)).await;
+    let plain = e.call("run_sweep", sweep(&sim_e, &variants, false)).await;
     let started = Instant::now();
     let got = a.call("run_sweep", sweep(&sim_a, &variants, false)).await;
     eprintln!("32-variant sweep across 3 nodes: {:?}", started.elapsed());
-    assert_eq!(got, expected, "the cluster's sweep differs from the embedded one");
-    assert!(expected["ranking"].is_array());
+    assert_eq!(got, plain, "the cluster's sweep differs from the embedded one");
+    assert!(plain["ranking"].is_array());
     let first = runs(&logs);
     let spread = per_node(&first, &[]);
     eprintln!("variants run per node: {spread:?}");
@@ -145,11 +148,7 @@ async fn a_sweep_spreads_over_the_nodes_and_survives_a_killed_one() {
             (got, started.elapsed(), a)
         }
     });
-    let waiting = Instant::now();
-    while runs(&logs).len() < first.len() + VARIANTS / 2 {
-        assert!(waiting.elapsed() < Duration::from_secs(60), "half the variants did not run within 60 s");
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
+    half_way(&logs, first.len()).await;
     nodes[1].kill9();
     let killed_at = runs(&logs).len() - first.len();
     let (got, took, a) = call.await.unwrap();
@@ -195,5 +194,43 @@ async fn a_sweep_spreads_over_the_nodes_and_survives_a_killed_one() {
             tokio::time::sleep(Duration::from_millis(200)).await;
         };
         assert_eq!(info["state_hash"], v["state_hash"], "kept variant {id}");
+    }
+
+    // A kept sweep whose last variant is refused: refused as the embedded server refuses it,
+    // and none of the forks its other variants kept is left in the cluster.
+    let mut bad = variants.clone();
+    bad[VARIANTS - 1] = json!([{"tool": "set_object_velocity", "arguments": {"object_id": 99, "linear_velocity": [1, 0, 0]}}]);
+    let want = e.try_call("run_sweep", sweep(&sim_e, &bad, true)).await.expect_err("a variant is refused");
+    let refused = a.try_call("run_sweep", sweep(&sim_a, &bad, true)).await.expect_err("a variant is refused");
+    assert_eq!(refused.replace(&sim_a, "SIM"), want.replace(&sim_e, "SIM"));
+    let mut listed = listed_ids(&a).await;
+    listed.sort();
+    let mut before: Vec<String> = kept.iter().cloned().chain([sim_a.clone()]).collect();
+    before.sort();
+    assert_eq!(listed, before, "a refused kept sweep left simulations behind");
+
+    // 3. Node c stopped by SIGTERM half-way through a sweep: it exits cleanly and in time, its
+    // variants run elsewhere, the answer is the embedded one.
+    let before = runs(&logs);
+    let call = tokio::spawn({
+        let args = sweep(&sim_a, &variants, false);
+        async move { a.call("run_sweep", args).await }
+    });
+    half_way(&logs, before.len()).await;
+    let stopping = Instant::now();
+    tokio::task::block_in_place(|| nodes[2].terminate());
+    let stopped = stopping.elapsed();
+    eprintln!("node c exited {stopped:?} after SIGTERM mid-sweep");
+    assert!(stopped < Duration::from_secs(10), "node c took {stopped:?} to exit");
+    assert_eq!(call.await.unwrap(), plain, "after a node's SIGTERM the sweep differs from the embedded one");
+    eprintln!("variant runs per node in the third sweep: {:?}", per_node(&runs(&logs), &before));
+}
+
+/// Waits until half a sweep's variants have run since the nodes logged `before` runs.
+async fn half_way(logs: &[(String, Arc<Mutex<Vec<String>>>)], before: usize) {
+    let waiting = Instant::now();
+    while runs(logs).len() < before + VARIANTS / 2 {
+        assert!(waiting.elapsed() < Duration::from_secs(60), "half the variants did not run within 60 s");
+        tokio::time::sleep(Duration::from_millis(10)).await;
     }
 }
