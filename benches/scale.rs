@@ -146,7 +146,8 @@ fn sweep_request(id: &str) -> Request {
             }]
         })
         .collect();
-    Request { variants, steps: 1000, observe: Observe::default(), keep: false, full: true, rank_by: None }
+    // Embedded: no node decides the calls again from what a client sent.
+    Request { variants, sent: Vec::new(), steps: 1000, observe: Observe::default(), keep: false, full: true, rank_by: None }
 }
 
 fn run_sweep(reg: &Registry, id: &str, workers: usize) -> f64 {

@@ -444,6 +444,7 @@ fn main() {
                         ..
                     } => {
                         let reg = open_registry(common, cluster)?;
+                        physics_mcp::mcp::PhysicsServer::start_sweepers(&reg)?;
                         serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common, None)?).await,

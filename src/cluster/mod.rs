@@ -17,6 +17,7 @@ pub mod lease;
 pub mod portable;
 pub mod record;
 pub mod replica;
+pub mod sweeps;
 pub mod transfer;
 
 use std::collections::HashMap;

@@ -13,6 +13,8 @@ pub mod reads;
 pub mod sampled_step;
 pub mod save_load;
 pub mod sweep;
+pub mod sweep_across;
+pub mod sweep_worker;
 pub mod timeline;
 
 use crate::log::EventLog;
@@ -603,6 +605,8 @@ pub struct Registry {
     cluster: Option<Arc<crate::cluster::Cluster>>,
     /// Held while a simulation is taken over, so two calls do not both rebuild it.
     takeovers: Mutex<()>,
+    /// This node's sweepers, once started (a cluster node's sweeps then run across the cluster).
+    sweeps: std::sync::OnceLock<Arc<sweep_worker::NodeSweeps>>,
     _lock: std::fs::File,
 }
 
@@ -669,6 +673,7 @@ impl Registry {
             mac_key,
             cluster,
             takeovers: Mutex::new(()),
+            sweeps: std::sync::OnceLock::new(),
             _lock: lock,
         })
     }

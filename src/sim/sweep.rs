@@ -7,6 +7,11 @@
 //! When every variant is done they are deleted, or with `keep` published like any fork. Any
 //! variant's refusal, or a cancellation, deletes them all and refuses the sweep. The swept
 //! simulation only records the sweep as one read (or refused) event.
+//!
+//! On a cluster node the variants run on every node's sweepers instead of here
+//! (`sweep_across`, `sweep_worker`), and a kept fork is published by the node that ran it as
+//! soon as its variant is done (destroyed again if the sweep is refused); the sweep is decided
+//! from their results here, as ever.
 
 use std::sync::Mutex;
 
@@ -23,8 +28,8 @@ use crate::world::StepControl;
 /// The most variants one sweep may hold (docs/tools.md).
 pub const MAX_VARIANTS: usize = 256;
 
-/// What a sweep reports of each variant.
-#[derive(Clone, Debug, Default)]
+/// What a sweep reports of each variant (sent to other nodes with each variant in a cluster).
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Observe {
     /// The objects whose final states (and samples) are reported; None: all.
     pub object_ids: Option<Vec<u32>>,
@@ -39,6 +44,10 @@ pub struct Observe {
 pub struct Request {
     /// One list of calls per variant.
     pub variants: Vec<Vec<Call>>,
+    /// Each variant's calls as the client sent them: what another node decides them from
+    /// again (its own decisions hold parsed models, which do not travel). Without one per
+    /// variant (an in-process caller), a cluster node runs the sweep itself.
+    pub sent: Vec<serde_json::Value>,
     /// Steps each variant takes after its calls.
     pub steps: u64,
     /// What to report.
@@ -75,8 +84,45 @@ impl Metric {
 /// A step control per variant (progress and cancellation), made by the caller.
 pub type Control = Box<dyn FnMut(u64) -> bool + Send>;
 
+/// How a node decides a variant's calls from the JSON a client sent (the MCP layer's
+/// `batch::plan`, which this layer cannot name): given the workspace, the swept simulation's
+/// id and the variant's `[{tool, arguments}]`, a refusal naming the call.
+pub type Planner = fn(&crate::files::Sandbox, &str, &serde_json::Value) -> Result<Vec<Call>, Refusal>;
+
+/// One variant to run: its index, its decided calls, its step control.
+pub(super) type Variant = (usize, Vec<Call>, Control);
+
+/// A variant's outcome with its fork (when one was made), before the sweep is decided.
+pub(super) type Ran<F> = (Option<F>, Result<SweptVariant, Refusal>);
+
+/// A variant's fork as a sweep holds it once the variant ran: the fork itself when it ran
+/// here, or where it is when it ran on another node (`sweep_across`). What is done with the
+/// forks once the sweep is decided depends only on this.
+pub(super) trait VariantFork: Sized {
+    /// The fork's simulation id (named in the reply when kept).
+    fn fork_id(&self) -> String;
+    /// Gives up every fork (a refusal, a cancellation, or keep=false).
+    fn discard_all(reg: &Registry, forks: Vec<Self>);
+    /// Makes every fork an ordinary simulation in the slots reserved for them.
+    fn keep_all(reg: &Registry, swept: Swept, forks: Vec<Self>, slots: Vec<crate::sim::Slot<'_>>) -> Result<Swept, Refusal>;
+}
+
+impl VariantFork for Sim {
+    fn fork_id(&self) -> String {
+        self.id().to_string()
+    }
+
+    fn discard_all(_: &Registry, forks: Vec<Sim>) {
+        discard(forks);
+    }
+
+    fn keep_all(reg: &Registry, swept: Swept, forks: Vec<Sim>, slots: Vec<crate::sim::Slot<'_>>) -> Result<Swept, Refusal> {
+        reg.keep_all(swept, forks, slots)
+    }
+}
+
 /// One variant while it runs: its fork and what it is to do.
-struct Running {
+pub(super) struct Running {
     index: usize,
     sim: Sim,
     calls: Vec<Call>,
@@ -95,7 +141,7 @@ impl Registry {
         (workers, budget): (usize, usize),
     ) -> Result<Swept, Refusal> {
         let parent = self.get(id)?;
-        let Request { variants, steps, observe, keep, full, rank_by } = req;
+        let Request { variants, sent, steps, observe, keep, full, rank_by } = req;
         // What every fork copies, read once under the parent's lock; the forks themselves are
         // made by the workers, side by side, from the parent's file.
         let (source, slots) = {
@@ -114,28 +160,52 @@ impl Registry {
                 }
             }
         };
+        let how = (keep, full, rank_by);
+        if let Some(nodes) = self.sweepers().filter(|_| sent.len() == variants.len()) {
+            let controls = (0..sent.len()).map(|_| controls()).collect();
+            let done = self.sweep_across(&nodes, source, crate::sim::sweep_across::Across { sent, steps, observe, keep }, controls);
+            return self.conclude(&parent, args, done, how, (budget, slots));
+        }
         let fork_args = fork_arguments(id, source.at());
-        let items: Vec<(usize, Vec<Call>, Control)> =
+        let items: Vec<Variant> =
             variants.into_iter().enumerate().map(|(index, calls)| (index, calls, controls())).collect();
-        let done = run_all(items, workers, |(index, calls, control)| {
-            match self.fork_from(&source, None, (uuid::Uuid::new_v4().to_string(), None), &fork_args) {
-                Ok((_, sim)) => run_variant(Running { index, sim, calls, control }, id, steps, &observe, self.limits()),
-                Err(why) => (None, Err(format!("variants[{index}] could not be forked: {why}"))),
-            }
-        });
-        let outcome = finish(done, (keep, full, rank_by), budget);
-        let mut p = lock_sim(&parent);
+        let done = run_all(items, workers, |variant| self.fork_and_run(&source, &fork_args, variant, steps, &observe));
+        self.conclude(&parent, args, done, how, (budget, slots))
+    }
+
+    /// Forks `source` and runs one variant on the fork: what a sweep's worker does with each
+    /// variant, on this node or another.
+    pub(super) fn fork_and_run(&self, source: &ForkSource, fork_args: &Args, (index, calls, control): Variant, steps: u64, observe: &Observe) -> Ran<Sim> {
+        match self.fork_from(source, None, (uuid::Uuid::new_v4().to_string(), None), fork_args) {
+            Ok((_, sim)) => run_variant(Running { index, sim, calls, control }, source.parent_id(), steps, observe, self.limits()),
+            Err(why) => (None, Err(format!("variants[{index}] could not be forked: {why}"))),
+        }
+    }
+
+    /// Decides the sweep from its variants' outcomes (`finish`), keeps or gives up the forks,
+    /// and records the sweep on the swept simulation as a read (or a refusal).
+    fn conclude<F: VariantFork>(
+        &self,
+        parent: &crate::sim::SharedSim,
+        args: &Args,
+        done: Vec<Ran<F>>,
+        how: (bool, bool, Option<(u32, Metric)>),
+        (budget, slots): (usize, Vec<crate::sim::Slot<'_>>),
+    ) -> Result<Swept, Refusal> {
+        let keep = how.0;
+        let outcome = finish(done, how, budget);
+        let mut p = lock_sim(parent);
         let (swept, sims) = match outcome {
             Ok(ok) => ok,
             Err((why, sims)) => {
-                discard(sims);
+                F::discard_all(self, sims);
                 return Err(p.refuse("run_sweep", args, why));
             }
         };
         let swept = if keep {
-            self.keep_all(swept, sims, slots)
+            F::keep_all(self, swept, sims, slots)
         } else {
-            discard(sims);
+            F::discard_all(self, sims);
             Ok(swept)
         };
         match swept {
@@ -178,7 +248,7 @@ impl Registry {
 }
 
 /// The arguments a variant's root records: those of the fork it is.
-fn fork_arguments(parent: &str, at_seq: u64) -> Args {
+pub(super) fn fork_arguments(parent: &str, at_seq: u64) -> Args {
     let mut a = sim_arguments(parent);
     a.insert("at_seq".into(), json!(at_seq));
     a
@@ -209,7 +279,7 @@ fn run_all<T: Send, R: Send>(items: Vec<T>, workers: usize, f: impl Fn(T) -> R +
 }
 
 /// One variant's calls (as a batch) and steps, then what `observe` asks of it.
-fn run_variant(r: Running, parent: &str, steps: u64, observe: &Observe, limits: &crate::limits::Limits) -> (Option<Sim>, Result<SweptVariant, Refusal>) {
+pub(super) fn run_variant(r: Running, parent: &str, steps: u64, observe: &Observe, limits: &crate::limits::Limits) -> (Option<Sim>, Result<SweptVariant, Refusal>) {
     let Running { index, mut sim, calls, mut control } = r;
     let fork = sim.id().to_string();
     // A panic in the engine fails this variant (its fork is deleted with the others), not
@@ -323,11 +393,11 @@ fn pose_key(w: &crate::world::World, id: u32) -> Option<Vec<f64>> {
 /// The variants' results in order with their forks, or the first refusal (by variant index)
 /// with every fork to delete; an answer over the reply budget is refused too.
 #[allow(clippy::type_complexity)]
-fn finish(
-    done: Vec<(Option<Sim>, Result<SweptVariant, Refusal>)>,
+fn finish<F: VariantFork>(
+    done: Vec<Ran<F>>,
     (keep, full, rank_by): (bool, bool, Option<(u32, Metric)>),
     budget: usize,
-) -> Result<(Swept, Vec<Sim>), (Refusal, Vec<Sim>)> {
+) -> Result<(Swept, Vec<F>), (Refusal, Vec<F>)> {
     let mut sims = Vec::with_capacity(done.len());
     let mut variants = Vec::with_capacity(done.len());
     let mut first_refusal = None;
@@ -346,7 +416,7 @@ fn finish(
     if keep {
         // Kept variants are named in the reply: measured with their ids, before any is kept.
         for (v, sim) in variants.iter_mut().zip(&sims) {
-            v.simulation_id = Some(sim.id().to_string());
+            v.simulation_id = Some(sim.fork_id());
         }
     }
     let ranking = match rank_by {
@@ -386,7 +456,7 @@ fn finish(
 }
 
 /// Deletes variants' forks (never published: their partial files).
-fn discard(sims: impl IntoIterator<Item = Sim>) {
+pub(super) fn discard(sims: impl IntoIterator<Item = Sim>) {
     for sim in sims {
         sim.delete();
     }

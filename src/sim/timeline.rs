@@ -355,16 +355,33 @@ impl ForkSource {
         self.at
     }
 
+    /// The simulation forked (a variant's refusal names it, never the throwaway fork).
+    pub(crate) fn parent_id(&self) -> &str {
+        &self.parent_id
+    }
+
     /// `p`'s chain and state at `at_seq` (default: its head), which must be a
     /// state-changing event of it.
     pub(crate) fn of(p: &Sim, at_seq: Option<u64>) -> Result<ForkSource, Refusal> {
-        let at = at_seq.unwrap_or(p.log().head_seq());
-        let at_event = p.log().event(at).map_err(store_err)?;
+        ForkSource::of_log(p.log(), p.id(), p.log.path(), at_seq.unwrap_or(p.log().head_seq()))
+    }
+
+    /// `of` for a simulation this node does not hold, from a copy of its log at `path` (a
+    /// sweep's variants run on other nodes than their parent's owner).
+    pub(crate) fn of_file(path: &std::path::Path, at: u64) -> Result<ForkSource, Refusal> {
+        let log = open_parent(path)?;
+        let id = log.simulation_id().map_err(store_err)?;
+        ForkSource::of_log(&log, &id, path, at)
+    }
+
+    /// Simulation `id`'s chain and state at `at` from its log (kept at `path`).
+    fn of_log(log: &dyn EventLog, id: &str, path: &std::path::Path, at: u64) -> Result<ForkSource, Refusal> {
+        let at_event = log.event(at).map_err(store_err)?;
         if !at_event.as_ref().is_some_and(|e| e.kind.is_state_changing()) {
-            return Err(format!("at_seq {at} is not a state-changing event of simulation {}", p.id()));
+            return Err(format!("at_seq {at} is not a state-changing event of simulation {id}"));
         }
-        let chain = p.log().chain_to(at).map_err(store_err)?;
-        let rebuilt = rebuild_at(p.log(), p.id(), at, false).map_err(store_err)?;
+        let chain = log.chain_to(at).map_err(store_err)?;
+        let rebuilt = rebuild_at(log, id, at, false).map_err(store_err)?;
         Ok(ForkSource {
             chain,
             snapshot: rebuilt.world.snapshot(),
@@ -372,10 +389,15 @@ impl ForkSource {
             time: rebuilt.world.current_time(),
             gui: rebuilt.world.gui(),
             at,
-            parent_id: p.id().to_string(),
-            parent_path: p.log.path().to_path_buf(),
+            parent_id: id.to_string(),
+            parent_path: path.to_path_buf(),
         })
     }
+}
+
+/// A parent's log opened read-only, to fork from without its lock.
+fn open_parent(path: &std::path::Path) -> Result<Log, Refusal> {
+    Log::open_read_only(path).map_err(store_err)
 }
 
 impl Registry {
@@ -425,7 +447,7 @@ impl Registry {
         let parent = match parent {
             Some(log) => log,
             None => {
-                opened = Log::open_read_only(&source.parent_path).map_err(store_err)?;
+                opened = open_parent(&source.parent_path)?;
                 &opened
             }
         };

@@ -18,6 +18,7 @@ mod nodes;
 
 mod balancer_crash;
 mod big_batch;
+mod distributed_sweep;
 mod equivalence;
 mod fencing;
 mod import_export;

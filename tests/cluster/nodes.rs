@@ -60,6 +60,8 @@ pub struct Node {
     pub name: String,
     dir: PathBuf,
     args: Vec<String>,
+    /// Environment variables of the process (e.g. `RUST_LOG`).
+    env: Vec<(String, String)>,
     server: Option<Server>,
 }
 
@@ -68,12 +70,18 @@ impl Node {
     /// shared `workspace`: every node must read the same model files) on `cluster`, with
     /// `extra` flags (e.g. `--lease-ms`).
     pub fn start(root: &Path, name: &str, cluster: &NatsCluster, workspace: &Path, extra: &[&str]) -> Node {
+        Node::start_with_env(root, name, cluster, workspace, extra, &[])
+    }
+
+    /// `start` with environment variables for the process (`RUST_LOG` to see what it logs).
+    pub fn start_with_env(root: &Path, name: &str, cluster: &NatsCluster, workspace: &Path, extra: &[&str], env: &[(&str, &str)]) -> Node {
         let dir = root.join(name);
         std::fs::create_dir_all(&dir).unwrap();
         std::os::unix::fs::symlink(workspace, dir.join("workspace")).expect("link the shared workspace");
         let mut args = vec!["--cluster".to_string(), cluster.urls(), "--node".to_string(), name.to_string()];
         args.extend(extra.iter().map(|s| s.to_string()));
-        let mut node = Node { name: name.to_string(), dir, args, server: None };
+        let env = env.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+        let mut node = Node { name: name.to_string(), dir, args, env, server: None };
         node.restart();
         node
     }
@@ -83,7 +91,8 @@ impl Node {
     pub fn restart(&mut self) {
         assert!(self.server.is_none(), "node {} is running", self.name);
         let args: Vec<&str> = self.args.iter().map(String::as_str).collect();
-        self.server = Some(Server::start(&self.dir, &args));
+        let env: Vec<(&str, &str)> = self.env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+        self.server = Some(Server::start_with_env(&self.dir, &args, &env));
     }
 
     /// kill -9 and reap.
@@ -109,6 +118,12 @@ impl Node {
     /// The process id, for signals sent from outside (SIGKILL from a timer, SIGSTOP/SIGCONT).
     pub fn pid(&self) -> u32 {
         self.server().pid()
+    }
+
+    /// The lines the running process has written to stderr so far (kept by the caller across
+    /// a `kill9`: the handle outlives the process).
+    pub fn stderr(&self) -> std::sync::Arc<std::sync::Mutex<Vec<String>>> {
+        self.server().stderr.clone()
     }
 
     /// A new MCP client on this node.

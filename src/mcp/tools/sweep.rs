@@ -10,13 +10,14 @@ use rmcp::model::{JsonObject, RequestMetaObject};
 use rmcp::{tool, tool_router, Peer, RoleServer};
 use tokio_util::sync::CancellationToken;
 
-use crate::params::{self, Sweep};
+use crate::params::{self, CallSpec, Sweep};
 use crate::mcp::PhysicsServer;
-use crate::sim::apply::call_refused;
+use crate::sim::apply::{call_refused, Call};
 use crate::outputs::Swept;
 use crate::sim::lock_sim;
 use crate::sim::sweep::{Control, Metric, Observe, Request, MAX_VARIANTS};
 use crate::value::{self, Args, Refusal};
+use serde_json::Value;
 
 /// The sweep a call asks for, every variant's calls decided (a refusal names the variant
 /// and the call).
@@ -36,10 +37,11 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
     let mut variants = Vec::with_capacity(n);
     let mut ahead = super::batch::Ahead::new(sandbox);
     for (v, calls) in p.variants.into_iter().enumerate() {
-        let planned = super::batch::plan(&mut ahead, &p.sim_id.0, calls)
-            .map_err(|(i, tool, why)| format!("variants[{v}]: {}", call_refused(i, &tool, &why)))?;
+        let planned = plan_calls(&mut ahead, &p.sim_id.0, calls).map_err(|why| format!("variants[{v}]: {why}"))?;
         variants.push(planned);
     }
+    // Parsed above, so an array of arrays: each variant's calls as the client sent them.
+    let sent = a.get("variants").and_then(Value::as_array).cloned().unwrap_or_default();
     let rank_by = match p.rank_by {
         None => None,
         Some(r) => Some((
@@ -53,7 +55,28 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
         )),
     };
     let full = crate::params::lenient::full_detail(p.detail.as_ref())?;
-    Ok(Request { variants, steps, observe, keep: p.keep.is_some_and(|b| b.0), full, rank_by })
+    Ok(Request { variants, sent, steps, observe, keep: p.keep.is_some_and(|b| b.0), full, rank_by })
+}
+
+/// One variant's calls decided (a refusal names the call).
+fn plan_calls(ahead: &mut super::batch::Ahead, sim_id: &str, calls: Vec<CallSpec>) -> Result<Vec<Call>, Refusal> {
+    super::batch::plan(ahead, sim_id, calls).map_err(|(i, tool, why)| call_refused(i, &tool, &why))
+}
+
+/// A variant sent to this node by another node's sweep, decided here as the sweeping node
+/// decided it (the same workspace, the same parameters).
+fn plan_sent(sandbox: &crate::files::Sandbox, sim_id: &str, calls: &Value) -> Result<Vec<Call>, Refusal> {
+    let calls: Vec<CallSpec> = serde_json::from_value(calls.clone()).map_err(|e| format!("the variant's calls do not parse: {e}"))?;
+    plan_calls(&mut super::batch::Ahead::new(sandbox), sim_id, calls)
+}
+
+impl PhysicsServer {
+    /// Makes a cluster node run sweep variants for every node of its cluster (nothing for an
+    /// embedded server): its sweepers decide the calls they are sent with this layer's
+    /// `batch::plan`, which the registry cannot name, so they are started from here.
+    pub fn start_sweepers(reg: &Arc<crate::sim::Registry>) -> anyhow::Result<()> {
+        reg.start_sweepers(plan_sent)
+    }
 }
 
 #[tool_router(router = sweep_router, vis = "pub(crate)")]
