@@ -6,6 +6,7 @@
 //! - B's long step_simulation on a simulation C owns reports progress to B's client.
 //! - B cancels a long step on S: the cancellation reaches C, the step stops, and it is logged
 //!   as the steps it took (the next call sees them, and the exported log replays).
+//! - The web viewer through A shows S as C has it (the page and a frame, relayed to C).
 #![allow(deprecated)] // rmcp marks resources/subscribe legacy; 2025-11-25 clients use it
 
 use std::sync::{Arc, Mutex};
@@ -124,6 +125,15 @@ async fn updates_progress_and_cancellation_travel_between_nodes() {
     let read: Value = serde_json::from_str(&text).expect("sim://…/info is JSON");
     let info = cc.call("get_simulation_info", json!({"sim_id": sim})).await;
     assert_eq!((&read["state_hash"], &read["head_seq"]), (&info["state_hash"], &info["head_seq"]), "resources/read through A vs the owner");
+
+    // The viewer through A shows C's simulation: the page and a frame of the owner's state.
+    let port: u16 = a.server().url.rsplit(':').next().and_then(|p| p.trim_end_matches("/mcp").parse().ok()).expect("A's port");
+    let (status, _) = crate::nats::http_get(port, &format!("/viewer/{sim}")).expect("the viewer page through A");
+    assert_eq!(status, 200, "the viewer page of C's simulation through A");
+    let (status, frame) = crate::nats::http_get(port, &format!("/viewer/{sim}/frame")).expect("a frame through A");
+    assert_eq!(status, 200, "a frame of C's simulation through A: {frame}");
+    let frame: Value = serde_json::from_str(&frame).expect("a frame is JSON");
+    assert_eq!(frame["state_hash"], info["state_hash"], "the frame through A is the owner's state");
 
     // Progress of a forwarded long step reaches B's client.
     let light = cc.new_sim(json!({})).await;
