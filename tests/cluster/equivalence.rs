@@ -381,10 +381,16 @@ async fn embedded_and_cluster_answer_alike_and_the_exported_logs_replay() {
     // or its shutdown (docs/log-format.md), so only then are the logs complete.
     embedded.terminate();
     node.terminate();
+    assert_exports_match(&nats, &run, &live, emb_dir.path());
+}
+
+/// Every live slot's log exported from the cluster (side b) replays and holds the embedded
+/// server's (side a, its data under `embedded_dir`) events, event for event.
+pub(crate) fn assert_exports_match(nats: &NatsCluster, run: &Lockstep, live: &[usize], embedded_dir: &Path) {
     let out = tempfile::tempdir().unwrap();
-    for &slot in &live {
+    for &slot in live {
         let (file, _) = export_and_verify(&nats.urls(), &run.b.sims[slot], out.path(), &format!("slot{slot}"));
-        let embedded_log = emb_dir.path().join("data").join(format!("{}.sqlite", run.a.sims[slot]));
+        let embedded_log = embedded_dir.join("data").join(format!("{}.sqlite", run.a.sims[slot]));
         assert_same_events(&embedded_log, &file, run.a.ids.fresh(), run.b.ids.fresh());
     }
 }

@@ -12,10 +12,10 @@
 //! same way, so only the backend differs).
 
 use crate::common::Server;
-use crate::equivalence::{assert_same_events, lockstep};
+use crate::equivalence::{assert_exports_match, lockstep};
 use crate::lockstep::Side;
 use crate::nats::NatsCluster;
-use crate::nodes::{export_and_verify, shared_workspace, Node};
+use crate::nodes::{shared_workspace, Node};
 
 /// The nodes the calls are spread over.
 const NODES: [&str; 3] = ["a", "b", "c"];
@@ -64,12 +64,7 @@ async fn round_robin_matches_embedded(clients: Clients) {
     for mut n in nodes {
         n.terminate();
     }
-    let out = tempfile::tempdir().unwrap();
-    for &slot in &live {
-        let (file, _) = export_and_verify(&nats.urls(), &run.b.sims[slot], out.path(), &format!("slot{slot}"));
-        let embedded_log = emb_dir.path().join("data").join(format!("{}.sqlite", run.a.sims[slot]));
-        assert_same_events(&embedded_log, &file, run.a.ids.fresh(), run.b.ids.fresh());
-    }
+    assert_exports_match(&nats, &run, &live, emb_dir.path());
 }
 
 #[tokio::test(flavor = "multi_thread")]
