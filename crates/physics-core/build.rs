@@ -10,7 +10,10 @@ mod lock;
 // (clippy.toml bans both for the library): Cargo.lock in, OUT_DIR/engine_build.txt out.
 #[expect(clippy::disallowed_methods, reason = "the build script reads Cargo.lock and writes into OUT_DIR at compile time")]
 fn main() {
-    let lock_path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../Cargo.lock");
+    // Read when the script runs, not baked in when it is compiled: one compiled script may be
+    // shared by checkouts at other paths (worktrees sharing a target directory).
+    let manifest_dir = std::env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
+    let lock_path = std::path::Path::new(&manifest_dir).join("../../Cargo.lock");
     println!("cargo::rerun-if-changed={}", lock_path.display());
     let lock = std::fs::read_to_string(&lock_path).unwrap_or_else(|e| panic!("cannot read {}: {e}", lock_path.display()));
     let map = lock::engine_map(&lock).unwrap_or_else(|e| panic!("{}: {e}", lock_path.display()));

@@ -62,8 +62,8 @@ impl Ledger {
     /// Notes a call's outcome. A refusal or a lost reply is unknown: the owner a forwarded
     /// call reached may have died with it ("stopped answering"), a node may have lost the
     /// cluster's acknowledgement; the stream's calls are valid, so no refusal here is the
-    /// ordinary kind that changes nothing. (Part 1's "owned by another node" refusal, which did
-    /// change nothing, no longer exists: such a call is forwarded.)
+    /// ordinary kind that changes nothing. (The "owned by another node" refusal, which did
+    /// change nothing, is no longer answered: such a call is forwarded to the owner.)
     pub fn record(&mut self, tool: &str, outcome: &Outcome) {
         match outcome {
             Outcome::Ok(v) => self.acked.push((tool.to_string(), identity(tool, v))),

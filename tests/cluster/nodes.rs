@@ -19,7 +19,8 @@ use crate::nats::NatsCluster;
 /// the owner died), so no node refuses a call because another one owns the simulation.
 pub const STOPPED_ANSWERING: &str = "stopped answering";
 
-/// The refusal part 1 answered a call on a simulation another live node owned. Routing
+/// The refusal a node gave a call on a simulation another live node owned, before calls were
+/// routed to the owner. Routing
 /// forwards such calls instead, so a test seeing it fails.
 pub const OWNED_ELSEWHERE: &str = "is owned by node";
 
@@ -41,7 +42,7 @@ pub fn stopped_answering(refusal: &str) -> bool {
     refusal.contains(STOPPED_ANSWERING)
 }
 
-/// Whether a refusal is part 1's "owned by another node" (which routing must never answer).
+/// Whether a refusal is the "owned by another node" one (which routing must never answer).
 pub fn owned_elsewhere(refusal: &str) -> bool {
     refusal.contains(OWNED_ELSEWHERE)
 }

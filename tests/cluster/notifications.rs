@@ -21,6 +21,7 @@ use rmcp::transport::StreamableHttpClientTransport;
 use rmcp::{ClientHandler, RoleClient, ServiceExt};
 use serde_json::{json, Value};
 
+use crate::common::until;
 use crate::nats::NatsCluster;
 use crate::nodes::{attempt, event_result, events, export_and_verify, shared_workspace, Node, Outcome};
 
@@ -67,14 +68,6 @@ async fn listener(node: &Node) -> (Heard, RunningService<RoleClient, Heard>) {
     (heard, service)
 }
 
-/// Waits (at most 20 s) until `done` holds.
-async fn until(what: &str, mut done: impl FnMut() -> bool) {
-    let start = Instant::now();
-    while !done() {
-        assert!(start.elapsed() < Duration::from_secs(20), "timed out waiting for {what}");
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-}
 
 /// A tool call through `s` that must be answered: its structured content.
 async fn call(s: &RunningService<RoleClient, Heard>, tool: &str, args: Value) -> Value {

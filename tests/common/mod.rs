@@ -326,6 +326,16 @@ pub async fn raw_session(http: &reqwest::Client, url: &str, protocol: &str) -> R
     Ok(sid)
 }
 
+/// Waits (at most 20 s, generous for a loaded CI machine) until `done` holds; panics naming
+/// `what` otherwise. For what a server does in the background (notifications, news).
+pub async fn until(what: &str, mut done: impl FnMut() -> bool) {
+    let start = std::time::Instant::now();
+    while !done() {
+        assert!(start.elapsed() < Duration::from_secs(20), "timed out waiting for {what}");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+}
+
 pub fn v3(v: &Value) -> [f64; 3] {
     let a = v.as_array().expect("array");
     [a[0].as_f64().unwrap(), a[1].as_f64().unwrap(), a[2].as_f64().unwrap()]

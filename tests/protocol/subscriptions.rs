@@ -9,7 +9,7 @@ use crate::common;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{Client, Server};
+use common::{until, Client, Server};
 use rmcp::model::{
     LoggingLevel, LoggingMessageNotificationParam, ResourceUpdatedNotificationParam, SetLevelRequestParams,
     SubscribeRequestParams, UnsubscribeRequestParams,
@@ -53,14 +53,6 @@ async fn listener(server: &Server) -> (Heard, RunningService<RoleClient, Heard>)
     (heard, service)
 }
 
-/// Waits (at most 20 s, generous for a loaded CI machine) until `done` holds.
-async fn until(what: &str, mut done: impl FnMut() -> bool) {
-    let start = Instant::now();
-    while !done() {
-        assert!(start.elapsed() < Duration::from_secs(20), "timed out waiting for {what}");
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-}
 
 async fn subscribe(s: &RunningService<RoleClient, Heard>, uri: &str) {
     s.subscribe(SubscribeRequestParams::new(uri)).await.expect("resources/subscribe");
