@@ -61,9 +61,33 @@ impl PhysicsServer {
         self.reg.in_cluster() && !self.forwarded
     }
 
-    /// Where a call for `out.sim` runs: here, or at its owner (its answer).
+    /// Where a call for `out.sim` runs: here, or at its owner (its answer). The owner's notes
+    /// reach the client in the order sent, all before the answer.
     pub(super) async fn route(&self, out: Outgoing<'_>) -> Routed {
         let Some(cluster) = self.reg.cluster().cloned().filter(|_| self.routes()) else { return Routed::Here };
+        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Vec<u8>>();
+        let relay = out.peer.clone().map(|peer| {
+            let log = self.log.clone();
+            tokio::spawn(async move {
+                while let Some(note) = rx.recv().await {
+                    relay_note(&log, &note, &peer).await;
+                }
+            })
+        });
+        let routed = self.route_via(&cluster, out, &|note: &[u8]| {
+            let _ = tx.send(note.to_vec());
+        })
+        .await;
+        drop(tx);
+        if let Some(relay) = relay {
+            let _ = relay.await;
+        }
+        routed
+    }
+
+    /// `route` on a cluster node, handing the owner's notes to `notes`.
+    async fn route_via(&self, cluster: &Arc<Cluster>, out: Outgoing<'_>, notes: &(dyn Fn(&[u8]) + Sync)) -> Routed {
+        let cluster = cluster.clone();
         let call = uuid::Uuid::new_v4().to_string();
         let request = serde_json::json!({"jsonrpc": "2.0", "id": 1, "method": out.method, "params": out.params});
         let payload: bytes::Bytes = serde_json::to_vec(&request).unwrap_or_default().into();
@@ -100,12 +124,7 @@ impl PhysicsServer {
                 }
             }
             let l = line.as_mut().expect("opened above");
-            let notes = |note: &[u8]| {
-                if let Some(peer) = &out.peer {
-                    self.relay_note(note, peer);
-                }
-            };
-            match l.send(&cluster, (out.sim, payload.clone()), &out.ct, &notes).await {
+            match l.send(&cluster, (out.sim, payload.clone()), &out.ct, notes).await {
                 Attempt::Done(routed) => return routed,
                 Attempt::Unserved => cluster.note_owner(out.sim, None),
             }
@@ -117,23 +136,6 @@ impl PhysicsServer {
                 }
                 tokio::time::sleep(RETRY_PAUSE).await;
             }
-        }
-    }
-
-    /// Sends a note from the owner on to this call's client: progress as it came, a log line
-    /// through this session's level.
-    fn relay_note(&self, note: &[u8], peer: &Peer<RoleServer>) {
-        let Ok(ServerJsonRpcMessage::Notification(n)) = serde_json::from_slice::<ServerJsonRpcMessage>(note) else { return };
-        match n.notification {
-            ServerNotification::ProgressNotification(p) => {
-                let peer = peer.clone();
-                tokio::spawn(async move {
-                    let _ = peer.notify_progress(p.params).await;
-                });
-            }
-            #[allow(deprecated)]
-            ServerNotification::LoggingMessageNotification(m) => self.log.send(peer, m.params.level, m.params.data),
-            _ => {}
         }
     }
 }
@@ -183,6 +185,20 @@ fn call_params(request: &CallToolRequestParams, cx: &RequestContext<RoleServer>)
         }
     }
     params
+}
+
+/// Sends a note from the owner on to a forwarded call's client: progress as it came, a log
+/// line through the client's session level.
+async fn relay_note(log: &super::logging::SessionLog, note: &[u8], peer: &Peer<RoleServer>) {
+    let Ok(ServerJsonRpcMessage::Notification(n)) = serde_json::from_slice::<ServerJsonRpcMessage>(note) else { return };
+    match n.notification {
+        ServerNotification::ProgressNotification(p) => {
+            let _ = peer.notify_progress(p.params).await;
+        }
+        #[allow(deprecated)]
+        ServerNotification::LoggingMessageNotification(m) => log.send(peer, m.params.level, m.params.data),
+        _ => {}
+    }
 }
 
 /// What one attempt came to.
