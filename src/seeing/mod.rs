@@ -4,5 +4,6 @@
 pub mod animation;
 pub mod report;
 pub mod sensing;
+pub mod style;
 pub mod trajectory;
 pub mod viewer;
