@@ -233,6 +233,9 @@ fn progress_bar(what: &str) -> indicatif::ProgressBar {
 
 /// `replay FILE --render OUT.gif`.
 fn run_render(file: &Path, out: &Path, span: physics_mcp::seeing::report::Span, every: Option<u64>, size: (u32, u32), force: bool) -> anyhow::Result<()> {
+    if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("gif")) {
+        anyhow::bail!("--render writes a GIF: the file name must end in .gif; got {}", out.display());
+    }
     let bar = progress_bar("rendering");
     let started = std::time::Instant::now();
     let anim = physics_mcp::seeing::report::render_gif(file, span, every, size, |done, total| {
@@ -243,12 +246,15 @@ fn run_render(file: &Path, out: &Path, span: physics_mcp::seeing::report::Span, 
     let anim = anim.map_err(anyhow::Error::msg)?;
     physics_mcp::files::write::write_operator_file(out, &anim.gif, force).map_err(anyhow::Error::msg)?;
     println!(
-        "wrote {}: {} frames {}x{}, {} bytes, {:.2} s",
+        "wrote {}: {} frames {}x{}, {} bytes, plays {:.2} s ({:.2} s simulated), camera {}, in {:.2} s",
         out.display(),
         anim.frames,
         size.0,
         size.1,
         anim.gif.len(),
+        anim.duration_s,
+        anim.simulated_s,
+        serde_json::to_string(&anim.camera).unwrap_or_default(),
         started.elapsed().as_secs_f64()
     );
     Ok(())

@@ -438,7 +438,7 @@ pub fn world_from_events(
 /// Refuses an event of this version whose recorded result hash is not that of the result its
 /// command gives (`outcome`; None for fork and load roots, which record no result to check).
 fn check_result_hash(e: &Event, outcome: Option<crate::outputs::Outcome>) -> Result<(), Refusal> {
-    if let (Some(o), Some(recorded), true) = (outcome, &e.result_hash, e.version == crate::command::EVENT_VERSION) {
+    if let (Some(o), Some(recorded), true) = (outcome, &e.result_hash, crate::command::result_rechecked(e.version)) {
         if crate::digest::result_hash(&o.to_value().to_string()) != *recorded {
             return Err(bad(format!("event {} records a result hash its command does not give", e.seq)));
         }

@@ -105,11 +105,12 @@ impl Replayer<'_> {
         Ok(())
     }
 
-    /// Results are re-checked only for events of the version that recorded them: an older
-    /// event's result was computed under older rules (docs/log-format.md "Compatibility of logs and files"); its state hash
-    /// is still checked.
+    /// Results are re-checked for events whose version's rules are still known
+    /// (`command::result_rechecked`); an older event's result was computed under rules that
+    /// are gone (docs/log-format.md "Compatibility of logs and files"); its state hash is
+    /// still checked.
     fn check_result(e: &Event, result: &Value) -> Result<(), ReplayError> {
-        if e.version != crate::command::EVENT_VERSION {
+        if !crate::command::result_rechecked(e.version) {
             return Ok(());
         }
         let actual = crate::digest::result_hash(&result.to_string());
@@ -207,7 +208,7 @@ impl Replayer<'_> {
                 let read = Read::recorded(&e.tool, &args).map_err(|why| Self::diverged(e, "read", "a read it can re-run", &why))?;
                 let world = self.world(e)?;
                 let hash = world.state_hash();
-                let cx = ReadContext { world, head_seq: self.head, last_seq: self.prev_seq, state_hash: &hash };
+                let cx = ReadContext { world, head_seq: self.head, last_seq: self.prev_seq, state_hash: &hash, rules: e.version };
                 match read.replay(&cx) {
                     Some(Ok(result)) => {
                         Self::check_result(e, &result)?;

@@ -97,8 +97,16 @@ pub struct CameraImage {
     pub width: Int<u32>,
     /// Pixels.
     pub height: Int<u32>,
-    /// 16 floats (default: set_camera).
+    /// 16 floats (default: set_camera, else framed).
     pub view_matrix: Option<Matrix>,
+    /// Camera distance (m); unset terms framed.
+    pub distance: Option<Positive>,
+    /// Degrees.
+    pub yaw: Option<Num>,
+    /// Degrees.
+    pub pitch: Option<Num>,
+    /// Point looked at.
+    pub target: Option<Vec3>,
     /// 16 floats (default: fov 60).
     pub projection_matrix: Option<Matrix>,
     /// Ignored (PyBullet).

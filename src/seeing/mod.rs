@@ -2,6 +2,8 @@
 //! session report and the web viewer.
 
 pub mod animation;
+pub mod framing;
+pub mod overlay;
 pub mod report;
 pub mod sensing;
 pub mod style;

@@ -346,7 +346,7 @@ fn work_out(
                 }
             }
             Planned::Read(read) => {
-                let cx = ReadContext { world, head_seq: head, last_seq: seq - 1, state_hash: &hash };
+                let cx = ReadContext { world, head_seq: head, last_seq: seq - 1, state_hash: &hash, rules: crate::command::EVENT_VERSION };
                 let value = read
                     .and_then(|r| r.replay(&cx).unwrap_or_else(|| Err("not a read a batch can hold".into())))
                     .map_err(refused)?;

@@ -415,6 +415,7 @@ impl Sim {
             head_seq: self.log.head_seq(),
             last_seq: self.log.last_seq(),
             state_hash: &self.state_hash,
+            rules: crate::command::EVENT_VERSION,
         }
     }
 

@@ -10,7 +10,9 @@ use crate::outputs::{
     CameraImage, Contacts, DynamicsInfo, IkSolution, JointInfo, JointState, LinkState, NumJoints,
     ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
+use crate::seeing::framing;
 use crate::seeing::sensing::camera::{self, Mat4};
+use crate::seeing::sensing::capture::Scene;
 use crate::seeing::sensing::{contacts, rays, render};
 use crate::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
 use crate::params::{Fork, GetTrajectory, HistoryPage, LinkRef, RenderAnimation, Save};
@@ -27,6 +29,10 @@ pub struct ReadContext<'a> {
     pub last_seq: u64,
     /// The world's state hash.
     pub state_hash: &'a str,
+    /// The event version whose rules compute the result: `EVENT_VERSION` live, the recorded
+    /// event's when `replay` re-checks it (a read recorded under older rules is re-run under
+    /// them; see `camera_image`).
+    pub rules: u32,
 }
 
 /// get_object_state.
@@ -304,6 +310,10 @@ pub struct Rendered {
     pub png: Vec<u8>,
 }
 
+/// The event version from which get_camera_image without a view matrix frames the scene
+/// itself until set_camera is called, and reports the camera it used (`seeing::framing`).
+pub const CAMERA_FRAMED_SINCE: u32 = 4;
+
 /// get_camera_image (at most `max_px` pixels).
 pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result<Rendered, Refusal> {
     let w = cx.world;
@@ -320,13 +330,21 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
             "Image too large: {width}x{height} = {px} pixels (at most {max_px}, --max-image-px)"
         ));
     }
-    let cam = w.viewer();
-    let view: Mat4 = match &p.view_matrix {
-        Some(m) => m.0,
-        None => {
-            let t = cam.target.map(f64::from);
-            camera::view_matrix_from_yaw_pitch(t, cam.distance.into(), cam.yaw.into(), cam.pitch.into(), 2)
-        }
+    let asked = framing::Asked {
+        view: p.view_matrix.as_ref().map(|m| m.0),
+        distance: p.distance.as_ref().map(|v| f64::from(v.0)),
+        yaw: p.yaw.as_ref().map(|v| f64::from(v.0)),
+        pitch: p.pitch.as_ref().map(|v| f64::from(v.0)),
+        target: p.target.as_ref().map(|v| v.0.map(f64::from)),
+    };
+    asked.check()?;
+    let (view, camera): (Mat4, _) = if cx.rules < CAMERA_FRAMED_SINCE {
+        // Recorded before pictures framed themselves: the set_camera camera, always.
+        (asked.view.unwrap_or_else(|| framing::Terms::of_viewer(w.viewer()).view()), None)
+    } else {
+        let scene = Scene::capture(w);
+        let (view, used) = framing::choose(&asked, &[&scene], f64::from(width) / f64::from(height));
+        (view, Some(used))
     };
     let proj: Mat4 = match &p.projection_matrix {
         Some(m) => m.0,
@@ -350,6 +368,7 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
         height,
         visible_objects: counts.into_iter().map(|(object_id, pixels)| VisibleObject { object_id, pixels }).collect(),
         depth_range: (lo <= hi).then(|| [r32(lo), r32(hi)]),
+        camera,
         depth: include_depth.then(|| {
             frame.depth.iter().map(|d| if d.is_finite() { r32(*d) } else { far }).collect()
         }),

@@ -83,7 +83,9 @@ async fn a_few_objects_animate_exactly_and_the_gif_keeps_its_promises() {
     let hash = c.hash(&sim).await;
     let view = side_view(&c).await;
 
-    let (gif, s) = animation(&c, json!({"sim_id": sim, "from_seq": from, "every": 10, "width": 160, "height": 120, "fps": 20, "view_matrix": view})).await;
+    // fps 50: samples 10 steps (41.7 ms) apart are all shown; no overlay, to compare pixels.
+    let asked = json!({"sim_id": sim, "from_seq": from, "every": 10, "width": 160, "height": 120, "fps": 50, "overlay": "none", "view_matrix": view});
+    let (gif, s) = animation(&c, asked.clone()).await;
     // 97 steps every 10: the start, 9 samples, and the end (a remainder of 7 steps).
     assert_eq!(s["frames"], 11, "{s}");
     assert_eq!(gif.frames.len(), 11);
@@ -91,20 +93,27 @@ async fn a_few_objects_animate_exactly_and_the_gif_keeps_its_promises() {
     assert_eq!((s["width"].as_u64(), s["height"].as_u64()), (Some(160), Some(120)));
     assert_eq!(s["from_seq"], from);
     assert_eq!(s["to_seq"], head(&c, &sim).await);
-    assert_eq!(s["bytes"].as_u64().unwrap() as usize, image_of(&c.raw("render_animation", json!({"sim_id": sim, "from_seq": from, "every": 10, "width": 160, "height": 120, "fps": 20, "view_matrix": view})).await, "image/gif").len());
+    assert_eq!(s["bytes"].as_u64().unwrap() as usize, image_of(&c.raw("render_animation", asked).await, "image/gif").len());
     assert!(gif.loops, "the GIF loops");
-    assert!(gif.delays.iter().all(|d| *d == 5), "fps 20 = 5 hundredths: {:?}", gif.delays);
-    assert!((s["duration_s"].as_f64().unwrap() - 0.55).abs() < 1e-9, "{s}");
+    // Real time: the delays add up to the 97 steps' 0.404 s (within a hundredth), none under 20 ms.
+    let played: f64 = gif.delays.iter().map(|d| f64::from(*d) / 100.0).sum();
+    assert!((played - 97.0 / 240.0).abs() <= 0.01, "{:?}", gif.delays);
+    assert!(gif.delays.iter().all(|d| *d >= 2), "{:?}", gif.delays);
+    assert!((s["duration_s"].as_f64().unwrap() - played).abs() < 1e-9, "{s}");
+    assert!((s["simulated_s"].as_f64().unwrap() - 97.0 / 240.0).abs() < 1e-9, "{s}");
+    assert_eq!(s["camera"]["source"], "view_matrix");
     let error = ends_match(&c, &sim, &gif, &s, &view, true).await;
     assert!(error < 1.0, "mean error {error}");
 
     // The default interval is what the last step did; the default camera is set_camera's.
     c.call("set_camera", json!({"sim_id": sim, "distance": 4, "yaw": 30, "pitch": -20, "target": [0, 0, 0.5]})).await;
     c.step(&sim, 12).await;
-    let r = c.raw("render_animation", json!({"sim_id": sim, "width": 96, "height": 72})).await;
+    let r = c.raw("render_animation", json!({"sim_id": sim, "width": 96, "height": 72, "overlay": "none"})).await;
     let s2 = r.structured_content.clone().unwrap();
     let gif2 = Gif::decode(&image_of(&r, "image/gif"));
-    assert_eq!((s2["every"].as_u64(), s2["frames"].as_u64(), s2["steps"].as_u64()), (Some(1), Some(13), Some(12)), "{s2}");
+    // 13 samples 4 ms apart: at 30 frames a second the first and the last are shown.
+    assert_eq!((s2["every"].as_u64(), s2["frames"].as_u64(), s2["steps"].as_u64()), (Some(1), Some(2), Some(12)), "{s2}");
+    assert_eq!(s2["camera"]["source"], "set_camera", "{s2}");
     ends_match(&c, &sim, &gif2, &s2, &Value::Null, true).await;
 
     // Looking changed nothing.
@@ -156,13 +165,13 @@ async fn a_hundred_objects_stay_within_two_levels_and_files_are_written() {
         .call("compute_view_matrix", json!({"camera_eye_position": [4, -4, 3], "camera_target_position": [0, 0, 0.8], "camera_up_vector": [0, 0, 1]}))
         .await["view_matrix"]
         .clone();
-    let (gif, s) = animation(&c, json!({"sim_id": sim, "from_seq": from, "every": 16, "width": 200, "height": 150, "view_matrix": view})).await;
+    let (gif, s) = animation(&c, json!({"sim_id": sim, "from_seq": from, "every": 16, "width": 200, "height": 150, "overlay": "none", "view_matrix": view})).await;
     assert_eq!(gif.frames.len(), 6);
     let error = ends_match(&c, &sim, &gif, &s, &view, false).await;
     assert!(error <= 2.0, "mean error {error} levels of 255 (at most 2)");
 
     // To a file: the same GIF, linked, not inline.
-    let r = c.raw("render_animation", json!({"sim_id": sim, "from_seq": from, "every": 16, "width": 200, "height": 150, "view_matrix": view, "output_path": "out/pile.gif"})).await;
+    let r = c.raw("render_animation", json!({"sim_id": sim, "from_seq": from, "every": 16, "width": 200, "height": 150, "overlay": "none", "view_matrix": view, "output_path": "out/pile.gif"})).await;
     assert_ne!(r.is_error, Some(true), "{r:?}");
     assert!(r.content.iter().all(|c| c.as_image().is_none()), "no inline image with output_path");
     let written = std::fs::read(server.workspace.join("out/pile.gif")).unwrap();
@@ -198,6 +207,11 @@ async fn bad_requests_are_refused_with_one_sentence_and_change_nothing() {
         (json!({"output_path": "a.png"}), "output_path"),
         (json!({"output_path": "../a.gif"}), "output_path"),
         (json!({"view_matrix": [1, 2, 3]}), "view_matrix"),
+        (json!({"speed": 0}), "speed"),
+        (json!({"speed": 1000}), "speed"),
+        (json!({"overlay": "clock"}), "overlay"),
+        (json!({"distance": -1}), "distance"),
+        (json!({"yaw": 30, "view_matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -5, 1]}), "view_matrix"),
     ];
     for (extra, word) in cases {
         let mut args = json!({"sim_id": sim, "width": 32, "height": 24});

@@ -21,7 +21,20 @@ use crate::world::World;
 /// 2: values reported as set (mass, timestep, time as PyBullet computes it); a cancelled
 /// step records the steps it took.
 /// 3: every state-changing result says where it landed (`head_seq`, `time`: `outputs::Landed`).
-pub const EVENT_VERSION: u32 = 3;
+/// 4: get_camera_image without a view matrix frames the scene until set_camera is called, and
+/// reports the camera used (results of version-3 reads are re-checked under version 3's rule).
+pub const EVENT_VERSION: u32 = 4;
+
+/// The oldest event version whose results are re-checked: from it on, every result is computed
+/// under the rules of the version that recorded it (version 4 changed only get_camera_image's,
+/// which is re-run under version 3's rule for version-3 reads). Older results were computed
+/// under rules that are gone; their state hashes are still checked.
+pub const RESULTS_RECHECKED_SINCE: u32 = 3;
+
+/// Whether a result recorded under event version `version` is re-checked (see above).
+pub fn result_rechecked(version: u32) -> bool {
+    (RESULTS_RECHECKED_SINCE..=EVENT_VERSION).contains(&version)
+}
 
 /// A primitive collision shape with its dimensions (PyBullet conventions: box half-extents,
 /// cylinder full height, capsule cylindrical-part height; cylinders/capsules along local z).

@@ -768,6 +768,28 @@ pub struct VisibleObject {
     pub pixels: u64,
 }
 
+/// The camera a picture was taken with, so the agent can take the next one from the same
+/// place or move it (set_camera's terms; only `source` when view matrices were given).
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct CameraUsed {
+    /// How it was chosen: `view_matrix` (given), `given` (distance/yaw/pitch/target given,
+    /// the rest framed), `set_camera` (the viewer camera set_camera placed) or `framed` (chosen
+    /// to frame the objects that move, else all).
+    pub source: String,
+    /// Distance to the target (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance: Option<f64>,
+    /// Yaw (degrees).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub yaw: Option<f64>,
+    /// Pitch (degrees, < 0 looks down).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pitch: Option<f64>,
+    /// Point looked at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<[f64; 3]>,
+}
+
 /// The structured part of get_camera_image (the PNG travels as an MCP image content).
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct CameraImage {
@@ -780,6 +802,9 @@ pub struct CameraImage {
     /// Nearest and farthest depth of any object pixel, metres along the view axis (null if
     /// nothing is seen).
     pub depth_range: Option<[f64; 2]>,
+    /// The camera used (results recorded before event version 4 have none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<CameraUsed>,
     /// Depth in metres along the view axis, row-major from the top-left (far plane where
     /// nothing is seen); only with include_depth.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -9,10 +9,13 @@ use rmcp::{tool, tool_router};
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use crate::params::lenient::{int_or, Int, Text};
+use crate::outputs::CameraUsed;
+use crate::params::lenient::{int_or, Int, Positive, Text};
+use crate::seeing::framing;
+use crate::seeing::overlay::Overlay;
 use crate::params::{self, RenderAnimation};
 use crate::mcp::PhysicsServer;
-use crate::seeing::animation::{self, Camera};
+use crate::seeing::animation::{self, Camera, Pacing};
 use crate::sim::budget;
 use crate::log::fold::Lent;
 use crate::value::{Args, Refusal};
@@ -29,10 +32,16 @@ pub struct AnimationSummary {
     pub width: u32,
     /// Frame height in pixels.
     pub height: u32,
-    /// Frames per second as played.
+    /// The most frames per second shown, as asked (samples closer in playback are skipped).
     pub fps: u32,
-    /// Playing time of one loop (s): frames × the frame delay.
+    /// Playback speed (1: real time).
+    pub speed: f64,
+    /// Playing time of one loop (s): the simulated time shown / speed.
     pub duration_s: f64,
+    /// Simulated time from the first frame to the last (s).
+    pub simulated_s: f64,
+    /// The camera every frame was taken with.
+    pub camera: CameraUsed,
     /// Size of the GIF file in bytes.
     pub bytes: usize,
     /// The interval's first event.
@@ -52,7 +61,7 @@ pub struct AnimationSummary {
 struct Asked {
     every: Option<u64>,
     cam: Camera,
-    fps: u32,
+    pacing: Pacing,
     output: Option<(String, std::path::PathBuf)>,
 }
 
@@ -78,6 +87,15 @@ fn side(v: Option<Int<u32>>, name: &str, default: u32) -> Result<u32, Refusal> {
     u32::try_from(v).ok().filter(|v| *v >= 1).ok_or_else(|| format!("{name} must be an integer >= 1; got {v}"))
 }
 
+/// The speed: a number > 0, at most 100 (default 1).
+fn speed(v: Option<Positive>) -> Result<f64, Refusal> {
+    let s = v.map_or(1.0, |s| f64::from(s.0));
+    if s > 100.0 {
+        return Err(format!("speed must be a number > 0 and at most 100 (1 plays at real time); got {s}"));
+    }
+    Ok(s)
+}
+
 fn fps(v: Option<Int<u32>>) -> Result<u32, Refusal> {
     let v = int_or(v, 30);
     u32::try_from(v).ok().filter(|v| (1..=50).contains(v)).ok_or_else(|| format!("fps must be an integer from 1 to 50; got {v}"))
@@ -97,27 +115,39 @@ fn output(user: Option<Text>, sandbox: &Sandbox) -> Result<Option<(String, std::
 fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::trajectory::Asked, Asked), Refusal> {
     let p: RenderAnimation = params::parse(TOOL, a)?;
     let interval = (opt_u64(p.from_seq, "from_seq")?, opt_u64(p.to_seq, "to_seq")?);
+    let asked = framing::Asked {
+        view: p.view_matrix.map(|m| m.0),
+        distance: p.distance.map(|v| f64::from(v.0)),
+        yaw: p.yaw.map(|v| f64::from(v.0)),
+        pitch: p.pitch.map(|v| f64::from(v.0)),
+        target: p.target.map(|v| v.0.map(f64::from)),
+    };
+    asked.check()?;
     let cam = Camera {
         width: side(p.width, "width", 320)?,
         height: side(p.height, "height", 240)?,
-        view: p.view_matrix.map(|m| m.0),
+        asked,
         projection: p.projection_matrix.map(|m| m.0),
+        overlay: p.overlay.map_or(Ok(Overlay::Time), |Text(o)| Overlay::parse(&o))?,
     };
-    Ok((interval, Asked { every: every(p.every)?, cam, fps: fps(p.fps)?, output: output(p.output_path, sandbox)? }))
+    let pacing = Pacing { fps: fps(p.fps)?, speed: speed(p.speed)? };
+    Ok((interval, Asked { every: every(p.every)?, cam, pacing, output: output(p.output_path, sandbox)? }))
 }
 
 /// Checks the size, renders the interval and writes or inlines the GIF (no lock held).
 fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
     let every = asked.every.unwrap_or_else(|| animation::default_every(lent.interval_steps()));
     animation::check_size(animation::sample_count(lent, every), every, &asked.cam, max_px)?;
-    let anim = animation::animate(lent, every, &asked.cam, asked.fps)?;
-    let delay = animation::gif::delay_for_fps(asked.fps);
+    let anim = animation::animate(lent, every, &asked.cam, asked.pacing)?;
     let summary = AnimationSummary {
         frames: anim.frames,
         width: asked.cam.width,
         height: asked.cam.height,
-        fps: asked.fps,
-        duration_s: anim.frames as f64 * f64::from(delay) / 100.0,
+        fps: asked.pacing.fps,
+        speed: asked.pacing.speed,
+        duration_s: anim.duration_s,
+        simulated_s: anim.simulated_s,
+        camera: anim.camera,
         bytes: anim.gif.len(),
         from_seq: lent.interval.from_seq,
         to_seq: lent.interval.to_seq,

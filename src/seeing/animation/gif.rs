@@ -9,12 +9,13 @@
 use gif::{DisposalMethod, Encoder, Frame, Repeat};
 use rayon::prelude::*;
 
+use super::pacing;
 use super::palette::{Histogram, Palette};
 
 /// The palette index that means "unchanged since the previous frame".
 pub const TRANSPARENT: u8 = 255;
 
-/// What a GIF is made of: RGB frames of one size, shown `delay_cs` hundredths of a second each.
+/// What a GIF is made of: RGB frames of one size, each shown for its delay.
 pub struct Frames<'a> {
     /// Width in pixels (≤ 65535).
     pub width: u32,
@@ -22,13 +23,8 @@ pub struct Frames<'a> {
     pub height: u32,
     /// RGB bytes of each frame, row-major from the top-left.
     pub rgb: &'a [Vec<u8>],
-    /// Frame delay in hundredths of a second.
-    pub delay_cs: u16,
-}
-
-/// The GIF frame delay for a frame rate: round(100 / fps) hundredths (docs/tools.md).
-pub fn delay_for_fps(fps: u32) -> u16 {
-    ((100.0 / f64::from(fps.max(1))).round() as u16).max(1)
+    /// Each frame's delay in hundredths of a second (`pacing::pace`).
+    pub delays: &'a [u16],
 }
 
 /// The smallest rectangle (left, top, width, height) holding every index that differs.
@@ -96,7 +92,7 @@ pub fn encode(frames: &Frames) -> Result<(Vec<u8>, Palette), String> {
     let palette = Palette::build(&hist, 255);
     let indexed: Vec<Vec<u8>> = frames.rgb.par_iter().map(|f| palette.map_rgb(f)).collect();
     let encoded: Vec<Frame> =
-        (0..indexed.len()).into_par_iter().map(|k| delta_frame(&indexed, k, frames.width as usize, frames.delay_cs)).collect();
+        (0..indexed.len()).into_par_iter().map(|k| delta_frame(&indexed, k, frames.width as usize, frames.delays.get(k).copied().unwrap_or(pacing::MIN_DELAY_CS))).collect();
     let mut flat = palette.flat();
     flat.resize(256 * 3, 0);
     let fail = |e: gif::EncodingError| format!("GIF encoding failed: {e}");
@@ -146,19 +142,12 @@ mod tests {
                 f
             })
             .collect();
-        let (bytes, _) = encode(&Frames { width: w, height: h, rgb: &frames, delay_cs: 3 }).unwrap();
+        let (bytes, _) = encode(&Frames { width: w, height: h, rgb: &frames, delays: &[3; 5] }).unwrap();
         let (pal, decoded) = decode(&bytes);
         assert_eq!(decoded.len(), 5);
         for (f, d) in frames.iter().zip(&decoded) {
             let rgb: Vec<u8> = d.iter().flat_map(|i| pal[*i as usize]).collect();
             assert_eq!(&rgb, f);
         }
-    }
-
-    #[test]
-    fn delay_rounds_hundredths() {
-        assert_eq!(delay_for_fps(30), 3);
-        assert_eq!(delay_for_fps(50), 2);
-        assert_eq!(delay_for_fps(1), 100);
     }
 }

@@ -7,69 +7,73 @@
 //! - `gif`     — frames → GIF with the `gif` crate (delta frames, parallel LZW).
 
 pub mod gif;
+pub mod pacing;
 pub mod palette;
-
-use std::sync::Mutex;
 
 use rayon::prelude::*;
 
 use crate::command::Command;
 use crate::log::fold::{self, Lent};
+use crate::outputs::CameraUsed;
+use crate::seeing::framing;
+use crate::seeing::overlay::{self, Canvas, Overlay};
 use crate::seeing::sensing::camera::{self, Mat4};
-use crate::seeing::sensing::render;
 use crate::seeing::sensing::capture::Scene;
-use crate::world::Viewer;
+use crate::seeing::sensing::render;
+pub use pacing::Pacing;
+
 /// At most this many frames in one animation (docs/tools.md).
 pub const MAX_FRAMES: u64 = 600;
 /// At most this many pixels over all frames of one animation (RGB frames are kept until the
 /// palette is known: 3 bytes each, so at most ~600 MB).
 pub const MAX_TOTAL_PX: u64 = 200_000_000;
 
-/// How frames are taken: their size and, when given, fixed matrices (else each frame uses the
-/// viewer camera recorded at that moment, as get_camera_image does without matrices).
+/// How frames are taken: their size, the camera asked for (`framing`: else set_camera's at the
+/// interval's end, else framed — one camera for every frame), the lens and the overlay.
 #[derive(Clone, Debug)]
 pub struct Camera {
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// A fixed view matrix (column-major), or the recorded camera's.
-    pub view: Option<Mat4>,
+    /// The view asked for (nothing: the default rule).
+    pub asked: framing::Asked,
     /// A fixed projection matrix, or the default lens for this size.
     pub projection: Option<Mat4>,
-}
-
-/// The view matrix of a recorded viewer camera (set_camera): what get_camera_image, the
-/// `sim://…/image` resource and the viewer use when given no matrix.
-pub fn recorded_view(v: &Viewer) -> Mat4 {
-    camera::view_matrix_from_yaw_pitch(v.target.map(f64::from), v.distance.into(), v.yaw.into(), v.pitch.into(), 2)
+    /// What is drawn over each frame.
+    pub overlay: Overlay,
 }
 
 impl Camera {
-    /// The matrices for a frame of `scene`.
-    pub fn matrices(&self, scene: &Scene) -> (Mat4, Mat4) {
-        let view = self.view.unwrap_or_else(|| recorded_view(&scene.camera));
+    /// A camera of this size following the default rule, with the time overlay.
+    pub fn sized(width: u32, height: u32) -> Camera {
+        Camera { width, height, asked: framing::Asked::default(), projection: None, overlay: Overlay::Time }
+    }
+
+    /// The one view and lens for pictures of `scenes` (in time order), and the camera it is.
+    pub fn fix(&self, scenes: &[&Scene]) -> (Mat4, Mat4, CameraUsed) {
+        let (view, used) = framing::choose(&self.asked, scenes, f64::from(self.width) / f64::from(self.height));
         let proj = self.projection.unwrap_or_else(|| camera::default_projection(self.width, self.height));
-        (view, proj)
+        (view, proj, used)
     }
 
-    /// Renders one scene to RGB bytes.
-    pub fn rgb(&self, scene: &Scene) -> Vec<u8> {
-        let (view, proj) = self.matrices(scene);
-        render::render_scene(scene, self.width, self.height, &view, &proj).rgb
+    /// Renders one scene (the event `seq`) with fixed matrices to RGB bytes, overlay drawn.
+    pub fn rgb(&self, scene: &Scene, seq: u64, view: &Mat4, proj: &Mat4) -> Vec<u8> {
+        let mut rgb = render::render_scene(scene, self.width, self.height, view, proj).rgb;
+        let mut canvas = Canvas { rgb: &mut rgb, width: self.width, height: self.height };
+        overlay::draw(self.overlay, &mut canvas, scene, seq, view, proj);
+        rgb
     }
 }
 
-/// Renders every scene (in parallel, order kept) to RGB frames.
-pub fn render_all(scenes: &[Scene], cam: &Camera) -> Vec<Vec<u8>> {
-    scenes.par_iter().map(|s| cam.rgb(s)).collect()
-}
-
-/// Renders scenes into a looping GIF shown at `fps` frames per second.
-pub fn gif_of(scenes: &[Scene], cam: &Camera, fps: u32) -> Result<Vec<u8>, String> {
-    let rgb = render_all(scenes, cam);
-    let frames = gif::Frames { width: cam.width, height: cam.height, rgb: &rgb, delay_cs: gif::delay_for_fps(fps) };
-    Ok(gif::encode(&frames)?.0)
+/// A scene captured at one sample of a re-simulation.
+pub struct Shot {
+    /// What the camera would see.
+    pub scene: Scene,
+    /// The event the world was at (a step event while inside it).
+    pub seq: u64,
+    /// Steps from the interval's start.
+    pub steps: u64,
 }
 
 /// the documented default sampling: about 100 samples over the interval, `max(1, ceil(steps / 100))`.
@@ -115,42 +119,22 @@ pub fn check_size(frames: u64, every: u64, cam: &Camera, max_px: usize) -> Resul
     Ok(())
 }
 
-/// Re-simulates `lent` (the one core, `fold::resimulate`) and renders a frame at every sample,
-/// each on the thread pool as soon as its scene is captured, so rendering overlaps the physics.
-/// Returns the RGB frames in order and the steps from the interval's start of each.
-pub fn frames_of(lent: &Lent, every: u64, cam: &Camera) -> Result<(Vec<Vec<u8>>, Vec<u64>), String> {
-    frames_with(lent, every, cam, &mut |_| {})
-}
-
-/// `frames_of`, telling `progress` the steps re-simulated so far (a terminal's progress bar).
-pub fn frames_with(lent: &Lent, every: u64, cam: &Camera, progress: &mut (dyn FnMut(u64) + Send)) -> Result<(Vec<Vec<u8>>, Vec<u64>), String> {
-    let rendered: Mutex<Vec<(usize, Vec<u8>)>> = Mutex::new(Vec::new());
-    let mut steps = Vec::new();
-    // In place: the re-simulation runs on the calling thread, only the rendering on the pool.
-    // (`rayon::scope` would run it on a global-pool worker, which while its step waits may
-    // start another caller's whole animation on its own stack.)
-    let outcome = rayon::in_place_scope(|s| {
-        let rendered = &rendered;
-        fold::resimulate(lent, every, &mut |w, m| {
-            if m.at == fold::At::Step {
-                progress(m.steps);
-            }
-            if m.sample {
-                let (k, scene) = (steps.len(), Scene::capture(w));
-                steps.push(m.steps);
-                s.spawn(move |_| {
-                    let rgb = cam.rgb(&scene);
-                    rendered.lock().unwrap_or_else(|p| p.into_inner()).push((k, rgb));
-                });
-            }
-            true
-        })
-        .map(|_| ())
-    });
-    outcome.map_err(|e| format!("The interval could not be re-simulated: {e}"))?;
-    let mut frames = rendered.into_inner().unwrap_or_else(|p| p.into_inner());
-    frames.sort_by_key(|(k, _)| *k);
-    Ok((frames.into_iter().map(|(_, f)| f).collect(), steps))
+/// Re-simulates `lent` (the one core, `fold::resimulate`) and captures a scene at every
+/// sample, telling `progress` the steps re-simulated so far (a terminal's progress bar).
+/// Samples before the first object exists are left out (an empty world says nothing).
+pub fn capture(lent: &Lent, every: u64, progress: &mut (dyn FnMut(u64) + Send)) -> Result<Vec<Shot>, String> {
+    let mut shots: Vec<Shot> = Vec::new();
+    fold::resimulate(lent, every, &mut |w, m| {
+        if m.at == fold::At::Step {
+            progress(m.steps);
+        }
+        if m.sample && (!shots.is_empty() || w.object_count() > 0) {
+            shots.push(Shot { scene: Scene::capture(w), seq: m.seq, steps: m.steps });
+        }
+        true
+    })
+    .map_err(|e| format!("The interval could not be re-simulated: {e}"))?;
+    Ok(shots)
 }
 
 /// A rendered animation.
@@ -161,17 +145,44 @@ pub struct Animation {
     pub frames: usize,
     /// Steps from the interval's start at each frame.
     pub steps: Vec<u64>,
+    /// Playing time of one loop (s).
+    pub duration_s: f64,
+    /// Simulated time from the first frame to the last (s).
+    pub simulated_s: f64,
+    /// The camera every frame was taken with.
+    pub camera: CameraUsed,
 }
 
-/// Re-simulates `lent` and encodes its samples as a GIF at `fps`.
-pub fn animate(lent: &Lent, every: u64, cam: &Camera, fps: u32) -> Result<Animation, String> {
-    animate_with(lent, every, cam, fps, &mut |_| {})
+/// Encodes shots as a looping GIF: one camera for all (chosen from all of them), frames paced
+/// by `pacing`, rendered on all cores.
+pub fn animate_shots(shots: &[Shot], cam: &Camera, pacing: Pacing) -> Result<Animation, String> {
+    let scenes: Vec<&Scene> = shots.iter().map(|s| &s.scene).collect();
+    let (view, proj, used) = cam.fix(&scenes);
+    let times: Vec<f64> = scenes.iter().map(|s| s.time).collect();
+    let shown = pacing::pace(&times, pacing);
+    let rgb: Vec<Vec<u8>> = shown.par_iter().map(|(k, _)| cam.rgb(&shots[*k].scene, shots[*k].seq, &view, &proj)).collect();
+    let delays: Vec<u16> = shown.iter().map(|(_, d)| *d).collect();
+    let (gif, _) = gif::encode(&gif::Frames { width: cam.width, height: cam.height, rgb: &rgb, delays: &delays })?;
+    Ok(Animation {
+        gif,
+        frames: rgb.len(),
+        steps: shown.iter().map(|(k, _)| shots[*k].steps).collect(),
+        duration_s: pacing::duration_s(&shown),
+        simulated_s: times.last().zip(times.first()).map_or(0.0, |(b, a)| b - a),
+        camera: used,
+    })
+}
+
+/// Re-simulates `lent` and encodes its samples as a GIF.
+pub fn animate(lent: &Lent, every: u64, cam: &Camera, pacing: Pacing) -> Result<Animation, String> {
+    animate_with(lent, every, cam, pacing, &mut |_| {})
 }
 
 /// `animate`, telling `progress` the steps re-simulated so far.
-pub fn animate_with(lent: &Lent, every: u64, cam: &Camera, fps: u32, progress: &mut (dyn FnMut(u64) + Send)) -> Result<Animation, String> {
-    let (rgb, steps) = frames_with(lent, every, cam, progress)?;
-    let frames = gif::Frames { width: cam.width, height: cam.height, rgb: &rgb, delay_cs: gif::delay_for_fps(fps) };
-    let (bytes, _) = gif::encode(&frames)?;
-    Ok(Animation { gif: bytes, frames: rgb.len(), steps })
+pub fn animate_with(lent: &Lent, every: u64, cam: &Camera, pacing: Pacing, progress: &mut (dyn FnMut(u64) + Send)) -> Result<Animation, String> {
+    let shots = capture(lent, every, progress)?;
+    if shots.is_empty() {
+        return Err("Nothing to show: no object exists in this interval; give a later to_seq".into());
+    }
+    animate_shots(&shots, cam, pacing)
 }

@@ -47,10 +47,10 @@ pub fn render_gif(path: &Path, span: Span, every: Option<u64>, size: (u32, u32),
     let lent = crate::log::replay::lend_interval(path, span.from, span.to)?;
     let steps = lent.interval_steps();
     let every = every.unwrap_or_else(|| animation::default_every(steps));
-    let cam = Camera { width: size.0, height: size.1, view: None, projection: None };
+    let cam = Camera::sized(size.0, size.1);
     animation::check_size(animation::sample_count(&lent, every), every, &cam, usize::MAX)?;
     progress(0, steps);
-    let anim = animation::animate_with(&lent, every, &cam, 30, &mut |done| progress(done, steps))?;
+    let anim = animation::animate_with(&lent, every, &cam, animation::Pacing::default(), &mut |done| progress(done, steps))?;
     progress(steps, steps);
     Ok(anim)
 }
@@ -108,7 +108,7 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
     let thumb_every = changes.len().div_ceil(MAX_THUMBNAILS).max(1);
     let thumb_seqs: std::collections::BTreeSet<u64> = changes.iter().copied().step_by(thumb_every).collect();
 
-    let mut scenes: Vec<Scene> = Vec::new();
+    let mut shots: Vec<animation::Shot> = Vec::new();
     let mut thumbs: Vec<(u64, Scene)> = Vec::new();
     let mut time_at = BTreeMap::new();
     let mut time_of_hash = BTreeMap::new();
@@ -119,7 +119,9 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
             progress(m.steps, steps);
         }
         if m.sample {
-            scenes.push(Scene::capture(w));
+            if !shots.is_empty() || w.object_count() > 0 {
+                shots.push(animation::Shot { scene: Scene::capture(w), seq: m.seq, steps: m.steps });
+            }
             let t = w.current_time();
             for (id, _) in w.objects() {
                 if let Some(s) = w.object_state(id) {
@@ -143,11 +145,9 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
     .map_err(|e| format!("the chain could not be re-simulated: {e}"))?;
     progress(steps, steps);
 
-    let movie = Camera { width: MOVIE.0, height: MOVIE.1, view: None, projection: None };
-    let rgb = animation::render_all(&scenes, &movie);
-    let frames = animation::gif::Frames { width: MOVIE.0, height: MOVIE.1, rgb: &rgb, delay_cs: animation::gif::delay_for_fps(20) };
-    let (gif, _) = animation::gif::encode(&frames)?;
-    let thumbnails = thumbnails(&thumbs)?;
+    let movie = animation::animate_shots(&shots, &Camera::sized(MOVIE.0, MOVIE.1), animation::Pacing::default())?;
+    let scenes: Vec<&Scene> = shots.iter().map(|s| &s.scene).collect();
+    let thumbnails = thumbnails(&thumbs, &scenes)?;
     // Objects that move, lowest ids first (else the first objects, still as they are).
     let moves = |c: &Course| c.speed.iter().any(|(_, v)| *v > 1e-9) || c.height.windows(2).any(|w| w[0].1 != w[1].1);
     let (moving, still): (Vec<Course>, Vec<Course>) = courses.into_values().partition(moves);
@@ -158,8 +158,8 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
         time_at,
         time_of_hash,
         thumbnails,
-        frames: rgb.len(),
-        gif,
+        frames: movie.frames,
+        gif: movie.gif,
         courses,
         end_time,
         final_hash,
@@ -167,14 +167,16 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
     })
 }
 
-/// Renders the chosen thumbnails as PNGs on all cores.
-fn thumbnails(thumbs: &[(u64, Scene)]) -> Result<BTreeMap<u64, Vec<u8>>, String> {
+/// Renders the chosen thumbnails as PNGs on all cores, all with the camera of the run's
+/// animation (`run`: its scenes).
+fn thumbnails(thumbs: &[(u64, Scene)], run: &[&Scene]) -> Result<BTreeMap<u64, Vec<u8>>, String> {
     use rayon::prelude::*;
-    let cam = Camera { width: THUMB.0, height: THUMB.1, view: None, projection: None };
+    let cam = Camera::sized(THUMB.0, THUMB.1);
+    let (view, proj, _) = cam.fix(run);
     thumbs
         .par_iter()
+        .filter(|(_, s)| !s.parts.is_empty())
         .map(|(seq, s)| {
-            let (view, proj) = cam.matrices(s);
             let png = render::render_scene(s, THUMB.0, THUMB.1, &view, &proj).png()?;
             Ok((*seq, png))
         })

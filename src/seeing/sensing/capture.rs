@@ -17,6 +17,8 @@ pub struct Posed {
     pub pose: Pose,
     /// RGBA from the object or the URDF material, if any.
     pub color: Option<[f32; 4]>,
+    /// Whether its body never moves (`world::scene::Part::fixed`).
+    pub fixed: bool,
 }
 
 /// What the camera would draw of a world at one moment.
@@ -25,6 +27,12 @@ pub struct Scene {
     pub parts: Vec<Posed>,
     /// The recorded viewer camera (set_camera) at that moment.
     pub camera: Viewer,
+    /// Whether set_camera had been called by then (`World::camera_set`).
+    pub camera_set: bool,
+    /// Simulated time (s) at that moment.
+    pub time: f64,
+    /// Steps since creation at that moment.
+    pub steps: u64,
 }
 
 impl Scene {
@@ -34,8 +42,8 @@ impl Scene {
             .scene()
             .parts
             .iter()
-            .map(|p| Posed { object_id: p.object_id, shape: p.shape.clone(), pose: p.pose, color: p.color })
+            .map(|p| Posed { object_id: p.object_id, shape: p.shape.clone(), pose: p.pose, color: p.color, fixed: p.fixed })
             .collect();
-        Scene { parts, camera: w.viewer().clone() }
+        Scene { parts, camera: w.viewer().clone(), camera_set: w.camera_set(), time: w.current_time(), steps: w.steps() }
     }
 }

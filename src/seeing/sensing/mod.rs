@@ -9,5 +9,6 @@
 pub mod camera;
 pub mod contacts;
 pub mod rays;
-pub mod render;
 pub mod capture;
+pub mod render;
+pub mod shading;

@@ -4,25 +4,22 @@
 //! and convex hulls), transformed by the caller's view and projection matrices (column-major,
 //! OpenGL conventions, as PyBullet's), clipped against the near plane in clip space, and
 //! filled with a depth test. Depth is interpolated perspective-correctly and reported in
-//! metres along the viewing axis (not Bullet's non-linear [0, 1] buffer). Faces are flat
-//! shaded: the object's colour times ambient plus one directional light. Back faces of the
+//! metres along the viewing axis (not Bullet's non-linear [0, 1] buffer). Back faces of the
 //! (convex) shapes are culled. Segmentation holds the object id per pixel, −1 for background.
+//!
+//! Colour is decided after that geometry pass, per pixel (`shading`): the object's colour
+//! (`seeing::style`) lit by ambient plus one directional light with shadows (a shadow map from
+//! the light), fixed bodies' upward faces with the ground's 1 m checker, a sky gradient behind.
+//! What is seen where — depth and segmentation — is the geometry pass's alone.
 
 use rapier3d::parry::shape::{Shape, TypedShape};
 use rapier3d::prelude::Vector;
 
 use super::camera::Mat4;
 use super::capture::Scene;
+use super::shading::{self, ShadowMap, Surface};
+use crate::seeing::style;
 use crate::world::World;
-
-/// Background colour (PyBullet's TinyRenderer clears to white).
-const BACKGROUND: [u8; 3] = [255, 255, 255];
-/// Colour of objects that were given none.
-const DEFAULT_COLOR: [f32; 3] = [0.8, 0.8, 0.8];
-/// Light coming from this (world) direction, normalised at use.
-const LIGHT_FROM: [f32; 3] = [0.35, 0.45, 1.0];
-/// Share of the colour every lit or unlit face gets.
-const AMBIENT: f32 = 0.35;
 
 /// What a render produces, row-major from the top-left pixel.
 pub struct Frame {
@@ -82,11 +79,12 @@ fn triangulate(shape: &dyn Shape) -> (Vec<Vector>, Vec<[u32; 3]>) {
     }
 }
 
-/// A vertex in clip space with its view-axis depth.
+/// A vertex in clip space with its view-axis depth and world position.
 #[derive(Clone, Copy)]
 struct ClipVertex {
     clip: [f32; 4],
     depth: f32,
+    world: [f32; 3],
 }
 
 fn lerp(a: ClipVertex, b: ClipVertex, t: f32) -> ClipVertex {
@@ -94,7 +92,8 @@ fn lerp(a: ClipVertex, b: ClipVertex, t: f32) -> ClipVertex {
     for (k, c) in clip.iter_mut().enumerate() {
         *c = a.clip[k] + (b.clip[k] - a.clip[k]) * t;
     }
-    ClipVertex { clip, depth: a.depth + (b.depth - a.depth) * t }
+    let world = [0, 1, 2].map(|k| a.world[k] + (b.world[k] - a.world[k]) * t);
+    ClipVertex { clip, depth: a.depth + (b.depth - a.depth) * t, world }
 }
 
 /// Sutherland–Hodgman against one plane `f(v) ≥ 0`.
@@ -139,9 +138,19 @@ fn eye_position(view: &[f32; 16]) -> Vector {
     )
 }
 
-impl Frame {
-    /// Fills one clipped triangle (clip-space vertices) with `color` and `id`.
-    fn fill(&mut self, v: [ClipVertex; 3], color: [u8; 3], id: i64) {
+/// The geometry pass's buffers: what is seen at each pixel and how far, and what shading needs.
+struct Raster {
+    width: u32,
+    height: u32,
+    depth: Vec<f32>,
+    segmentation: Vec<i64>,
+    surface: Vec<Surface>,
+}
+
+impl Raster {
+    /// Fills one clipped triangle (clip-space vertices) with `face` (its position is filled
+    /// in per pixel) and `id`.
+    fn fill(&mut self, v: [ClipVertex; 3], face: Surface, id: i64) {
         let (w, h) = (self.width as f32, self.height as f32);
         let mut sx = [0.0f32; 3];
         let mut sy = [0.0f32; 3];
@@ -185,30 +194,31 @@ impl Frame {
                 if d < self.depth[i] {
                     self.depth[i] = d;
                     self.segmentation[i] = id;
-                    self.rgb[3 * i..3 * i + 3].copy_from_slice(&color);
+                    let (a, b, c) = (b0 * inv_w[0] / q, b1 * inv_w[1] / q, b2 * inv_w[2] / q);
+                    let pos = [0, 1, 2].map(|k| a * v[0].world[k] + b * v[1].world[k] + c * v[2].world[k]);
+                    self.surface[i] = Surface { pos, ..face };
                 }
             }
         }
     }
 
-    /// Draws one collider.
-    fn draw(&mut self, part: Drawable, view: &[f32; 16], proj: &[f32; 16], eye: Option<Vector>) {
-        let (local, tris) = triangulate(part.shape);
-        if local.is_empty() {
+    /// Draws one collider, given as its world-space triangles.
+    fn draw(&mut self, part: &Triangulated, view: &[f32; 16], proj: &[f32; 16], eye: Option<Vector>) {
+        let world = &part.world;
+        if world.is_empty() {
             return;
         }
-        let world: Vec<Vector> = local.iter().map(|p| part.pose.transform_point(*p)).collect();
         let center = world.iter().copied().fold(Vector::ZERO, |a, b| a + b) / world.len() as f32;
         let verts: Vec<ClipVertex> = world
             .iter()
             .map(|p| {
                 let e = transform(view, [p.x, p.y, p.z, 1.0]);
-                ClipVertex { clip: transform(proj, e), depth: -e[2] }
+                ClipVertex { clip: transform(proj, e), depth: -e[2], world: p.to_array() }
             })
             .collect();
-        let base = part.color.map_or(DEFAULT_COLOR, |c| [c[0], c[1], c[2]]);
-        let light = Vector::from_array(LIGHT_FROM).normalize();
-        for t in &tris {
+        let base = style::object_bytes(part.object_id, part.color);
+        let light = shading::light();
+        for t in &part.tris {
             let (Some(&a), Some(&b), Some(&c)) = (world.get(t[0] as usize), world.get(t[1] as usize), world.get(t[2] as usize)) else {
                 continue;
             };
@@ -226,15 +236,37 @@ impl Frame {
                     continue;
                 }
             }
-            let shade = AMBIENT + (1.0 - AMBIENT) * n.dot(light).max(0.0);
-            let color = [0, 1, 2].map(|k| (base[k] * shade * 255.0).round().clamp(0.0, 255.0) as u8);
+            let face = Surface { pos: [0.0; 3], lambert: n.dot(light), up: n.z, base, checker: shading::is_ground_face(part.fixed, n) };
             let poly = [verts[t[0] as usize], verts[t[1] as usize], verts[t[2] as usize]];
             let poly = clip_polygon(&poly, |v| v.clip[2] + v.clip[3]);
             let poly = clip_polygon(&poly, |v| v.clip[3] - 1e-6);
             for k in 1..poly.len().saturating_sub(1) {
-                self.fill([poly[0], poly[k], poly[k + 1]], color, i64::from(part.object_id));
+                self.fill([poly[0], poly[k], poly[k + 1]], face, i64::from(part.object_id));
             }
         }
+    }
+}
+
+/// One collider's triangles in world space, with what drawing it needs.
+struct Triangulated {
+    object_id: u32,
+    color: Option<[f32; 4]>,
+    fixed: bool,
+    world: Vec<Vector>,
+    tris: Vec<[u32; 3]>,
+}
+
+impl Triangulated {
+    fn of(part: Drawable) -> Triangulated {
+        let (local, tris) = triangulate(part.shape);
+        let world = local.iter().map(|p| part.pose.transform_point(*p)).collect();
+        Triangulated { object_id: part.object_id, color: part.color, fixed: part.fixed, world, tris }
+    }
+
+    /// Whether it casts shadows: anything but the ground and other very large bodies.
+    fn casts_shadow(&self) -> bool {
+        let (lo, hi) = self.world.iter().fold((Vector::splat(f32::INFINITY), Vector::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        (hi - lo).max_element() <= shading::CASTER_MAX_SIZE
     }
 }
 
@@ -244,35 +276,81 @@ struct Drawable<'a> {
     shape: &'a dyn Shape,
     pose: rapier3d::prelude::Pose,
     color: Option<[f32; 4]>,
+    fixed: bool,
 }
 
 /// Renders the world as it is now.
 pub fn render(w: &World, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
     let parts = w.scene().parts.iter();
-    render_parts(parts.map(|p| Drawable { object_id: p.object_id, shape: &*p.shape, pose: p.pose, color: p.color }), width, height, view, proj)
+    render_parts(parts.map(|p| Drawable { object_id: p.object_id, shape: &*p.shape, pose: p.pose, color: p.color, fixed: p.fixed }), width, height, view, proj)
 }
 
 /// Renders a scene captured earlier (`Scene::capture`), e.g. on another thread while the
 /// world it came from moves on. Gives the same pixels as `render` on that world.
 pub fn render_scene(s: &Scene, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
-    let parts = s.parts.iter().map(|p| Drawable { object_id: p.object_id, shape: p.shape.as_ref(), pose: p.pose, color: p.color });
+    let parts = s.parts.iter().map(|p| Drawable { object_id: p.object_id, shape: p.shape.as_ref(), pose: p.pose, color: p.color, fixed: p.fixed });
     render_parts(parts, width, height, view, proj)
 }
 
 fn render_parts<'a>(parts: impl Iterator<Item = Drawable<'a>>, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
     let n = width as usize * height as usize;
-    let mut frame = Frame {
-        width,
-        height,
-        rgb: BACKGROUND.iter().copied().cycle().take(3 * n).collect(),
-        depth: vec![f32::INFINITY; n],
-        segmentation: vec![-1; n],
-    };
-    let (view, proj) = (to_f32(view), to_f32(proj));
+    let mut raster = Raster { width, height, depth: vec![f32::INFINITY; n], segmentation: vec![-1; n], surface: vec![Surface::default(); n] };
+    let (view32, proj32) = (to_f32(view), to_f32(proj));
     // Back faces are culled from the eye's position for perspective projections.
-    let eye = (proj[11] == -1.0 && proj[15] == 0.0).then(|| eye_position(&view));
-    for part in parts {
-        frame.draw(part, &view, &proj, eye);
+    let eye = (proj32[11] == -1.0 && proj32[15] == 0.0).then(|| eye_position(&view32));
+    let parts: Vec<Triangulated> = parts.map(Triangulated::of).collect();
+    for part in &parts {
+        raster.draw(part, &view32, &proj32, eye);
     }
-    frame
+    let casters: Vec<(&[Vector], &[[u32; 3]])> = parts.iter().filter(|p| p.casts_shadow()).map(|p| (p.world.as_slice(), p.tris.as_slice())).collect();
+    let shadows = ShadowMap::new(&casters, width.max(height));
+    let rgb = shade_pixels(&raster, shadows.as_ref(), view, proj);
+    Frame { width, height, rgb, depth: raster.depth, segmentation: raster.segmentation }
+}
+
+/// The colour pass: each seen pixel lit (with shadows when there are casters), the sky
+/// behind the rest.
+fn shade_pixels(r: &Raster, shadows: Option<&ShadowMap>, view: &Mat4, proj: &Mat4) -> Vec<u8> {
+    let (w, h) = (r.width as usize, r.height as usize);
+    let mut rgb = vec![0u8; 3 * w * h];
+    let unproject = sky_rays(view, proj);
+    for py in 0..h {
+        for px in 0..w {
+            let i = py * w + px;
+            let c = if r.segmentation[i] >= 0 {
+                let s = &r.surface[i];
+                let lit = match shadows {
+                    Some(m) if s.lambert > 0.0 => m.lit(s.pos, s.lambert),
+                    _ => 1.0,
+                };
+                shading::shade(s, lit)
+            } else {
+                let x = (px as f64 + 0.5) / w as f64 * 2.0 - 1.0;
+                let y = 1.0 - (py as f64 + 0.5) / h as f64 * 2.0;
+                shading::sky(unproject.as_ref().map_or([0.0, 1.0, 0.0], |f| f(x, y)))
+            };
+            rgb[3 * i..3 * i + 3].copy_from_slice(&c);
+        }
+    }
+    rgb
+}
+
+/// The world direction of the view ray through a point of the image (normalised device
+/// coordinates), for the sky; None when the matrices cannot be inverted.
+fn sky_rays(view: &Mat4, proj: &Mat4) -> Option<impl Fn(f64, f64) -> [f32; 3]> {
+    let mut pv = [0.0f64; 16];
+    for c in 0..4 {
+        for r in 0..4 {
+            pv[c * 4 + r] = (0..4).map(|k| proj[k * 4 + r] * view[c * 4 + k]).sum();
+        }
+    }
+    let inv = shading::invert(&pv)?;
+    let at = move |x: f64, y: f64, z: f64| {
+        let p = [0, 1, 2, 3].map(|r| inv[r] * x + inv[4 + r] * y + inv[8 + r] * z + inv[12 + r]);
+        [p[0] / p[3], p[1] / p[3], p[2] / p[3]]
+    };
+    Some(move |x: f64, y: f64| {
+        let (near, far) = (at(x, y, -1.0), at(x, y, 1.0));
+        [0, 1, 2].map(|k| (far[k] - near[k]) as f32)
+    })
 }

@@ -26,6 +26,9 @@ pub struct Part {
     pub pose: Pose,
     /// RGBA from the object or the URDF material, if any.
     pub color: Option<[f32; 4]>,
+    /// Whether its body never moves (static, or a collider with no body): ground planes and
+    /// fixed furniture, which pictures draw with the ground's checker and leave out of framing.
+    pub fixed: bool,
 }
 
 /// Every collider of every object, in object-id then link order, with a tree over their
@@ -55,10 +58,9 @@ fn parts(w: &World) -> Vec<Part> {
         let mut push = |link_index: i64, colliders: &[ColliderHandle], color: Option<[f32; 4]>| {
             for &h in colliders {
                 let Some(c) = w.physics.colliders.get(h) else { continue };
-                let body_pose = c
-                    .parent()
-                    .and_then(|b| w.physics.bodies.get(b))
-                    .map_or(*c.position(), |b| *b.position());
+                let body = c.parent().and_then(|b| w.physics.bodies.get(b));
+                let body_pose = body.map_or(*c.position(), |b| *b.position());
+                let fixed = body.is_none_or(|b| b.is_fixed());
                 let offset = c.position_wrt_parent().copied().unwrap_or(Pose::IDENTITY);
                 out.push(Part {
                     object_id: *id,
@@ -67,6 +69,7 @@ fn parts(w: &World) -> Vec<Part> {
                     shape: c.shared_shape().clone(),
                     pose: body_pose * offset,
                     color,
+                    fixed,
                 });
             }
         };

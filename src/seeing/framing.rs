@@ -1,0 +1,211 @@
+//! Which camera a picture is taken with when the caller gives no view matrix — one rule for
+//! every picture (get_camera_image, render_animation, `replay --render`, the report, the
+//! `sim://…/image` resource):
+//!
+//! 1. a view matrix given → that;
+//! 2. any of `distance`, `yaw`, `pitch`, `target` given → those, the rest as framed (4.);
+//! 3. set_camera called by the moment pictured (an interval's last event) → its camera;
+//! 4. else **framed**: looking at the objects that move over the pictures (all of them that can
+//!    move when none does; the fixed ones, ground left out, when there are only those) from a
+//!    three-quarter elevated view, close enough that they fill the frame.
+//!
+//! An interval is taken with one camera throughout (no cuts), so what set_camera does to past
+//! frames is the same for every look-back tool: the camera in effect at the interval's last
+//! event is used for all of its frames.
+
+use rapier3d::prelude::Vector;
+
+use crate::outputs::CameraUsed;
+use crate::seeing::sensing::camera::{self, Mat4};
+use crate::seeing::sensing::capture::Scene;
+use crate::seeing::sensing::shading::CASTER_MAX_SIZE;
+use crate::world::Viewer;
+
+/// The framed view's direction: from the front-right, looking down.
+pub const FRAMED_YAW: f64 = 50.0;
+/// The framed view's elevation (degrees; < 0 looks down).
+pub const FRAMED_PITCH: f64 = -30.0;
+/// The default lens's vertical field of view (`camera::default_projection`).
+const FOV_DEG: f64 = 60.0;
+/// A part whose pose changes by more than this (m, or quaternion component) between two
+/// pictures has moved.
+const MOVED: f32 = 1e-4;
+
+/// A camera in set_camera's terms.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Terms {
+    /// Distance to the target (m).
+    pub distance: f64,
+    /// Yaw (degrees).
+    pub yaw: f64,
+    /// Pitch (degrees).
+    pub pitch: f64,
+    /// Point looked at.
+    pub target: [f64; 3],
+}
+
+impl Terms {
+    /// The camera set_camera recorded.
+    pub fn of_viewer(v: &Viewer) -> Terms {
+        Terms { distance: v.distance.into(), yaw: v.yaw.into(), pitch: v.pitch.into(), target: v.target.map(f64::from) }
+    }
+
+    /// Its view matrix (z up, as set_camera's).
+    pub fn view(&self) -> Mat4 {
+        camera::view_matrix_from_yaw_pitch(self.target, self.distance, self.yaw, self.pitch, 2)
+    }
+
+    fn used(&self, source: &str) -> CameraUsed {
+        let r = |v: f64| (v * 1e6).round() / 1e6;
+        CameraUsed {
+            source: source.into(),
+            distance: Some(r(self.distance)),
+            yaw: Some(r(self.yaw)),
+            pitch: Some(r(self.pitch)),
+            target: Some(self.target.map(r)),
+        }
+    }
+}
+
+/// What the caller asked for (each term optional).
+#[derive(Clone, Debug, Default)]
+pub struct Asked {
+    /// A view matrix (column-major).
+    pub view: Option<Mat4>,
+    /// Distance (m, > 0).
+    pub distance: Option<f64>,
+    /// Yaw (degrees).
+    pub yaw: Option<f64>,
+    /// Pitch (degrees).
+    pub pitch: Option<f64>,
+    /// Target point.
+    pub target: Option<[f64; 3]>,
+}
+
+impl Asked {
+    fn any_term(&self) -> bool {
+        self.distance.is_some() || self.yaw.is_some() || self.pitch.is_some() || self.target.is_some()
+    }
+
+    /// Refuses a view matrix together with camera terms (which would win is not obvious).
+    pub fn check(&self) -> Result<(), String> {
+        if self.view.is_some() && self.any_term() {
+            return Err("view_matrix cannot be given with distance, yaw, pitch or target; give one or the other".into());
+        }
+        Ok(())
+    }
+}
+
+/// The view matrix for pictures of `scenes` (in time order; the last one's set_camera state
+/// counts) with an image aspect of `aspect`, and the camera it is.
+pub fn choose(asked: &Asked, scenes: &[&Scene], aspect: f64) -> (Mat4, CameraUsed) {
+    if let Some(view) = asked.view {
+        return (view, CameraUsed { source: "view_matrix".into(), distance: None, yaw: None, pitch: None, target: None });
+    }
+    let last = scenes.last();
+    let set = last.filter(|s| s.camera_set).map(|s| Terms::of_viewer(&s.camera));
+    let (terms, source) = match (asked.any_term(), set) {
+        (false, Some(t)) => (t, "set_camera"),
+        (given, _) => {
+            let mut t = framed(scenes, aspect, asked.yaw.unwrap_or(FRAMED_YAW), asked.pitch.unwrap_or(FRAMED_PITCH));
+            t.distance = asked.distance.unwrap_or(t.distance);
+            t.target = asked.target.unwrap_or(t.target);
+            (t, if given { "given" } else { "framed" })
+        }
+    };
+    (terms.view(), terms.used(source))
+}
+
+/// The camera that frames `scenes` from (yaw, pitch): centred on the framed objects' bounds,
+/// at the distance where their bounding sphere fits the narrower field of view.
+pub fn framed(scenes: &[&Scene], aspect: f64, yaw: f64, pitch: f64) -> Terms {
+    let Some((lo, hi)) = bounds(scenes) else {
+        let initial = Terms::of_viewer(&Viewer::default());
+        return Terms { yaw, pitch, ..initial };
+    };
+    let center = (lo + hi) * 0.5;
+    let radius = f64::from((hi - lo).length() * 0.5).max(0.05);
+    let half_v = (FOV_DEG / 2.0).to_radians();
+    let half_h = (half_v.tan() * aspect.max(1e-3)).atan();
+    let distance = radius / half_v.min(half_h).sin() * 1.05;
+    Terms { distance, yaw, pitch, target: center.to_array().map(f64::from) }
+}
+
+/// The world bounds of what a framed camera looks at: the parts of objects that move between
+/// the scenes, over all of them; else every part that can move, in the last scene; else the
+/// fixed parts that are not ground-sized. None when there is nothing to look at.
+fn bounds(scenes: &[&Scene]) -> Option<(Vector, Vector)> {
+    let moving = moving_objects(scenes);
+    let mut acc = Bounds::default();
+    if !moving.is_empty() {
+        for s in scenes {
+            s.parts.iter().filter(|p| moving.binary_search(&p.object_id).is_ok()).for_each(|p| acc.add(p));
+        }
+    }
+    let last = scenes.last()?;
+    if acc.is_empty() {
+        last.parts.iter().filter(|p| !p.fixed).for_each(|p| acc.add(p));
+    }
+    if acc.is_empty() {
+        for p in last.parts.iter() {
+            let aabb = p.shape.compute_aabb(&p.pose);
+            if (aabb.maxs - aabb.mins).max_element() <= CASTER_MAX_SIZE {
+                acc.add(p);
+            }
+        }
+    }
+    acc.get()
+}
+
+/// Ids of the objects some part of which moves between scenes (sorted).
+fn moving_objects(scenes: &[&Scene]) -> Vec<u32> {
+    use std::collections::BTreeMap;
+    let mut first: BTreeMap<(u32, usize), rapier3d::prelude::Pose> = BTreeMap::new();
+    let mut moved = std::collections::BTreeSet::new();
+    for s in scenes {
+        let mut nth: BTreeMap<u32, usize> = BTreeMap::new();
+        for p in &s.parts {
+            let k = nth.entry(p.object_id).or_default();
+            let key = (p.object_id, *k);
+            *k += 1;
+            if p.fixed || moved.contains(&p.object_id) {
+                continue;
+            }
+            let seen = *first.entry(key).or_insert(p.pose);
+            let dt = (seen.translation - p.pose.translation).abs().max_element();
+            let dr = (Vector::from_array([seen.rotation.x, seen.rotation.y, seen.rotation.z]) - Vector::from_array([p.pose.rotation.x, p.pose.rotation.y, p.pose.rotation.z]))
+                .abs()
+                .max_element()
+                .max((seen.rotation.w - p.pose.rotation.w).abs());
+            if dt > MOVED || dr > MOVED {
+                moved.insert(p.object_id);
+            }
+        }
+    }
+    moved.into_iter().collect()
+}
+
+/// A growing axis-aligned box.
+#[derive(Default)]
+struct Bounds(Option<(Vector, Vector)>);
+
+impl Bounds {
+    fn add(&mut self, p: &crate::seeing::sensing::capture::Posed) {
+        let aabb = p.shape.compute_aabb(&p.pose);
+        if !(aabb.mins.is_finite() && aabb.maxs.is_finite()) {
+            return;
+        }
+        self.0 = Some(match self.0 {
+            None => (aabb.mins, aabb.maxs),
+            Some((lo, hi)) => (lo.min(aabb.mins), hi.max(aabb.maxs)),
+        });
+    }
+
+    fn is_empty(&self) -> bool {
+        self.0.is_none()
+    }
+
+    fn get(&self) -> Option<(Vector, Vector)> {
+        self.0
+    }
+}

@@ -1,0 +1,217 @@
+//! How a rendered pixel gets its colour (the scene style of `seeing::style`, applied): a sky
+//! gradient behind everything, the ground's 1 m checker, a directional light with shadows
+//! (a shadow map seen from the light) and an ambient term. Only colours are decided here: what
+//! is seen where (depth, segmentation) is the rasteriser's, and nothing here changes it.
+
+use rapier3d::prelude::Vector;
+
+/// Light comes from this (world) direction, normalised at use: high, from the +x/+y side.
+pub const LIGHT_FROM: [f32; 3] = [0.35, 0.45, 1.0];
+/// Share of the colour a face gets however it faces the light: `AMBIENT_DOWN` for faces
+/// looking down, `AMBIENT_UP` for faces looking up (a sky above, the ground below).
+const AMBIENT_DOWN: f32 = 0.28;
+const AMBIENT_UP: f32 = 0.42;
+/// Share of the colour the light adds to a face that faces it squarely and is not in shadow.
+const DIFFUSE: f32 = 0.62;
+/// The checker's dark squares, as a share of the light ones.
+const CHECKER_DARK: f32 = 0.80;
+/// A face this close to horizontal (its normal's z) and fixed gets the ground's checker.
+const UPWARD: f32 = 0.7;
+/// Sky colours (linear 0–1): at the horizon, straight up, and below the horizon (nothing there).
+const HORIZON: [f32; 3] = [0.88, 0.92, 0.97];
+const ZENITH: [f32; 3] = [0.42, 0.60, 0.86];
+const BELOW: [f32; 3] = [0.78, 0.79, 0.80];
+/// Shadow-map texels along its longer side: twice the image's longer side, within these.
+const SHADOW_TEXELS: (usize, usize) = (256, 2048);
+/// Objects larger than this (m, any side) neither cast shadows nor bound the shadow map: the
+/// ground and walls receive shadows, the map stays sharp around what moves.
+pub const CASTER_MAX_SIZE: f32 = 40.0;
+
+/// What the rasteriser leaves at a pixel for shading.
+#[derive(Clone, Copy, Default)]
+pub struct Surface {
+    /// World position of the point seen.
+    pub pos: [f32; 3],
+    /// Cosine between the face's normal and the light (≤ 0: facing away).
+    pub lambert: f32,
+    /// The face normal's z (−1 down … 1 up).
+    pub up: f32,
+    /// The object's colour (style::object_rgb) as bytes.
+    pub base: [u8; 3],
+    /// Whether the face is a fixed body's upward face (drawn with the checker).
+    pub checker: bool,
+}
+
+/// The direction light comes from, unit length.
+pub fn light() -> Vector {
+    Vector::from_array(LIGHT_FROM).normalize()
+}
+
+/// Whether a face with normal `n` of a body that is `fixed` is ground (gets the checker).
+pub fn is_ground_face(fixed: bool, n: Vector) -> bool {
+    fixed && n.z > UPWARD
+}
+
+/// The colour of a surface point that the light reaches by `lit` (0 in shadow … 1 lit).
+pub fn shade(s: &Surface, lit: f32) -> [u8; 3] {
+    let ambient = AMBIENT_DOWN + (AMBIENT_UP - AMBIENT_DOWN) * (s.up * 0.5 + 0.5);
+    let mut k = ambient + DIFFUSE * s.lambert.max(0.0) * lit;
+    if s.checker {
+        let (x, y) = (s.pos[0].floor() as i64, s.pos[1].floor() as i64);
+        if (x + y).rem_euclid(2) == 1 {
+            k *= CHECKER_DARK;
+        }
+    }
+    s.base.map(|c| (f32::from(c) * k).round().clamp(0.0, 255.0) as u8)
+}
+
+/// The sky's colour for a view ray going in direction `dir` (any length).
+pub fn sky(dir: [f32; 3]) -> [u8; 3] {
+    let n = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+    let e = if n > 0.0 { (dir[2] / n).clamp(-1.0, 1.0) } else { 0.0 };
+    let (to, t) = if e >= 0.0 { (ZENITH, e.powf(0.6)) } else { (BELOW, (-e).powf(0.5)) };
+    [0, 1, 2].map(|k| ((HORIZON[k] + (to[k] - HORIZON[k]) * t) * 255.0).round() as u8)
+}
+
+/// Depths seen from the light, over the region where shadow casters are: orthographic along
+/// `light()`, each texel holding the height (towards the light) of the nearest caster.
+pub struct ShadowMap {
+    u: Vector,
+    v: Vector,
+    l: Vector,
+    origin: (f32, f32),
+    texel: f32,
+    width: usize,
+    height: usize,
+    top: Vec<f32>,
+}
+
+impl ShadowMap {
+    /// A map over the given casters' world vertices, sharp enough for an image whose longer
+    /// side is `image_side` pixels (None when there are no casters).
+    pub fn new(casters: &[(&[Vector], &[[u32; 3]])], image_side: u32) -> Option<ShadowMap> {
+        let texels = (2 * image_side as usize).clamp(SHADOW_TEXELS.0, SHADOW_TEXELS.1);
+        let l = light();
+        let u = l.cross(Vector::Z).normalize();
+        let v = l.cross(u);
+        let (mut u0, mut u1, mut v0, mut v1) = (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
+        for (verts, _) in casters {
+            for p in verts.iter() {
+                let (a, b) = (p.dot(u), p.dot(v));
+                (u0, u1, v0, v1) = (u0.min(a), u1.max(a), v0.min(b), v1.max(b));
+            }
+        }
+        if !(u0.is_finite() && u1.is_finite() && v0.is_finite() && v1.is_finite()) {
+            return None;
+        }
+        let pad = 0.02 * (u1 - u0).max(v1 - v0) + 0.01;
+        let (u0, u1, v0, v1) = (u0 - pad, u1 + pad, v0 - pad, v1 + pad);
+        let texel = (u1 - u0).max(v1 - v0) / texels as f32;
+        let width = (((u1 - u0) / texel).ceil() as usize).clamp(1, texels);
+        let height = (((v1 - v0) / texel).ceil() as usize).clamp(1, texels);
+        let mut map = ShadowMap { u, v, l, origin: (u0, v0), texel, width, height, top: vec![f32::NEG_INFINITY; width * height] };
+        for (verts, tris) in casters {
+            let proj: Vec<[f32; 3]> = verts.iter().map(|p| map.texel_of(*p)).collect();
+            for t in tris.iter() {
+                if let (Some(a), Some(b), Some(c)) = (proj.get(t[0] as usize), proj.get(t[1] as usize), proj.get(t[2] as usize)) {
+                    map.fill(*a, *b, *c);
+                }
+            }
+        }
+        Some(map)
+    }
+
+    /// (column, row, height towards the light) of a world point.
+    fn texel_of(&self, p: Vector) -> [f32; 3] {
+        [(p.dot(self.u) - self.origin.0) / self.texel, (p.dot(self.v) - self.origin.1) / self.texel, p.dot(self.l)]
+    }
+
+    fn fill(&mut self, a: [f32; 3], b: [f32; 3], c: [f32; 3]) {
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        if !area.is_finite() || area.abs() < 1e-12 {
+            return;
+        }
+        let lo = |k: usize| a[k].min(b[k]).min(c[k]).floor().max(0.0) as usize;
+        let hi = |k: usize, n: usize| (a[k].max(b[k]).max(c[k]).ceil().max(0.0) as usize).min(n);
+        let (x0, x1, y0, y1) = (lo(0), hi(0, self.width), lo(1), hi(1, self.height));
+        let inv = 1.0 / area;
+        let edge = |p: [f32; 3], q: [f32; 3], x: f32, y: f32| (q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0]);
+        for y in y0..y1 {
+            let cy = y as f32 + 0.5;
+            for x in x0..x1 {
+                let cx = x as f32 + 0.5;
+                let (w0, w1, w2) = (edge(b, c, cx, cy) * inv, edge(c, a, cx, cy) * inv, edge(a, b, cx, cy) * inv);
+                // A texel a triangle touches at all counts (a conservative fill keeps thin
+                // casters from dropping out between texel centres).
+                if w0 < -0.02 || w1 < -0.02 || w2 < -0.02 {
+                    continue;
+                }
+                let h = w0 * a[2] + w1 * b[2] + w2 * c[2];
+                let i = y * self.width + x;
+                if h > self.top[i] {
+                    self.top[i] = h;
+                }
+            }
+        }
+    }
+
+    /// How much light reaches world point `p` on a face whose normal makes cosine `lambert`
+    /// with the light: 0 in shadow … 1 lit, averaged over the 3×3 texels around it.
+    pub fn lit(&self, p: [f32; 3], lambert: f32) -> f32 {
+        let [x, y, h] = self.texel_of(Vector::from_array(p));
+        // Slope-scaled bias: a face lit at a grazing angle needs more to not shadow itself.
+        let slope = (1.0 - lambert * lambert).max(0.0).sqrt() / lambert.max(0.05);
+        let bias = self.texel * (1.5 + 2.0 * slope.min(8.0)) + 1e-3;
+        let (cx, cy) = (x.floor() as i64, y.floor() as i64);
+        let (mut seen, mut lit) = (0u32, 0u32);
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let (tx, ty) = (cx + dx, cy + dy);
+                seen += 1;
+                if tx < 0 || ty < 0 || tx as usize >= self.width || ty as usize >= self.height {
+                    lit += 1;
+                    continue;
+                }
+                if self.top[ty as usize * self.width + tx as usize] <= h + bias {
+                    lit += 1;
+                }
+            }
+        }
+        lit as f32 / seen as f32
+    }
+}
+
+/// The inverse of a 4×4 column-major matrix (None if singular): the sky needs to turn pixels
+/// back into view rays whatever matrices the caller gave.
+pub fn invert(m: &[f64; 16]) -> Option<[f64; 16]> {
+    let mut a = [[0.0f64; 8]; 4];
+    for (r, row) in a.iter_mut().enumerate() {
+        for c in 0..4 {
+            row[c] = m[c * 4 + r];
+        }
+        row[4 + r] = 1.0;
+    }
+    for col in 0..4 {
+        let pivot = (col..4).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-12 {
+            return None;
+        }
+        a.swap(col, pivot);
+        let d = a[col][col];
+        a[col].iter_mut().for_each(|v| *v /= d);
+        for r in 0..4 {
+            if r != col {
+                let f = a[r][col];
+                let pr = a[col];
+                a[r].iter_mut().zip(pr).for_each(|(v, p)| *v -= f * p);
+            }
+        }
+    }
+    let mut out = [0.0; 16];
+    for (r, row) in a.iter().enumerate() {
+        for c in 0..4 {
+            out[c * 4 + r] = row[4 + c];
+        }
+    }
+    Some(out)
+}
