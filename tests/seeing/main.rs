@@ -8,6 +8,7 @@ mod common;
 mod animation;
 mod browser_viewer;
 mod cli_pictures;
+mod report_page;
 mod trajectory;
 mod viewer;
 mod viewer_timeline;

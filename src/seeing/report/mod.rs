@@ -189,11 +189,14 @@ struct Described {
     label: String,
     /// Its colour as `style::object_*` takes it.
     color: Option<[f32; 4]>,
-    /// A robot's movable joints: (index, legend label, its link's colour).
-    joints: Vec<(usize, String, Option<[f32; 4]>)>,
+    /// A robot's movable joints.
+    joints: Vec<JointLabel>,
     /// Whether its movable joints are all prismatic / all rotational (the y axis's unit).
     units: &'static str,
 }
+
+/// A movable joint: its index, legend label and its link's colour.
+type JointLabel = (usize, String, Option<[f32; 4]>);
 
 fn describe(id: u32, o: &crate::world::Object) -> Described {
     use crate::command::Shape;
@@ -278,7 +281,7 @@ fn charts(t: &crate::outputs::Trajectory, described: &BTreeMap<u32, Described>) 
             break;
         }
         let value = |i: usize, j: usize| q[i].as_ref().and_then(|v| v.get(j).copied());
-        let mut joints: Vec<(f64, &(usize, String, Option<[f32; 4]>))> = d
+        let mut joints: Vec<(f64, &JointLabel)> = d
             .joints
             .iter()
             .map(|jd| (path_length(&(0..t.samples).map(|i| value(i, jd.0)).collect::<Vec<_>>(), |a, b| (a - b).abs()), jd))
