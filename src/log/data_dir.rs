@@ -52,6 +52,19 @@ pub fn lock(data_dir: &Path) -> anyhow::Result<std::fs::File> {
     Ok(lock)
 }
 
+/// Whether a running server holds the data directory the log `log` lives in (the report says
+/// its last reads may not be flushed yet): the server keeps an exclusive OS lock on
+/// `<data>/.lock` while it runs (`lock`), released when it exits however it exits. Asked
+/// without waiting, with a shared lock dropped at once; a log outside a data directory is
+/// never held.
+pub fn held_by_server(log: &Path) -> bool {
+    let Some(lock) = log.parent().map(|d| d.join(".lock")) else { return false };
+    match std::fs::File::open(lock) {
+        Ok(f) => f.try_lock_shared().is_err(),
+        Err(_) => false,
+    }
+}
+
 /// The simulation logs in the data directory, in name order.
 pub fn logs(data_dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(data_dir)?

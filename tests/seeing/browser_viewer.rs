@@ -18,7 +18,7 @@ use common::Server;
 use serde_json::json;
 
 /// The Chromium binary, from `CHROMIUM` or the names Debian installs.
-fn chromium() -> PathBuf {
+pub(crate) fn chromium() -> PathBuf {
     if let Some(p) = std::env::var_os("CHROMIUM") {
         return PathBuf::from(p);
     }
@@ -36,7 +36,7 @@ fn chromium() -> PathBuf {
 /// `budget_ms` of virtual time; returns stdout. The background-networking flags keep Chromium
 /// from dialling Google's hosts, which a closed CI network refuses (and which then starves the
 /// page's own loopback fetches); a fresh profile per run.
-fn headless(url: &str, profile: &Path, budget_ms: u32, extra: &[&str]) -> String {
+pub(crate) fn headless(url: &str, profile: &Path, budget_ms: u32, extra: &[&str]) -> String {
     let out = Command::new(chromium())
         .args(["--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--window-size=700,560"])
         .args(["--disable-dev-shm-usage", "--disable-quic", "--no-first-run", "--disable-background-networking"])
@@ -122,15 +122,15 @@ const CHROMIUM_OWN_HOSTS: [&str; 5] = ["clients2.google.com", "update.googleapis
 
 /// What a page did in a real browser: its console messages and the requests it made to other
 /// origins (seen by a stand-in proxy every non-loopback request is sent to).
-struct Watched {
-    console: Vec<String>,
-    outside: Vec<String>,
+pub(crate) struct Watched {
+    pub(crate) console: Vec<String>,
+    pub(crate) outside: Vec<String>,
 }
 
 /// Loads `url` in headless Chromium with every non-loopback request sent to a local
 /// stand-in proxy (which answers nothing and records the request line), console messages on
 /// stderr, and `extra` flags.
-fn watched(url: &str, profile: &Path, budget_ms: u32, extra: &[&str]) -> Watched {
+pub(crate) fn watched(url: &str, profile: &Path, budget_ms: u32, extra: &[&str]) -> Watched {
     let proxy = TcpListener::bind("127.0.0.1:0").unwrap();
     let port = proxy.local_addr().unwrap().port();
     let seen = Arc::new(Mutex::new(Vec::new()));

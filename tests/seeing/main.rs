@@ -9,6 +9,7 @@ mod animation;
 mod browser_viewer;
 mod cli_pictures;
 mod readable_pictures;
+mod report_page;
 mod trajectory;
 mod viewer;
 mod viewer_timeline;

@@ -4,7 +4,7 @@
 //! animation and thumbnails, heights and speeds for the plots.
 //!
 //! - `page`  — the self-contained HTML page (everything inline; it requests nothing).
-//! - `plots` — SVG line plots with `plotters` (its SVG backend, no system fonts).
+//! - `plots` — SVG line charts (height, speed, joint positions), written by hand.
 
 mod page;
 mod plots;
@@ -13,13 +13,15 @@ use crate::log::EventLog;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::seeing::animation::{self, Camera};
 use crate::log::fold::{self, At};
-use crate::seeing::sensing::render;
-use crate::seeing::sensing::capture::Scene;
 use crate::log::sqlite::Event;
+use crate::seeing::animation::{self, Camera};
+use crate::seeing::sensing::capture::Scene;
+use crate::seeing::sensing::render;
+use crate::seeing::style;
+use crate::seeing::trajectory::{Request, Sampler};
 
-pub use page::html;
+pub use page::{html, Counts, RUNNING_NOTE};
 
 /// At most this many thumbnails on a page (docs/tools.md).
 pub const MAX_THUMBNAILS: usize = 200;
@@ -28,9 +30,9 @@ pub const MAX_PLOTTED: usize = 10;
 /// A report page's limit (docs/tools.md).
 pub const MAX_PAGE_BYTES: usize = 10 * 1024 * 1024;
 /// Thumbnail size.
-const THUMB: (u32, u32) = (160, 120);
+pub const THUMB: (u32, u32) = (240, 180);
 /// The animation's frame size on the page.
-const MOVIE: (u32, u32) = (320, 240);
+pub const MOVIE: (u32, u32) = (480, 360);
 
 /// Which part of a log's chain to look at (CLI flags); defaults: the head's whole chain.
 #[derive(Clone, Copy, Debug, Default)]
@@ -55,17 +57,6 @@ pub fn render_gif(path: &Path, span: Span, every: Option<u64>, size: (u32, u32),
     Ok(anim)
 }
 
-/// One object's course over the run, for the plots.
-#[derive(Debug, Clone, Default)]
-pub struct Course {
-    /// The object.
-    pub object_id: u32,
-    /// (time s, height m) at each sample where it existed.
-    pub height: Vec<(f64, f64)>,
-    /// (time s, speed m/s).
-    pub speed: Vec<(f64, f64)>,
-}
-
 /// What the page shows, gathered in one re-simulation.
 pub struct Story {
     /// The log's simulation id.
@@ -77,28 +68,40 @@ pub struct Story {
     pub time_at: BTreeMap<u64, f64>,
     /// Simulated time by state hash.
     pub time_of_hash: BTreeMap<String, f64>,
-    /// PNG thumbnails after chosen state-changing events (by seq).
+    /// PNG thumbnails after chosen state-changing events (by seq); a thumbnail identical to
+    /// the one before it is left out (see `same_picture`), as is an empty world's.
     pub thumbnails: BTreeMap<u64, Vec<u8>>,
+    /// Events whose thumbnail was the same picture as an earlier event's (seq → that seq).
+    pub same_picture: BTreeMap<u64, u64>,
     /// The run as a GIF.
     pub gif: Vec<u8>,
     /// Frames in it.
     pub frames: usize,
-    /// The plotted objects' courses.
-    pub courses: Vec<Course>,
+    /// Height and speed of the objects that moved most, then joint positions per robot.
+    pub charts: Vec<plots::Chart>,
     /// Simulated time at the end.
     pub end_time: f64,
     /// State hash at the end.
     pub final_hash: String,
     /// "verified" or the first divergence, from a full replay of the log.
     pub verdict: String,
+    /// The state events (root, change, move) the replay counted, when it verified.
+    pub replayed_state_events: Option<u64>,
+    /// Whether a server held the log's data directory when the report was made (it may
+    /// still hold reads it has not written yet).
+    pub server_running: bool,
 }
 
 /// Gathers the story of a log: a full replay for the verdict, then one re-simulation of the
 /// head's chain for the pictures and plots. `progress(steps done, steps in all)`.
 pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<Story, String> {
-    let verdict = match crate::log::replay::replay(path, None, |_, _| {}) {
-        Ok(s) => format!("verified: {} events replayed, {} state hashes, {} reads and {} snapshots checked", s.events, s.state_events, s.reads_checked, s.snapshots_checked),
-        Err(e) => format!("NOT verified: {e}"),
+    let server_running = crate::log::data_dir::held_by_server(path);
+    let (verdict, replayed_state_events) = match crate::log::replay::replay(path, None, |_, _| {}) {
+        Ok(s) => (
+            format!("verified: {} events replayed, {} state hashes, {} reads and {} snapshots checked", s.events, s.state_events, s.reads_checked, s.snapshots_checked),
+            Some(s.state_events),
+        ),
+        Err(e) => (format!("NOT verified: {e}"), None),
     };
     let (log, lent) = crate::log::replay::open_interval(path, None, None)?;
     let events = log.all_events().map_err(|e| e.to_string())?;
@@ -112,7 +115,10 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
     let mut thumbs: Vec<(u64, Scene)> = Vec::new();
     let mut time_at = BTreeMap::new();
     let mut time_of_hash = BTreeMap::new();
-    let mut courses: BTreeMap<u32, Course> = BTreeMap::new();
+    // The plots sample as get_trajectory does (same reads, same sample points).
+    let request = Request { every: Some(every), object_ids: None, include_velocities: true };
+    let mut sampler = Sampler::new(lent.interval, every, &request);
+    let mut described: BTreeMap<u32, Described> = BTreeMap::new();
     let (mut end_time, mut final_hash) = (0.0, String::new());
     fold::resimulate(&lent, every, &mut |w, m| {
         if m.at == At::Step {
@@ -122,13 +128,11 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
             if !shots.is_empty() || w.object_count() > 0 {
                 shots.push(animation::Shot { scene: Scene::capture(w), seq: m.seq, steps: m.steps });
             }
-            let t = w.current_time();
-            for (id, _) in w.objects() {
-                if let Some(s) = w.object_state(id) {
-                    let c = courses.entry(id).or_insert_with(|| Course { object_id: id, ..Course::default() });
-                    c.height.push((t, s.position[2]));
-                    c.speed.push((t, s.linear_velocity.iter().map(|v| v * v).sum::<f64>().sqrt()));
-                }
+            // Over get_trajectory's cell bound the sampler says so at `finish`; the
+            // re-simulation goes on for the pictures.
+            sampler.sample(w, m.seq);
+            for (id, o) in w.objects() {
+                described.entry(id).or_insert_with(|| describe(id, o));
             }
         }
         if m.at != At::Step {
@@ -136,7 +140,8 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
             time_at.insert(m.seq, t);
             time_of_hash.insert(hash.clone(), t);
             (end_time, final_hash) = (t, hash);
-            if thumb_seqs.contains(&m.seq) {
+            // An empty world is a blank picture: no thumbnail.
+            if thumb_seqs.contains(&m.seq) && w.objects().next().is_some() {
                 thumbs.push((m.seq, Scene::capture(w)));
             }
         }
@@ -145,30 +150,191 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
     .map_err(|e| format!("the chain could not be re-simulated: {e}"))?;
     progress(steps, steps);
 
-    let movie = animation::animate_shots(&shots, &Camera::sized(MOVIE.0, MOVIE.1), animation::Pacing::default())?;
+    let (gif, frames) = movie(&shots)?;
     let scenes: Vec<&Scene> = shots.iter().map(|s| &s.scene).collect();
-    let thumbnails = thumbnails(&thumbs, &scenes)?;
-    // Objects that move, lowest ids first (else the first objects, still as they are).
-    let moves = |c: &Course| c.speed.iter().any(|(_, v)| *v > 1e-9) || c.height.windows(2).any(|w| w[0].1 != w[1].1);
-    let (moving, still): (Vec<Course>, Vec<Course>) = courses.into_values().partition(moves);
-    let courses = if moving.is_empty() { still } else { moving }.into_iter().take(MAX_PLOTTED).collect();
+    let (thumbnails, same_picture) = distinct(thumbnails(&thumbs, &scenes)?);
+    let charts = match sampler.finish("every") {
+        Ok(trajectory) => charts(&trajectory, &described),
+        Err(_) => Vec::new(),
+    };
     Ok(Story {
         simulation_id: lent.id.clone(),
         events,
         time_at,
         time_of_hash,
         thumbnails,
-        frames: movie.frames,
-        gif: movie.gif,
-        courses,
+        same_picture,
+        frames,
+        gif,
+        charts,
         end_time,
         final_hash,
         verdict,
+        replayed_state_events,
+        server_running,
     })
 }
 
+/// What the plots call an object, and the colours the scene draws it and its links in.
+struct Described {
+    /// `#3 box`, `#5 iiwa14`.
+    label: String,
+    /// Its colour as `style::object_*` takes it.
+    color: Option<[f32; 4]>,
+    /// A robot's movable joints.
+    joints: Vec<JointLabel>,
+    /// Whether its movable joints are all prismatic / all rotational (the y axis's unit).
+    units: &'static str,
+}
+
+/// A movable joint: its index, legend label and its link's colour.
+type JointLabel = (usize, String, Option<[f32; 4]>);
+
+fn describe(id: u32, o: &crate::world::Object) -> Described {
+    use crate::command::Shape;
+    match o.kind.robot() {
+        None => {
+            let shape = match &o.kind {
+                crate::world::ObjectKind::Primitive { shape: Shape::Box { .. } } => "box",
+                crate::world::ObjectKind::Primitive { shape: Shape::Sphere { .. } } => "sphere",
+                crate::world::ObjectKind::Primitive { shape: Shape::Cylinder { .. } } => "cylinder",
+                crate::world::ObjectKind::Primitive { shape: Shape::Capsule { .. } } => "capsule",
+                _ => "object",
+            };
+            Described { label: format!("#{id} {shape}"), color: o.color, joints: Vec::new(), units: "" }
+        }
+        Some(robot) => {
+            // The base is drawn in the object's colour; a robot given none shows its links'.
+            let color = o.color.or_else(|| robot.links.iter().find_map(|l| l.color));
+            let joints: Vec<_> = robot
+                .movable()
+                .into_iter()
+                .map(|i| {
+                    let l = &robot.links[i];
+                    (i, format!("{} ({})", l.joint.name, l.name), l.color.or(o.color))
+                })
+                .collect();
+            let prismatic = robot.movable().iter().filter(|i| robot.links[**i].joint.kind.name() == "prismatic").count();
+            let units = match prismatic {
+                0 => "joint position (rad)",
+                n if n == joints.len() => "joint position (m)",
+                _ => "joint position (rad or m)",
+            };
+            Described { label: format!("#{id} {}", robot.name), color, joints, units }
+        }
+    }
+}
+
+/// Sum of |Δ| between consecutive samples where both exist.
+fn path_length<T: Copy>(values: &[Option<T>], dist: impl Fn(T, T) -> f64) -> f64 {
+    values.windows(2).filter_map(|w| Some(dist(w[0]?, w[1]?))).sum()
+}
+
+/// Things that moved less than this (m or rad over the run) count as still.
+const STILL: f64 = 1e-9;
+
+/// The charts: height and speed of the objects that moved most (by path length; the first
+/// objects when none moved), then one joint-position chart per robot whose joints moved.
+fn charts(t: &crate::outputs::Trajectory, described: &BTreeMap<u32, Described>) -> Vec<plots::Chart> {
+    let rgb = |id: u32, color: Option<[f32; 4]>| style::object_bytes(id, color);
+    let dist = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+    let mut ranked: Vec<(f64, &crate::outputs::ObjectTrack)> = t.objects.iter().map(|o| (path_length(&o.positions, dist), o)).collect();
+    ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.object_id.cmp(&b.1.object_id)));
+    let moved = ranked.iter().take_while(|(p, _)| *p > STILL).count();
+    let chosen: Vec<&crate::outputs::ObjectTrack> = if moved > 0 {
+        ranked.iter().take(moved.min(MAX_PLOTTED)).map(|(_, o)| *o).collect()
+    } else {
+        t.objects.iter().take(MAX_PLOTTED).collect()
+    };
+    let at = |i: usize, v: Option<f64>| v.map(|v| (t.times[i], v));
+    let line = |o: &crate::outputs::ObjectTrack, value: &dyn Fn(usize) -> Option<f64>| {
+        let d = described.get(&o.object_id);
+        plots::Line {
+            object_id: o.object_id,
+            joint: None,
+            label: d.map_or_else(|| format!("#{}", o.object_id), |d| d.label.clone()),
+            rgb: rgb(o.object_id, d.and_then(|d| d.color)),
+            points: (0..t.samples).map(|i| at(i, value(i))).collect(),
+        }
+    };
+    let mut out = Vec::new();
+    if !chosen.is_empty() {
+        let height = chosen.iter().map(|o| line(o, &|i| o.positions[i].map(|p| p[2]))).collect();
+        let speed = chosen
+            .iter()
+            .map(|o| line(o, &|i| o.linear_velocities.as_ref().and_then(|v| v[i]).map(|v| v.iter().map(|x| x * x).sum::<f64>().sqrt())))
+            .collect();
+        out.push(plots::Chart { id: "plot-height".into(), title: "Height over time".into(), unit: "height z (m)".into(), lines: height });
+        out.push(plots::Chart { id: "plot-speed".into(), title: "Speed over time".into(), unit: "speed (m/s)".into(), lines: speed });
+    }
+    for o in &t.objects {
+        let (Some(d), Some(q)) = (described.get(&o.object_id), &o.joint_positions) else { continue };
+        if out.len() >= 2 + MAX_PLOTTED {
+            break;
+        }
+        let value = |i: usize, j: usize| q[i].as_ref().and_then(|v| v.get(j).copied());
+        let mut joints: Vec<(f64, &JointLabel)> = d
+            .joints
+            .iter()
+            .map(|jd| (path_length(&(0..t.samples).map(|i| value(i, jd.0)).collect::<Vec<_>>(), |a, b| (a - b).abs()), jd))
+            .filter(|(p, _)| *p > STILL)
+            .collect();
+        if joints.is_empty() {
+            continue;
+        }
+        joints.sort_by(|a, b| b.0.total_cmp(&a.0));
+        joints.truncate(MAX_PLOTTED);
+        joints.sort_by_key(|(_, jd)| jd.0);
+        let lines = joints
+            .into_iter()
+            .map(|(_, (j, label, color))| plots::Line {
+                object_id: o.object_id,
+                joint: Some(*j),
+                label: format!("joint {j}: {label}"),
+                rgb: rgb(o.object_id, *color),
+                points: (0..t.samples).map(|i| at(i, value(i, *j))).collect(),
+            })
+            .collect();
+        out.push(plots::Chart {
+            id: format!("plot-joints-{}", o.object_id),
+            title: format!("Joint positions of {}", d.label),
+            unit: d.units.into(),
+            lines,
+        });
+    }
+    out
+}
+
+/// Keeps the first of each run of identical consecutive thumbnails; the others point at it.
+fn distinct(thumbs: BTreeMap<u64, Vec<u8>>) -> (BTreeMap<u64, Vec<u8>>, BTreeMap<u64, u64>) {
+    let (mut kept, mut same) = (BTreeMap::new(), BTreeMap::new());
+    let mut last: Option<(u64, Vec<u8>)> = None;
+    for (seq, png) in thumbs {
+        match &last {
+            Some((first, prev)) if *prev == png => {
+                same.insert(seq, *first);
+            }
+            _ => {
+                kept.insert(seq, png.clone());
+                last = Some((seq, png));
+            }
+        }
+    }
+    (kept, same)
+}
+
+/// The run as a GIF (every call into the animation module for the page is here and in
+/// `thumbnails`).
+fn movie(shots: &[animation::Shot]) -> Result<(Vec<u8>, usize), String> {
+    if shots.is_empty() {
+        return Ok((Vec::new(), 0));
+    }
+    let movie = animation::animate_shots(shots, &Camera::sized(MOVIE.0, MOVIE.1), animation::Pacing::default())?;
+    Ok((movie.gif, movie.frames))
+}
+
 /// Renders the chosen thumbnails as PNGs on all cores, all with the camera of the run's
-/// animation (`run`: its scenes).
+/// animation (`run`: its scenes), so they compare with one another and with the movie.
 fn thumbnails(thumbs: &[(u64, Scene)], run: &[&Scene]) -> Result<BTreeMap<u64, Vec<u8>>, String> {
     use rayon::prelude::*;
     let cam = Camera::sized(THUMB.0, THUMB.1);
