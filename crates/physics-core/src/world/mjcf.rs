@@ -291,6 +291,11 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
         }
         bounded_body(&entry.body, &body_name(id))?;
     }
+    // The worldbody's own geoms too (`bodies_iter` leaves it out): a negative or huge size
+    // there would reach parry's shape constructors, which assert.
+    if let Some(world) = model.bodies.first() {
+        bounded_body(&world.body, "world")?;
+    }
     if free_root && top_level != 1 {
         return Err("a free joint is supported only on the single top-level body (the model's free base)".into());
     }
