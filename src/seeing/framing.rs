@@ -27,9 +27,10 @@ pub const FRAMED_YAW: f64 = 50.0;
 pub const FRAMED_PITCH: f64 = -30.0;
 /// The default lens's vertical field of view (`camera::default_projection`).
 const FOV_DEG: f64 = 60.0;
-/// A part whose pose changes by more than this (m, or quaternion component) between two
-/// pictures has moved.
-const MOVED: f32 = 1e-4;
+/// An object whose points move at least this far (m) over the pictures, and at least
+/// `MOVED_SHARE` of the farthest any object moves, has moved.
+const MOVED: f32 = 1e-3;
+const MOVED_SHARE: f32 = 0.05;
 
 /// A camera in set_camera's terms.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -90,7 +91,7 @@ impl Asked {
     /// Refuses a view matrix together with camera terms (which would win is not obvious).
     pub fn check(&self) -> Result<(), String> {
         if self.view.is_some() && self.any_term() {
-            return Err("view_matrix cannot be given with distance, yaw, pitch or target; give one or the other".into());
+            return Err("view_matrix cannot be given with camera; give one or the other".into());
         }
         Ok(())
     }
@@ -157,32 +158,32 @@ fn bounds(scenes: &[&Scene]) -> Option<(Vector, Vector)> {
     acc.get()
 }
 
-/// Ids of the objects some part of which moves between scenes (sorted).
+/// Ids of the objects that move between scenes (sorted): those whose motion — the farthest any
+/// of their parts' points gets from where it first was — is at least `MOVED` and at least
+/// `MOVED_SHARE` of the largest motion, so boxes settling by a fraction of a millimetre under
+/// a falling one are not what the picture is about.
 fn moving_objects(scenes: &[&Scene]) -> Vec<u32> {
     use std::collections::BTreeMap;
     let mut first: BTreeMap<(u32, usize), rapier3d::prelude::Pose> = BTreeMap::new();
-    let mut moved = std::collections::BTreeSet::new();
+    let mut motion: BTreeMap<u32, f32> = BTreeMap::new();
     for s in scenes {
         let mut nth: BTreeMap<u32, usize> = BTreeMap::new();
-        for p in &s.parts {
+        for p in s.parts.iter().filter(|p| !p.fixed) {
             let k = nth.entry(p.object_id).or_default();
             let key = (p.object_id, *k);
             *k += 1;
-            if p.fixed || moved.contains(&p.object_id) {
-                continue;
-            }
             let seen = *first.entry(key).or_insert(p.pose);
-            let dt = (seen.translation - p.pose.translation).abs().max_element();
-            let dr = (Vector::from_array([seen.rotation.x, seen.rotation.y, seen.rotation.z]) - Vector::from_array([p.pose.rotation.x, p.pose.rotation.y, p.pose.rotation.z]))
-                .abs()
-                .max_element()
-                .max((seen.rotation.w - p.pose.rotation.w).abs());
-            if dt > MOVED || dr > MOVED {
-                moved.insert(p.object_id);
-            }
+            // A bound on how far any point of the part moved: its origin's move plus the turn
+            // (angle) times its reach from the origin.
+            let reach = p.shape.compute_local_aabb().maxs.abs().max(p.shape.compute_local_aabb().mins.abs()).length();
+            let turn = seen.rotation.angle_between(p.pose.rotation);
+            let d = (seen.translation - p.pose.translation).length() + if turn.is_finite() { turn * reach } else { 0.0 };
+            let m = motion.entry(p.object_id).or_default();
+            *m = m.max(d);
         }
     }
-    moved.into_iter().collect()
+    let most = motion.values().copied().fold(0.0f32, f32::max);
+    motion.into_iter().filter(|(_, d)| *d >= MOVED && *d >= MOVED_SHARE * most).map(|(id, _)| id).collect()
 }
 
 /// A growing axis-aligned box.
