@@ -21,22 +21,16 @@ pub struct RenderAnimation {
     pub width: Option<Int<u32>>,
     /// Pixels (default 240).
     pub height: Option<Int<u32>>,
-    /// Most frames per second shown, 1-50 (default 30).
+    /// Most frames a second, 1-50 (default 30).
     pub fps: Option<Int<u32>>,
-    /// Playback speed (default 1: real time).
+    /// Default 1: real time.
     pub speed: Option<Positive>,
-    /// "time" (default), "ids" or "none".
+    /// time (default), ids or none.
     pub overlay: Option<Text>,
-    /// 16 floats (default: set_camera at to_seq, else framed).
+    /// 16 floats (default: camera).
     pub view_matrix: Option<Matrix>,
-    /// Camera distance (m); unset terms framed.
-    pub distance: Option<Positive>,
-    /// Degrees.
-    pub yaw: Option<Num>,
-    /// Degrees.
-    pub pitch: Option<Num>,
-    /// Point looked at.
-    pub target: Option<Vec3>,
+    /// set_camera's terms, unset ones framed (default: set_camera's at to_seq).
+    pub camera: Option<CameraTerms>,
     /// 16 floats (default: fov 60).
     pub projection_matrix: Option<Matrix>,
     /// New .gif file.

@@ -17,11 +17,11 @@ pub struct CreateConstraint {
     pub child_id: Int<i64>,
     /// fixed, prismatic, spherical or revolute.
     pub joint_type: Text,
-    /// Parent frame (default [0, 0, 1]).
+    /// Parent frame (default z).
     pub joint_axis: Option<Vec3>,
-    /// Parent body frame (default origin).
+    /// Parent body frame (default 0).
     pub parent_frame_position: Option<Vec3>,
-    /// Child body frame, or world if child_id -1.
+    /// Child frame, or world if child_id -1.
     pub child_frame_position: Option<Vec3>,
     /// Default identity.
     pub parent_frame_orientation: Option<Quat>,

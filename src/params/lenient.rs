@@ -207,3 +207,53 @@ pub fn full_detail(detail: Option<&Text>) -> Result<bool, Refusal> {
 pub fn label(name: Option<Text>) -> Result<Option<String>, Refusal> {
     name.map(|t| crate::value::label("name", &t.0).map(str::to_string)).transpose()
 }
+
+/// A camera in set_camera's terms, any of them given: `{distance, yaw, pitch, target}` (a
+/// picture's result `camera` passes back as it is; its `source` is ignored).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CameraTerms {
+    /// Distance to the target (m, > 0).
+    pub distance: Option<f64>,
+    /// Yaw (degrees).
+    pub yaw: Option<f64>,
+    /// Pitch (degrees).
+    pub pitch: Option<f64>,
+    /// Point looked at.
+    pub target: Option<[f64; 3]>,
+}
+
+impl<'de> Deserialize<'de> for CameraTerms {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        read(d, |v| {
+            // Some clients send objects as JSON strings, as they do arrays.
+            let decoded = v.as_str().and_then(|s| serde_json::from_str::<Value>(s).ok());
+            let v = decoded.as_ref().unwrap_or(v);
+            let map = v.as_object().ok_or_else(|| format!("{FIELD} must be an object {{distance, yaw, pitch, target}}; got {}", value::show(v)))?;
+            let mut t = CameraTerms::default();
+            for (k, x) in map {
+                let name = format!("{FIELD}.{k}");
+                match k.as_str() {
+                    "distance" => t.distance = Some(f64::from(value::positive(&name, x)?)),
+                    "yaw" => t.yaw = Some(f64::from(value::number(&name, x)?)),
+                    "pitch" => t.pitch = Some(f64::from(value::number(&name, x)?)),
+                    "target" => t.target = Some(value::vec3(&name, x)?.map(f64::from)),
+                    "source" => {}
+                    other => return Err(format!("{FIELD} has no term {other}; give distance, yaw, pitch or target")),
+                }
+            }
+            Ok(t)
+        })
+    }
+}
+
+impl JsonSchema for CameraTerms {
+    fn inline_schema() -> bool {
+        true
+    }
+    fn schema_name() -> Cow<'static, str> {
+        "CameraTerms".into()
+    }
+    fn json_schema(_: &mut SchemaGenerator) -> Schema {
+        schemars::json_schema!({"type": "object"})
+    }
+}

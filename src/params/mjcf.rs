@@ -11,15 +11,15 @@ use super::lenient::*;
 pub struct LoadMjcf {
     /// Sim id.
     pub sim_id: Text,
-    /// MJCF file in the workspace; its `<include>`s are read beside it.
+    /// Workspace MJCF file (`<include>`s read beside it).
     pub file_path: Text,
-    /// World position of the model's frame (default 0).
+    /// Model frame position (default 0).
     pub position: Option<Vec3>,
     /// Model frame (default identity).
     pub orientation: Option<Quat>,
-    /// Fix a free-joint root body to the world (default false).
+    /// Fix a free root to the world (default false).
     pub use_fixed_base: Option<Bool>,
-    /// A `<key>` whose qpos the joints start at (default qpos0).
+    /// `<key>` whose qpos to start at (default qpos0).
     pub keyframe: Option<Text>,
 }
 

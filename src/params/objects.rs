@@ -21,7 +21,7 @@ pub struct AddBox {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
-    /// false: touches nothing, still seen.
+    /// false: no contacts, still seen.
     pub collides: Option<Bool>,
 }
 
@@ -41,7 +41,7 @@ pub struct AddSphere {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
-    /// false: touches nothing, still seen.
+    /// false: no contacts, still seen.
     pub collides: Option<Bool>,
 }
 
@@ -63,7 +63,7 @@ pub struct AddRound {
     pub color: Option<Color>,
     /// Default identity.
     pub orientation: Option<Quat>,
-    /// false: touches nothing, still seen.
+    /// false: no contacts, still seen.
     pub collides: Option<Bool>,
 }
 
@@ -149,9 +149,9 @@ pub struct ChangeDynamics {
     pub mass: Option<NonNegative>,
     /// Coulomb coefficient.
     pub lateral_friction: Option<NonNegative>,
-    /// Stored, not simulated.
+    /// Recorded only.
     pub spinning_friction: Option<NonNegative>,
-    /// Stored, not simulated.
+    /// Recorded only.
     pub rolling_friction: Option<NonNegative>,
     /// Bounce needs both bodies > 0.
     pub restitution: Option<NonNegative>,
@@ -159,9 +159,9 @@ pub struct ChangeDynamics {
     pub linear_damping: Option<NonNegative>,
     /// Default 0.04.
     pub angular_damping: Option<NonNegative>,
-    /// Stored, not simulated.
+    /// Recorded only.
     pub contact_stiffness: Option<NonNegative>,
-    /// Stored, not simulated.
+    /// Recorded only.
     pub contact_damping: Option<NonNegative>,
 }
 

@@ -13,7 +13,7 @@ pub struct LoadUrdf {
     pub sim_id: Text,
     /// Workspace-relative URDF, or a built-in.
     pub file_path: Text,
-    /// Base position (default origin).
+    /// Base position (default 0).
     pub position: Option<Vec3>,
     /// Default identity.
     pub orientation: Option<Quat>,
@@ -49,7 +49,7 @@ pub struct MotorControl {
     pub target_position: Option<Num>,
     /// Default 0.
     pub target_velocity: Option<Num>,
-    /// Max effort (default: URDF limit, else 500); the torque for TORQUE_CONTROL.
+    /// Max effort (default: URDF limit, else 500); TORQUE_CONTROL's torque.
     pub force: Option<Num>,
     /// Default 0.1.
     pub position_gain: Option<NonNegative>,
@@ -99,7 +99,7 @@ pub struct InverseKinematics {
     pub lower_limits: Option<NumList>,
     /// Default: the URDF's.
     pub upper_limits: Option<NumList>,
-    /// Accepted, ignored (PyBullet).
+    /// Ignored (PyBullet).
     pub joint_ranges: Option<NumList>,
     /// Start pose (default: current).
     pub rest_poses: Option<NumList>,
@@ -121,13 +121,13 @@ pub struct GenerateRevolute {
     pub parent_mass: Option<Positive>,
     /// kg (default 1).
     pub child_mass: Option<Positive>,
-    /// Parent frame (default [0, 0, 1]).
+    /// Parent frame (default z).
     pub joint_axis: Option<Vec3>,
-    /// Parent frame (default origin).
+    /// Parent frame (default 0).
     pub joint_origin: Option<Vec3>,
-    /// rad (default -3.14159).
+    /// rad (default -pi).
     pub joint_lower_limit: Option<Num>,
-    /// rad (default 3.14159).
+    /// rad (default pi).
     pub joint_upper_limit: Option<Num>,
     /// Default 100.
     pub max_effort: Option<NonNegative>,
@@ -135,6 +135,6 @@ pub struct GenerateRevolute {
     pub max_velocity: Option<NonNegative>,
     /// Default generated/revolute_<n>.urdf.
     pub output_path: Option<Text>,
-    /// Replace a file it did not write (default false).
+    /// Replace a file not its own (default false).
     pub overwrite: Option<Bool>,
 }

@@ -97,16 +97,8 @@ pub struct CameraImage {
     pub width: Int<u32>,
     /// Pixels.
     pub height: Int<u32>,
-    /// 16 floats (default: set_camera, else framed).
+    /// 16 floats (default: set_camera or framed).
     pub view_matrix: Option<Matrix>,
-    /// Camera distance (m); unset terms framed.
-    pub distance: Option<Positive>,
-    /// Degrees.
-    pub yaw: Option<Num>,
-    /// Degrees.
-    pub pitch: Option<Num>,
-    /// Point looked at.
-    pub target: Option<Vec3>,
     /// 16 floats (default: fov 60).
     pub projection_matrix: Option<Matrix>,
     /// Ignored (PyBullet).
@@ -115,6 +107,6 @@ pub struct CameraImage {
     pub include_depth: Option<Bool>,
     /// Add per-pixel object id (-1: none).
     pub include_segmentation: Option<Bool>,
-    /// New .png file (arrays as <stem>.depth.npy, .seg.npy).
+    /// New .png file (arrays: <stem>.depth.npy, .seg.npy).
     pub output_path: Option<Text>,
 }

@@ -14,7 +14,7 @@ pub struct NoParams {}
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CreateSimulation {
-    /// m/s² (default [0, 0, -9.81]); a number g means [0, 0, g].
+    /// m/s² (default [0, 0, -9.81]); g alone: [0, 0, g].
     pub gravity: Option<Gravity>,
     /// Web viewer (default false).
     pub gui: Option<Bool>,

@@ -34,7 +34,7 @@ pub struct Sweep {
     pub keep: Option<Bool>,
     /// full: unmoved objects too.
     pub detail: Option<Text>,
-    /// Rank the variants, highest first.
+    /// Rank variants, highest first.
     pub rank_by: Option<RankBy>,
 }
 

@@ -330,14 +330,7 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
             "Image too large: {width}x{height} = {px} pixels (at most {max_px}, --max-image-px)"
         ));
     }
-    let asked = framing::Asked {
-        view: p.view_matrix.as_ref().map(|m| m.0),
-        distance: p.distance.as_ref().map(|v| f64::from(v.0)),
-        yaw: p.yaw.as_ref().map(|v| f64::from(v.0)),
-        pitch: p.pitch.as_ref().map(|v| f64::from(v.0)),
-        target: p.target.as_ref().map(|v| v.0.map(f64::from)),
-    };
-    asked.check()?;
+    let asked = framing::Asked { view: p.view_matrix.as_ref().map(|m| m.0), ..Default::default() };
     let (view, camera): (Mat4, _) = if cx.rules < CAMERA_FRAMED_SINCE {
         // Recorded before pictures framed themselves: the set_camera camera, always.
         (asked.view.unwrap_or_else(|| framing::Terms::of_viewer(w.viewer()).view()), None)

@@ -210,8 +210,9 @@ async fn bad_requests_are_refused_with_one_sentence_and_change_nothing() {
         (json!({"speed": 0}), "speed"),
         (json!({"speed": 1000}), "speed"),
         (json!({"overlay": "clock"}), "overlay"),
-        (json!({"distance": -1}), "distance"),
-        (json!({"yaw": 30, "view_matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -5, 1]}), "view_matrix"),
+        (json!({"camera": {"distance": -1}}), "camera.distance"),
+        (json!({"camera": {"zoom": 2}}), "camera"),
+        (json!({"camera": {"yaw": 30}, "view_matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -5, 1]}), "view_matrix"),
     ];
     for (extra, word) in cases {
         let mut args = json!({"sim_id": sim, "width": 32, "height": 24});

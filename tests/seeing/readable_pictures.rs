@@ -63,9 +63,7 @@ async fn the_default_camera_frames_the_scene_and_says_so() {
     let (x0, y0, x1, y1) = bbox(w, seg.len(), |i| tower.contains(&seg[i])).expect("the tower is in the picture");
     assert!((x1 - x0 + 1) * 3 >= w || (y1 - y0 + 1) * 3 >= h, "the tower spans {}x{} of {w}x{h}", x1 - x0 + 1, y1 - y0 + 1);
 
-    // Terms given: the rest framed; set_camera then becomes the default.
-    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48, "yaw": 120})).await;
-    assert_eq!((s["camera"]["source"].as_str(), s["camera"]["yaw"].as_f64()), (Some("given"), Some(120.0)), "{}", s["camera"]);
+    // set_camera then becomes the default.
     c.call("set_camera", json!({"sim_id": sim, "distance": 7, "yaw": 10, "pitch": -20, "target": [0, 0, 0]})).await;
     let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
     assert_eq!(s["camera"], json!({"source": "set_camera", "distance": 7.0, "yaw": 10.0, "pitch": -20.0, "target": [0.0, 0.0, 0.0]}));
@@ -76,10 +74,18 @@ async fn the_default_camera_frames_the_scene_and_says_so() {
 
     // An animation frames what moves (the falling box), not the still tower.
     let falling = c.call("add_sphere", json!({"sim_id": sim, "radius": 0.1, "position": [-1, -1, 1.5], "color": [1, 0, 0, 1]})).await["object_id"].as_i64().unwrap();
-    c.step(&c_sim(&sim), 60).await;
+    c.step(&sim, 60).await;
     let r = c.raw("render_animation", json!({"sim_id": sim, "overlay": "none"})).await;
     let gif = Gif::decode(&image_of(&r, "image/gif"));
-    assert_eq!(r.structured_content.unwrap()["camera"]["source"], "framed");
+    let used = r.structured_content.unwrap()["camera"].clone();
+    assert_eq!(used["source"], "framed");
+    // Terms given: the rest framed; a result's camera passes back as it is.
+    let r = c.raw("render_animation", json!({"sim_id": sim, "width": 64, "height": 48, "camera": {"yaw": 120}})).await;
+    let given = r.structured_content.unwrap()["camera"].clone();
+    assert_eq!((given["source"].as_str(), given["yaw"].as_f64(), &given["target"]), (Some("given"), Some(120.0), &used["target"]), "{given}");
+    let r = c.raw("render_animation", json!({"sim_id": sim, "width": 64, "height": 48, "camera": given})).await;
+    let again = r.structured_content.unwrap()["camera"].clone();
+    assert_eq!((&again["distance"], &again["yaw"], &again["pitch"], &again["target"]), (&given["distance"], &given["yaw"], &given["pitch"], &given["target"]));
     let red = |px: &[u8]| px[0] > 120 && px[1] < 60 && px[2] < 60;
     let mut all: Option<(usize, usize, usize, usize)> = None;
     for k in 0..gif.frames.len() {
@@ -91,10 +97,6 @@ async fn the_default_camera_frames_the_scene_and_says_so() {
     let (x0, y0, x1, y1) = all.expect("the falling ball is in the frames");
     assert!((x1 - x0 + 1) * 3 >= gif.width || (y1 - y0 + 1) * 3 >= gif.height, "its path spans {}x{}", x1 - x0 + 1, y1 - y0 + 1);
     let _ = falling;
-}
-
-fn c_sim(s: &str) -> String {
-    s.to_string()
 }
 
 #[tokio::test(flavor = "multi_thread")]

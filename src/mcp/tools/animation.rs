@@ -115,13 +115,8 @@ fn output(user: Option<Text>, sandbox: &Sandbox) -> Result<Option<(String, std::
 fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::trajectory::Asked, Asked), Refusal> {
     let p: RenderAnimation = params::parse(TOOL, a)?;
     let interval = (opt_u64(p.from_seq, "from_seq")?, opt_u64(p.to_seq, "to_seq")?);
-    let asked = framing::Asked {
-        view: p.view_matrix.map(|m| m.0),
-        distance: p.distance.map(|v| f64::from(v.0)),
-        yaw: p.yaw.map(|v| f64::from(v.0)),
-        pitch: p.pitch.map(|v| f64::from(v.0)),
-        target: p.target.map(|v| v.0.map(f64::from)),
-    };
+    let terms = p.camera.unwrap_or_default();
+    let asked = framing::Asked { view: p.view_matrix.map(|m| m.0), distance: terms.distance, yaw: terms.yaw, pitch: terms.pitch, target: terms.target };
     asked.check()?;
     let cam = Camera {
         width: side(p.width, "width", 320)?,
@@ -180,7 +175,7 @@ fn reply(summary: &AnimationSummary, gif: Option<&[u8]>, workspace: &std::path::
 
 #[tool_router(router = animation_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Looping GIF of a past interval (default: the last step), re-simulated from the log.
+    /// GIF of a past interval (default: the last step), re-simulated from the log.
     #[tool(
         input_schema = schema_for_type::<params::RenderAnimation>(),
         output_schema = schema_for_output::<AnimationSummary>(),

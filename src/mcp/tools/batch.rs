@@ -150,7 +150,7 @@ fn batch_calls(sandbox: &Sandbox, a: &Args) -> Result<Vec<Call>, Refusal> {
 
 #[tool_router(router = batch_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Up to 10,000 calls, all or nothing, each its own event: the state-changing tools and
+    /// Up to 10,000 calls, all or nothing, each its own event: state-changing tools and
     /// get_object_state/joint_state/link_state/simulation_info.
     #[tool(input_schema = schema_for_type::<params::Batch>())]
     async fn batch(

@@ -178,13 +178,13 @@ impl PhysicsServer {
         self.change("add_sphere", args, decide_sphere).await
     }
 
-    /// Add a cylinder along its local z axis; height is the full height.
+    /// Add a cylinder along local z; height is the full height.
     #[tool(input_schema = schema_for_type::<params::AddRound>())]
     async fn add_cylinder(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_cylinder", args, decide_cylinder).await
     }
 
-    /// Add a capsule along its local z axis; height is the cylindrical part.
+    /// Add a capsule along local z; height is the cylindrical part.
     #[tool(input_schema = schema_for_type::<params::AddRound>())]
     async fn add_capsule(&self, args: JsonObject) -> Result<Json<ObjectAdded>, String> {
         self.change("add_capsule", args, decide_capsule).await
@@ -206,7 +206,7 @@ impl PhysicsServer {
             .await
     }
 
-    /// Apply a force for the NEXT STEP ONLY, at position or else the centre of mass.
+    /// Apply a force for the NEXT STEP ONLY.
     #[tool(input_schema = schema_for_type::<params::ApplyForce>())]
     async fn apply_force(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("apply_force", args, decide_force).await
@@ -224,8 +224,8 @@ impl PhysicsServer {
         self.change("set_object_velocity", args, decide_velocity).await
     }
 
-    /// Change mass, friction, restitution, damping or contact properties. Friction and restitution
-    /// multiply.
+    /// Change mass, friction, restitution, damping or contact properties (friction and
+    /// restitution multiply).
     #[tool(input_schema = schema_for_type::<params::ChangeDynamics>())]
     async fn change_dynamics(&self, args: JsonObject) -> Result<Json<DynamicsChanged>, String> {
         self.change("change_dynamics", args, decide_dynamics).await
@@ -256,7 +256,7 @@ impl PhysicsServer {
         self.change("set_collision_filter_group_mask", args, decide_filter).await
     }
 
-    /// Turn contacts between two parts off or on, whatever their masks.
+    /// Turn contacts between two parts off or on, whatever the masks.
     #[tool(input_schema = schema_for_type::<params::CollisionFilterPair>())]
     async fn set_collision_filter_pair(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_collision_filter_pair", args, decide_pair).await

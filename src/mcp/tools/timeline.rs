@@ -60,7 +60,7 @@ fn seq(name: &str, v: Option<Int<u64>>) -> Result<Option<u64>, Refusal> {
 
 #[tool_router(router = timeline_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Undo the last count state-changing calls exactly (ids too); reads are skipped.
+    /// Undo the last count state-changing calls exactly (ids too); reads skipped.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn undo(&self, args: JsonObject) -> Result<Json<Undone>, String> {
         self.with_sim(args, |sim, a, limits| match params::parse("undo", a).and_then(count) {

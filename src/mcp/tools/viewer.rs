@@ -37,7 +37,7 @@ impl PhysicsServer {
         self.change("enable_debug_visualization", args, decide_debug).await
     }
 
-    /// Place the viewer camera; get_camera_image's default view.
+    /// Place the viewer camera, every picture's default.
     #[tool(input_schema = schema_for_type::<params::SetCamera>())]
     async fn set_camera(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_camera", args, decide_camera).await

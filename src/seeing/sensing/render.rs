@@ -79,12 +79,11 @@ fn triangulate(shape: &dyn Shape) -> (Vec<Vector>, Vec<[u32; 3]>) {
     }
 }
 
-/// A vertex in clip space with its view-axis depth and world position.
+/// A vertex in clip space with its view-axis depth.
 #[derive(Clone, Copy)]
 struct ClipVertex {
     clip: [f32; 4],
     depth: f32,
-    world: [f32; 3],
 }
 
 fn lerp(a: ClipVertex, b: ClipVertex, t: f32) -> ClipVertex {
@@ -92,8 +91,7 @@ fn lerp(a: ClipVertex, b: ClipVertex, t: f32) -> ClipVertex {
     for (k, c) in clip.iter_mut().enumerate() {
         *c = a.clip[k] + (b.clip[k] - a.clip[k]) * t;
     }
-    let world = [0, 1, 2].map(|k| a.world[k] + (b.world[k] - a.world[k]) * t);
-    ClipVertex { clip, depth: a.depth + (b.depth - a.depth) * t, world }
+    ClipVertex { clip, depth: a.depth + (b.depth - a.depth) * t }
 }
 
 /// Sutherland–Hodgman against one plane `f(v) ≥ 0`.
@@ -144,13 +142,24 @@ struct Raster {
     height: u32,
     depth: Vec<f32>,
     segmentation: Vec<i64>,
-    surface: Vec<Surface>,
+    /// Index into `faces` of the face seen at each pixel (where `segmentation` ≥ 0): 4 bytes a
+    /// pixel; the point seen is found again from the pixel's ray and the face's plane.
+    face: Vec<u32>,
+    faces: Vec<Face>,
+}
+
+/// A drawn face: its plane and how it is coloured.
+#[derive(Clone, Copy)]
+struct Face {
+    normal: Vector,
+    offset: f32,
+    surface: Surface,
 }
 
 impl Raster {
     /// Fills one clipped triangle (clip-space vertices) with `face` (its position is filled
     /// in per pixel) and `id`.
-    fn fill(&mut self, v: [ClipVertex; 3], face: Surface, id: i64) {
+    fn fill(&mut self, v: [ClipVertex; 3], face: u32, id: i64) {
         let (w, h) = (self.width as f32, self.height as f32);
         let mut sx = [0.0f32; 3];
         let mut sy = [0.0f32; 3];
@@ -194,9 +203,7 @@ impl Raster {
                 if d < self.depth[i] {
                     self.depth[i] = d;
                     self.segmentation[i] = id;
-                    let (a, b, c) = (b0 * inv_w[0] / q, b1 * inv_w[1] / q, b2 * inv_w[2] / q);
-                    let pos = [0, 1, 2].map(|k| a * v[0].world[k] + b * v[1].world[k] + c * v[2].world[k]);
-                    self.surface[i] = Surface { pos, ..face };
+                    self.face[i] = face;
                 }
             }
         }
@@ -213,7 +220,7 @@ impl Raster {
             .iter()
             .map(|p| {
                 let e = transform(view, [p.x, p.y, p.z, 1.0]);
-                ClipVertex { clip: transform(proj, e), depth: -e[2], world: p.to_array() }
+                ClipVertex { clip: transform(proj, e), depth: -e[2] }
             })
             .collect();
         let base = style::object_bytes(part.object_id, part.color);
@@ -236,7 +243,9 @@ impl Raster {
                     continue;
                 }
             }
-            let face = Surface { pos: [0.0; 3], lambert: n.dot(light), up: n.z, base, checker: shading::is_ground_face(part.fixed, n) };
+            let surface = Surface { pos: [0.0; 3], lambert: n.dot(light), up: n.z, base, checker: shading::is_ground_face(part.fixed, n) };
+            let face = self.faces.len() as u32;
+            self.faces.push(Face { normal: n, offset: n.dot(a), surface });
             let poly = [verts[t[0] as usize], verts[t[1] as usize], verts[t[2] as usize]];
             let poly = clip_polygon(&poly, |v| v.clip[2] + v.clip[3]);
             let poly = clip_polygon(&poly, |v| v.clip[3] - 1e-6);
@@ -294,7 +303,7 @@ pub fn render_scene(s: &Scene, width: u32, height: u32, view: &Mat4, proj: &Mat4
 
 fn render_parts<'a>(parts: impl Iterator<Item = Drawable<'a>>, width: u32, height: u32, view: &Mat4, proj: &Mat4) -> Frame {
     let n = width as usize * height as usize;
-    let mut raster = Raster { width, height, depth: vec![f32::INFINITY; n], segmentation: vec![-1; n], surface: vec![Surface::default(); n] };
+    let mut raster = Raster { width, height, depth: vec![f32::INFINITY; n], segmentation: vec![-1; n], face: vec![0; n], faces: Vec::new() };
     let (view32, proj32) = (to_f32(view), to_f32(proj));
     // Back faces are culled from the eye's position for perspective projections.
     let eye = (proj32[11] == -1.0 && proj32[15] == 0.0).then(|| eye_position(&view32));
@@ -309,25 +318,33 @@ fn render_parts<'a>(parts: impl Iterator<Item = Drawable<'a>>, width: u32, heigh
 }
 
 /// The colour pass: each seen pixel lit (with shadows when there are casters), the sky
-/// behind the rest.
+/// behind the rest. The point seen at a pixel is where the pixel's ray meets its face's plane.
 fn shade_pixels(r: &Raster, shadows: Option<&ShadowMap>, view: &Mat4, proj: &Mat4) -> Vec<u8> {
     let (w, h) = (r.width as usize, r.height as usize);
     let mut rgb = vec![0u8; 3 * w * h];
-    let unproject = sky_rays(view, proj);
+    let rays = Rays::new(view, proj);
     for py in 0..h {
         for px in 0..w {
             let i = py * w + px;
+            let x = (px as f64 + 0.5) / w as f64 * 2.0 - 1.0;
+            let y = 1.0 - (py as f64 + 0.5) / h as f64 * 2.0;
+            let ray = rays.as_ref().map(|r| r.through(x, y));
             let c = if r.segmentation[i] >= 0 {
-                let s = &r.surface[i];
-                let lit = match shadows {
-                    Some(m) if s.lambert > 0.0 => m.lit(s.pos, s.lambert),
-                    _ => 1.0,
-                };
-                shading::shade(s, lit)
+                let face = &r.faces[r.face[i] as usize];
+                match ray.and_then(|(near, far)| meet(face, near, far)) {
+                    Some(pos) => {
+                        let s = Surface { pos, ..face.surface };
+                        let lit = match shadows {
+                            Some(m) if s.lambert > 0.0 => m.lit(s.pos, s.lambert),
+                            _ => 1.0,
+                        };
+                        shading::shade(&s, lit)
+                    }
+                    // No ray (matrices that do not invert): lit, no checker.
+                    None => shading::shade(&Surface { checker: false, ..face.surface }, 1.0),
+                }
             } else {
-                let x = (px as f64 + 0.5) / w as f64 * 2.0 - 1.0;
-                let y = 1.0 - (py as f64 + 0.5) / h as f64 * 2.0;
-                shading::sky(unproject.as_ref().map_or([0.0, 1.0, 0.0], |f| f(x, y)))
+                shading::sky(ray.map_or([0.0, 1.0, 0.0], |(near, far)| (far - near).to_array()))
             };
             rgb[3 * i..3 * i + 3].copy_from_slice(&c);
         }
@@ -335,22 +352,42 @@ fn shade_pixels(r: &Raster, shadows: Option<&ShadowMap>, view: &Mat4, proj: &Mat
     rgb
 }
 
-/// The world direction of the view ray through a point of the image (normalised device
-/// coordinates), for the sky; None when the matrices cannot be inverted.
-fn sky_rays(view: &Mat4, proj: &Mat4) -> Option<impl Fn(f64, f64) -> [f32; 3]> {
-    let mut pv = [0.0f64; 16];
-    for c in 0..4 {
-        for r in 0..4 {
-            pv[c * 4 + r] = (0..4).map(|k| proj[k * 4 + r] * view[c * 4 + k]).sum();
-        }
+/// Where the ray from `near` to `far` meets a face's plane.
+fn meet(face: &Face, near: Vector, far: Vector) -> Option<[f32; 3]> {
+    let d = far - near;
+    let den = face.normal.dot(d);
+    if den.abs() < 1e-12 {
+        return None;
     }
-    let inv = shading::invert(&pv)?;
-    let at = move |x: f64, y: f64, z: f64| {
-        let p = [0, 1, 2, 3].map(|r| inv[r] * x + inv[4 + r] * y + inv[8 + r] * z + inv[12 + r]);
-        [p[0] / p[3], p[1] / p[3], p[2] / p[3]]
-    };
-    Some(move |x: f64, y: f64| {
-        let (near, far) = (at(x, y, -1.0), at(x, y, 1.0));
-        [0, 1, 2].map(|k| (far[k] - near[k]) as f32)
-    })
+    let t = (face.offset - face.normal.dot(near)) / den;
+    Some((near + d * t).to_array())
+}
+
+/// The pixels' view rays in world space, from the inverse of projection × view.
+struct Rays {
+    inv: [f64; 16],
+}
+
+impl Rays {
+    /// None when the matrices cannot be inverted.
+    fn new(view: &Mat4, proj: &Mat4) -> Option<Rays> {
+        let mut pv = [0.0f64; 16];
+        for c in 0..4 {
+            for r in 0..4 {
+                pv[c * 4 + r] = (0..4).map(|k| proj[k * 4 + r] * view[c * 4 + k]).sum();
+            }
+        }
+        shading::invert(&pv).map(|inv| Rays { inv })
+    }
+
+    fn at(&self, x: f64, y: f64, z: f64) -> Vector {
+        let m = &self.inv;
+        let p = [0, 1, 2, 3].map(|r| m[r] * x + m[4 + r] * y + m[8 + r] * z + m[12 + r]);
+        Vector::new((p[0] / p[3]) as f32, (p[1] / p[3]) as f32, (p[2] / p[3]) as f32)
+    }
+
+    /// The points on the near and far planes at normalised device coordinates (x, y).
+    fn through(&self, x: f64, y: f64) -> (Vector, Vector) {
+        (self.at(x, y, -1.0), self.at(x, y, 1.0))
+    }
 }

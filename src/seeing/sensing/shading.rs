@@ -22,7 +22,7 @@ const HORIZON: [f32; 3] = [0.88, 0.92, 0.97];
 const ZENITH: [f32; 3] = [0.42, 0.60, 0.86];
 const BELOW: [f32; 3] = [0.78, 0.79, 0.80];
 /// Shadow-map texels along its longer side: twice the image's longer side, within these.
-const SHADOW_TEXELS: (usize, usize) = (256, 2048);
+const SHADOW_TEXELS: (usize, usize) = (256, 1024);
 /// Objects larger than this (m, any side) neither cast shadows nor bound the shadow map: the
 /// ground and walls receive shadows, the map stays sharp around what moves.
 pub const CASTER_MAX_SIZE: f32 = 40.0;
