@@ -1,7 +1,9 @@
 //! Issue 11 benchmarks (`cargo bench --bench seeing_time`): render_animation's work — 120
 //! frames at 320×240 of 100 objects dropped on a ground, every=4 — against the physics of the
 //! same interval alone (the core re-simulating with no observer work), and `report` on the
-//! recorded session in `replays/` with the most events. `REPORT` lines carry the figures.
+//! recorded session in `replays/` with the most events; and the renderer alone: each of the
+//! 120 captured scenes drawn on one thread (sky, checker, shadows), the cost SPEC bounds per
+//! 320×240 frame per core. `REPORT` lines carry the figures.
 
 #[path = "pile.rs"]
 mod pile;
@@ -75,8 +77,13 @@ fn dropped_100() -> Lent {
 
 fn camera() -> Camera {
     let view = physics_mcp::seeing::sensing::camera::view_matrix([6.0, -6.0, 5.0], [0.0, 0.0, 0.3], [0.0, 0.0, 1.0]);
-    Camera { width: 320, height: 240, view: Some(view), projection: None }
+    let mut cam = Camera::sized(320, 240);
+    cam.asked.view = Some(view);
+    cam
 }
+
+/// Every frame shown: 50 a second, at a quarter speed (samples 16.7 ms apart play 67 ms apart).
+const ALL_FRAMES: animation::Pacing = animation::Pacing { fps: 50, speed: 0.25 };
 
 /// The replay with the most events.
 fn longest_replay() -> std::path::PathBuf {
@@ -93,7 +100,7 @@ fn bench(c: &mut Criterion) {
     let cam = camera();
     assert_eq!(animation::sample_count(&lent, 4), 120);
     let physics = || fold::resimulate(&lent, 4, &mut |_, _| true).unwrap();
-    let animate = || animation::animate(&lent, 4, &cam, 30).unwrap();
+    let animate = || animation::animate(&lent, 4, &cam, ALL_FRAMES).unwrap();
 
     // Side by side in one run, for the REPORT line.
     let time = |f: &dyn Fn()| {
@@ -118,6 +125,22 @@ fn bench(c: &mut Criterion) {
         anim.gif.len(),
         anim.gif.len() as f64 / 1024.0
     );
+    assert_eq!(anim.frames, 120);
+    // The renderer alone, one thread: each captured scene drawn once with the animation's camera.
+    let shots = animation::capture(&lent, 4, &mut |_| {}).unwrap();
+    let scenes: Vec<_> = shots.iter().map(|s| &s.scene).collect();
+    let (view, proj, _) = cam.fix(&scenes);
+    let t = Instant::now();
+    for s in &shots {
+        std::hint::black_box(cam.rgb(&s.scene, s.seq, &view, &proj));
+    }
+    let per_frame = t.elapsed().as_secs_f64() * 1e3 / shots.len() as f64;
+    let t = Instant::now();
+    for s in &shots {
+        std::hint::black_box(physics_mcp::seeing::sensing::render::render_scene(&s.scene, 320, 240, &view, &proj));
+    }
+    let bare_ms = t.elapsed().as_secs_f64() * 1e3 / shots.len() as f64;
+    println!("REPORT render: {per_frame:.2} ms per 320x240 frame on one thread with the overlay, {bare_ms:.2} ms without (100 objects and a ground; sky, checker, shadows)");
     let replay = longest_replay();
     let t = Instant::now();
     let page = physics_mcp::seeing::report::html(&physics_mcp::seeing::report::gather(&replay, |_, _| {}).unwrap()).unwrap();
