@@ -27,6 +27,8 @@ pub const FRAMED_YAW: f64 = 50.0;
 pub const FRAMED_PITCH: f64 = -30.0;
 /// The default lens's vertical field of view (`camera::default_projection`).
 const FOV_DEG: f64 = 60.0;
+/// Framed objects fill this share of the view's half-width or half-height at most.
+const MARGIN: f64 = 1.0 / 0.85;
 /// An object whose points move at least this far (m) over the pictures, and at least
 /// `MOVED_SHARE` of the farthest any object moves, has moved.
 const MOVED: f32 = 1e-3;
@@ -117,19 +119,31 @@ pub fn choose(asked: &Asked, scenes: &[&Scene], aspect: f64) -> (Mat4, CameraUse
     (terms.view(), terms.used(source))
 }
 
-/// The camera that frames `scenes` from (yaw, pitch): centred on the framed objects' bounds,
-/// at the distance where their bounding sphere fits the narrower field of view.
+/// The camera that frames `scenes` from (yaw, pitch): looking at the centre of the framed
+/// objects' bounds, from the nearest distance at which every corner of those bounds is inside
+/// the default lens's view with a margin (`MARGIN` of the half-width on each side).
 pub fn framed(scenes: &[&Scene], aspect: f64, yaw: f64, pitch: f64) -> Terms {
     let Some((lo, hi)) = bounds(scenes) else {
         let initial = Terms::of_viewer(&Viewer::default());
         return Terms { yaw, pitch, ..initial };
     };
-    let center = (lo + hi) * 0.5;
-    let radius = f64::from((hi - lo).length() * 0.5).max(0.05);
-    let half_v = (FOV_DEG / 2.0).to_radians();
-    let half_h = (half_v.tan() * aspect.max(1e-3)).atan();
-    let distance = radius / half_v.min(half_h).sin() * 1.05;
-    Terms { distance, yaw, pitch, target: center.to_array().map(f64::from) }
+    let center = ((lo + hi) * 0.5).to_array().map(f64::from);
+    // The camera's axes for this direction (a view matrix's rows: right, up, and back).
+    let v = Terms { distance: 1.0, yaw, pitch, target: center }.view();
+    let (right, up, back) = ([v[0], v[4], v[8]], [v[1], v[5], v[9]], [v[2], v[6], v[10]]);
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let tan_v = (FOV_DEG / 2.0).to_radians().tan();
+    let tan_h = tan_v * aspect.max(1e-3);
+    let (lo, hi) = (lo.to_array().map(f64::from), hi.to_array().map(f64::from));
+    let mut distance: f64 = 0.1;
+    for corner in 0..8 {
+        let p = [0, 1, 2].map(|k| if corner >> k & 1 == 0 { lo[k] } else { hi[k] } - center[k]);
+        // A corner `ahead` of the target (further from the camera) may sit nearer the edge.
+        let ahead = -dot(p, back);
+        let side = (dot(p, right).abs() / tan_h).max(dot(p, up).abs() / tan_v) * MARGIN;
+        distance = distance.max(side - ahead).max(0.05 - ahead);
+    }
+    Terms { distance, yaw, pitch, target: center }
 }
 
 /// The world bounds of what a framed camera looks at: the parts of objects that move between

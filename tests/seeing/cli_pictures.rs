@@ -75,4 +75,9 @@ fn render_refuses_what_it_cannot_draw() {
         assert!(!ok, "{extra:?} must fail");
         assert!(stderr.contains(word), "{extra:?}: {stderr}");
     }
+    // A GIF is not written into a file named otherwise.
+    let png = dir.path().join("clip.png");
+    let (ok, _, stderr) = run(&["replay".as_ref(), copy.as_os_str(), "--render".as_ref(), png.as_os_str()]);
+    assert!(!ok && stderr.contains(".gif"), "{stderr}");
+    assert!(!png.exists());
 }
