@@ -77,7 +77,7 @@ fn cam(args: &serde_json::Map<String, serde_json::Value>) -> physics_mcp::params
 }
 
 fn cx(w: &World) -> ReadContext<'_> {
-    ReadContext { world: w, head_seq: 0, last_seq: 0, state_hash: "" }
+    ReadContext { world: w, head_seq: 0, last_seq: 0, state_hash: "", rules: physics_mcp::command::EVENT_VERSION }
 }
 
 fn median_ms(mut f: impl FnMut(), runs: usize) -> f64 {
