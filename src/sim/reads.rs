@@ -334,6 +334,8 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
     let (view, camera): (Mat4, _) = if cx.rules < CAMERA_FRAMED_SINCE {
         // Recorded before pictures framed themselves: the set_camera camera, always.
         (asked.view.unwrap_or_else(|| framing::Terms::of_viewer(w.viewer()).view()), None)
+    } else if let Some(view) = asked.view {
+        (view, Some(framing::choose(&asked, &[], 1.0).1))
     } else {
         let scene = Scene::capture(w);
         let (view, used) = framing::choose(&asked, &[&scene], f64::from(width) / f64::from(height));

@@ -243,7 +243,8 @@ impl Raster {
                     continue;
                 }
             }
-            let surface = Surface { pos: [0.0; 3], lambert: n.dot(light), up: n.z, base, checker: shading::is_ground_face(part.fixed, n) };
+            let lambert = n.dot(light);
+            let surface = Surface { pos: [0.0; 3], lambert, bias_texels: ShadowMap::bias_texels(lambert), up: n.z, base, checker: shading::is_ground_face(part.fixed, n) };
             let face = self.faces.len() as u32;
             self.faces.push(Face { normal: n, offset: n.dot(a), surface });
             let poly = [verts[t[0] as usize], verts[t[1] as usize], verts[t[2] as usize]];
@@ -324,18 +325,18 @@ fn shade_pixels(r: &Raster, shadows: Option<&ShadowMap>, view: &Mat4, proj: &Mat
     let mut rgb = vec![0u8; 3 * w * h];
     let rays = Rays::new(view, proj);
     for py in 0..h {
+        let y = 1.0 - (py as f64 + 0.5) / h as f64 * 2.0;
+        let mut row = rays.as_ref().map(|r| r.row(y, w));
         for px in 0..w {
             let i = py * w + px;
-            let x = (px as f64 + 0.5) / w as f64 * 2.0 - 1.0;
-            let y = 1.0 - (py as f64 + 0.5) / h as f64 * 2.0;
-            let ray = rays.as_ref().map(|r| r.through(x, y));
+            let ray = row.as_mut().map(|r| r.next());
             let c = if r.segmentation[i] >= 0 {
                 let face = &r.faces[r.face[i] as usize];
                 match ray.and_then(|(near, far)| meet(face, near, far)) {
                     Some(pos) => {
                         let s = Surface { pos, ..face.surface };
                         let lit = match shadows {
-                            Some(m) if s.lambert > 0.0 => m.lit(s.pos, s.lambert),
+                            Some(m) if s.lambert > 0.0 => m.lit(s.pos, s.bias_texels),
                             _ => 1.0,
                         };
                         shading::shade(&s, lit)
@@ -380,14 +381,35 @@ impl Rays {
         shading::invert(&pv).map(|inv| Rays { inv })
     }
 
-    fn at(&self, x: f64, y: f64, z: f64) -> Vector {
+    /// The rays of one image row at normalised device y, `width` pixels, left to right.
+    fn row(&self, y: f64, width: usize) -> RowRays {
         let m = &self.inv;
-        let p = [0, 1, 2, 3].map(|r| m[r] * x + m[4 + r] * y + m[8 + r] * z + m[12 + r]);
-        Vector::new((p[0] / p[3]) as f32, (p[1] / p[3]) as f32, (p[2] / p[3]) as f32)
+        let col = |c: usize| [m[4 * c], m[4 * c + 1], m[4 * c + 2], m[4 * c + 3]];
+        let (cx, cy, cz, cw) = (col(0), col(1), col(2), col(3));
+        let x0 = -1.0 + 1.0 / width as f64;
+        let at = |z: f64| [0, 1, 2, 3].map(|k| cx[k] * x0 + cy[k] * y + cz[k] * z + cw[k]);
+        let dx = 2.0 / width as f64;
+        RowRays { near: at(-1.0), far: at(1.0), step: cx.map(|v| v * dx) }
     }
+}
 
-    /// The points on the near and far planes at normalised device coordinates (x, y).
-    fn through(&self, x: f64, y: f64) -> (Vector, Vector) {
-        (self.at(x, y, -1.0), self.at(x, y, 1.0))
+/// The rays of one image row: homogeneous points on the near and far planes, moved by `step`
+/// from one pixel to the next (unprojection is linear before the divide).
+struct RowRays {
+    near: [f64; 4],
+    far: [f64; 4],
+    step: [f64; 4],
+}
+
+impl RowRays {
+    /// This pixel's (near, far) points in world space; then moves to the next pixel.
+    fn next(&mut self) -> (Vector, Vector) {
+        let point = |h: &[f64; 4]| Vector::new((h[0] / h[3]) as f32, (h[1] / h[3]) as f32, (h[2] / h[3]) as f32);
+        let out = (point(&self.near), point(&self.far));
+        for k in 0..4 {
+            self.near[k] += self.step[k];
+            self.far[k] += self.step[k];
+        }
+        out
     }
 }

@@ -21,7 +21,8 @@ const UPWARD: f32 = 0.7;
 const HORIZON: [f32; 3] = [0.88, 0.92, 0.97];
 const ZENITH: [f32; 3] = [0.42, 0.60, 0.86];
 const BELOW: [f32; 3] = [0.78, 0.79, 0.80];
-/// Shadow-map texels along its longer side: twice the image's longer side, within these.
+/// Shadow-map texels along its longer side: the image's longer side, within these (the 2×2
+/// filter softens what one texel a pixel would show as steps).
 const SHADOW_TEXELS: (usize, usize) = (256, 1024);
 /// Objects larger than this (m, any side) neither cast shadows nor bound the shadow map: the
 /// ground and walls receive shadows, the map stays sharp around what moves.
@@ -34,6 +35,8 @@ pub struct Surface {
     pub pos: [f32; 3],
     /// Cosine between the face's normal and the light (≤ 0: facing away).
     pub lambert: f32,
+    /// The shadow test's bias for this face, in shadow-map texels (`ShadowMap::bias_texels`).
+    pub bias_texels: f32,
     /// The face normal's z (−1 down … 1 up).
     pub up: f32,
     /// The object's colour (style::object_rgb) as bytes.
@@ -56,21 +59,45 @@ pub fn is_ground_face(fixed: bool, n: Vector) -> bool {
 pub fn shade(s: &Surface, lit: f32) -> [u8; 3] {
     let ambient = AMBIENT_DOWN + (AMBIENT_UP - AMBIENT_DOWN) * (s.up * 0.5 + 0.5);
     let mut k = ambient + DIFFUSE * s.lambert.max(0.0) * lit;
-    if s.checker {
-        let (x, y) = (s.pos[0].floor() as i64, s.pos[1].floor() as i64);
-        if (x + y).rem_euclid(2) == 1 {
-            k *= CHECKER_DARK;
-        }
+    if s.checker && (floor(s.pos[0]) + floor(s.pos[1])).rem_euclid(2) == 1 {
+        k *= CHECKER_DARK;
     }
-    s.base.map(|c| (f32::from(c) * k).round().clamp(0.0, 255.0) as u8)
+    // + 0.5 then truncate: rounding for these non-negative values (`as` saturates at 255).
+    s.base.map(|c| (f32::from(c) * k + 0.5) as u8)
+}
+
+/// ⌊v⌋ as an integer without a libm call (this runs per pixel; baseline x86-64 has no SSE4.1
+/// `roundss`, so `f32::floor` is a function call). NaN gives 0.
+fn floor(v: f32) -> i64 {
+    let t = v as i64;
+    if (t as f32) > v {
+        t - 1
+    } else {
+        t
+    }
+}
+
+/// Entries of the sky's table, over the sine of a view ray's elevation from −1 to 1.
+const SKY_STEPS: usize = 512;
+
+/// The sky's colours by elevation, computed once (a `powf` per background pixel was a third of
+/// a frame's cost).
+fn sky_table() -> &'static [[u8; 3]; SKY_STEPS] {
+    static TABLE: std::sync::OnceLock<[[u8; 3]; SKY_STEPS]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|i| {
+            let e = i as f32 / (SKY_STEPS - 1) as f32 * 2.0 - 1.0;
+            let (to, t) = if e >= 0.0 { (ZENITH, e.powf(0.6)) } else { (BELOW, (-e).powf(0.5)) };
+            [0, 1, 2].map(|k| ((HORIZON[k] + (to[k] - HORIZON[k]) * t) * 255.0).round() as u8)
+        })
+    })
 }
 
 /// The sky's colour for a view ray going in direction `dir` (any length).
 pub fn sky(dir: [f32; 3]) -> [u8; 3] {
     let n = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
     let e = if n > 0.0 { (dir[2] / n).clamp(-1.0, 1.0) } else { 0.0 };
-    let (to, t) = if e >= 0.0 { (ZENITH, e.powf(0.6)) } else { (BELOW, (-e).powf(0.5)) };
-    [0, 1, 2].map(|k| ((HORIZON[k] + (to[k] - HORIZON[k]) * t) * 255.0).round() as u8)
+    sky_table()[((e + 1.0) * 0.5 * (SKY_STEPS - 1) as f32).round() as usize]
 }
 
 /// Depths seen from the light, over the region where shadow casters are: orthographic along
@@ -90,7 +117,7 @@ impl ShadowMap {
     /// A map over the given casters' world vertices, sharp enough for an image whose longer
     /// side is `image_side` pixels (None when there are no casters).
     pub fn new(casters: &[(&[Vector], &[[u32; 3]])], image_side: u32) -> Option<ShadowMap> {
-        let texels = (2 * image_side as usize).clamp(SHADOW_TEXELS.0, SHADOW_TEXELS.1);
+        let texels = (image_side as usize).clamp(SHADOW_TEXELS.0, SHADOW_TEXELS.1);
         let l = light();
         let u = l.cross(Vector::Z).normalize();
         let v = l.cross(u);
@@ -112,16 +139,23 @@ impl ShadowMap {
         let mut map = ShadowMap { u, v, l, origin: (u0, v0), texel, width, height, top: vec![f32::NEG_INFINITY; width * height] };
         for (verts, tris) in casters {
             let proj: Vec<[f32; 3]> = verts.iter().map(|p| map.texel_of(*p)).collect();
+            let center = verts.iter().copied().fold(Vector::ZERO, |a, b| a + b) / verts.len().max(1) as f32;
             for t in tris.iter() {
-                if let (Some(a), Some(b), Some(c)) = (proj.get(t[0] as usize), proj.get(t[1] as usize), proj.get(t[2] as usize)) {
-                    map.fill(*a, *b, *c);
+                let (Some(&a), Some(&b), Some(&c)) = (verts.get(t[0] as usize), verts.get(t[1] as usize), verts.get(t[2] as usize)) else { continue };
+                // Convex parts: only the faces towards the light hold the nearest depth.
+                let n = (b - a).cross(c - a);
+                let outward = if n.dot(a - center) < 0.0 { -n } else { n };
+                if outward.dot(l) <= 0.0 {
+                    continue;
                 }
+                map.fill(proj[t[0] as usize], proj[t[1] as usize], proj[t[2] as usize]);
             }
         }
         Some(map)
     }
 
     /// (column, row, height towards the light) of a world point.
+    #[inline]
     fn texel_of(&self, p: Vector) -> [f32; 3] {
         [(p.dot(self.u) - self.origin.0) / self.texel, (p.dot(self.v) - self.origin.1) / self.texel, p.dot(self.l)]
     }
@@ -155,29 +189,35 @@ impl ShadowMap {
         }
     }
 
-    /// How much light reaches world point `p` on a face whose normal makes cosine `lambert`
-    /// with the light: 0 in shadow … 1 lit, averaged over the 3×3 texels around it.
-    pub fn lit(&self, p: [f32; 3], lambert: f32) -> f32 {
-        let [x, y, h] = self.texel_of(Vector::from_array(p));
-        // Slope-scaled bias: a face lit at a grazing angle needs more to not shadow itself.
+    /// The shadow test's bias, in texels, for a face whose normal makes cosine `lambert` with
+    /// the light: slope-scaled, since a face lit at a grazing angle needs more not to shadow
+    /// itself. Computed once per face.
+    pub fn bias_texels(lambert: f32) -> f32 {
         let slope = (1.0 - lambert * lambert).max(0.0).sqrt() / lambert.max(0.05);
-        let bias = self.texel * (1.5 + 2.0 * slope.min(8.0)) + 1e-3;
-        let (cx, cy) = (x.floor() as i64, y.floor() as i64);
-        let (mut seen, mut lit) = (0u32, 0u32);
-        for dy in -1..=1 {
-            for dx in -1..=1 {
-                let (tx, ty) = (cx + dx, cy + dy);
-                seen += 1;
-                if tx < 0 || ty < 0 || tx as usize >= self.width || ty as usize >= self.height {
-                    lit += 1;
-                    continue;
-                }
-                if self.top[ty as usize * self.width + tx as usize] <= h + bias {
-                    lit += 1;
-                }
+        1.5 + 2.0 * slope.min(8.0)
+    }
+
+    /// How much light reaches world point `p` on a face with bias `bias_texels`: 0 in shadow …
+    /// 1 lit, over the 2×2 texels nearest to it (a softened edge).
+    pub fn lit(&self, p: [f32; 3], bias_texels: f32) -> f32 {
+        let [x, y, h] = self.texel_of(Vector::from_array(p));
+        let h = h + self.texel * bias_texels + 1e-3;
+        let (cx, cy) = (floor(x - 0.5), floor(y - 0.5));
+        if cx >= 0 && cy >= 0 && ((cx + 1) as usize) < self.width && ((cy + 1) as usize) < self.height {
+            // Inside the map (the common case): the two rows' pairs, no bounds to check.
+            let i = cy as usize * self.width + cx as usize;
+            let (a, b) = (&self.top[i..i + 2], &self.top[i + self.width..i + self.width + 2]);
+            let lit = u32::from(a[0] <= h) + u32::from(a[1] <= h) + u32::from(b[0] <= h) + u32::from(b[1] <= h);
+            return lit as f32 * 0.25;
+        }
+        let mut lit = 0u32;
+        for (tx, ty) in [(cx, cy), (cx + 1, cy), (cx, cy + 1), (cx + 1, cy + 1)] {
+            let outside = tx < 0 || ty < 0 || tx as usize >= self.width || ty as usize >= self.height;
+            if outside || self.top[ty as usize * self.width + tx as usize] <= h {
+                lit += 1;
             }
         }
-        lit as f32 / seen as f32
+        lit as f32 * 0.25
     }
 }
 
