@@ -99,6 +99,17 @@ impl Asked {
     }
 }
 
+/// The lens of a picture given no projection: the default one (fov 60, near 0.01, far 100),
+/// its far plane pushed out for a camera this rule placed (framed or given terms) far enough
+/// back that 100 m would cut the scene it frames (a scene over ~60 m across).
+pub fn lens(used: Option<&CameraUsed>, width: u32, height: u32) -> Mat4 {
+    let placed = used.filter(|u| u.source == "framed" || u.source == "given").and_then(|u| u.distance);
+    match placed {
+        Some(d) if 4.0 * d > 100.0 => camera::projection_matrix(FOV_DEG, f64::from(width) / f64::from(height), 0.01, 4.0 * d),
+        _ => camera::default_projection(width, height),
+    }
+}
+
 /// The view matrix for pictures of `scenes` (in time order; the last one's set_camera state
 /// counts) with an image aspect of `aspect`, and the camera it is.
 pub fn choose(asked: &Asked, scenes: &[&Scene], aspect: f64) -> (Mat4, CameraUsed) {

@@ -11,7 +11,7 @@ use crate::outputs::{
     ObjectState, RayBatch, RayHit, SimulationInfo, VisibleObject,
 };
 use crate::seeing::framing;
-use crate::seeing::sensing::camera::{self, Mat4};
+use crate::seeing::sensing::camera::Mat4;
 use crate::seeing::sensing::capture::Scene;
 use crate::seeing::sensing::{contacts, rays, render};
 use crate::params::{self, CameraImage as CameraParams, CollisionPair, DynamicsRef, InverseKinematics, JointRef, ObjectRef, RayTest, RayTestBatch, SimRef};
@@ -343,7 +343,7 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
     };
     let proj: Mat4 = match &p.projection_matrix {
         Some(m) => m.0,
-        None => camera::default_projection(width, height),
+        None => framing::lens(camera.as_ref(), width, height),
     };
     let include_depth = p.include_depth.as_ref().is_some_and(|b| b.0);
     let include_segmentation = p.include_segmentation.as_ref().is_some_and(|b| b.0);

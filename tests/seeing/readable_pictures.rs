@@ -67,7 +67,13 @@ async fn the_default_camera_frames_the_scene_and_says_so() {
     c.call("set_camera", json!({"sim_id": sim, "distance": 7, "yaw": 10, "pitch": -20, "target": [0, 0, 0]})).await;
     let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
     assert_eq!(s["camera"], json!({"source": "set_camera", "distance": 7.0, "yaw": 10.0, "pitch": -20.0, "target": [0.0, 0.0, 0.0]}));
-    // Undo forgets it again: the flag is part of the state that undo restores.
+    // set_camera back to the initial camera means "frame it" again; undo goes back to 7 m.
+    c.call("set_camera", json!({"sim_id": sim, "distance": 5, "yaw": 50, "pitch": -35, "target": [0, 0, 0]})).await;
+    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    assert_eq!(s["camera"]["source"], "framed");
+    c.call("undo", json!({"sim_id": sim})).await;
+    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    assert_eq!(s["camera"]["source"], "set_camera");
     c.call("undo", json!({"sim_id": sim})).await;
     let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
     assert_eq!(s["camera"]["source"], "framed");

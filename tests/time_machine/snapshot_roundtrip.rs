@@ -242,37 +242,3 @@ fn pybullet_s_test_survives_a_snapshot_taken_after_its_filters_are_gone() {
     }
     assert_eq!(r.state_hash(), w.state_hash(), "the restored world kept PyBullet's test");
 }
-
-/// Whether set_camera was called survives a snapshot without changing the encoding of worlds
-/// recorded before the flag existed: a world that never called it, or whose camera differs
-/// from the initial one, is written as before (its version says so) and the flag is read back
-/// from the camera; one that set the initial camera itself says so explicitly (version 6).
-#[test]
-fn whether_set_camera_was_called_survives_a_snapshot() {
-    let root = Command::CreateSimulation { simulation_id: "cam".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
-    // postcard writes a small u32 as one byte.
-    let version = |b: &[u8]| u32::from(b[0]);
-    let (mut w, _) = World::create(&root).unwrap();
-    let never = w.snapshot();
-    assert_eq!(version(&never), 3, "a world of before the flag is written as before");
-    assert!(!World::restore("cam", false, &never).unwrap().camera_set());
-
-    let initial = physics_mcp::world::Viewer::default();
-    let set = |w: &mut World, distance: f32| {
-        apply(w, Command::SetCamera { distance, yaw: initial.yaw, pitch: initial.pitch, target: initial.target })
-    };
-    set(&mut w, 2.0);
-    let moved = w.snapshot();
-    assert_eq!(version(&moved), 3);
-    assert!(World::restore("cam", false, &moved).unwrap().camera_set());
-
-    let hash_before = w.state_hash();
-    set(&mut w, initial.distance);
-    let back = w.snapshot();
-    assert_eq!(version(&back), 6, "set_camera chose the initial camera: only the flag tells");
-    let restored = World::restore("cam", false, &back).unwrap();
-    assert!(restored.camera_set());
-    assert_eq!(restored.snapshot(), back, "re-serialising gives the same bytes");
-    assert_ne!(w.state_hash(), hash_before);
-    assert_eq!(restored.state_hash(), World::restore("cam", false, &never).unwrap().state_hash(), "the flag is not hashed");
-}

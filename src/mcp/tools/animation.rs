@@ -87,11 +87,11 @@ fn side(v: Option<Int<u32>>, name: &str, default: u32) -> Result<u32, Refusal> {
     u32::try_from(v).ok().filter(|v| *v >= 1).ok_or_else(|| format!("{name} must be an integer >= 1; got {v}"))
 }
 
-/// The speed: a number > 0, at most 100 (default 1).
+/// The speed: from 0.01 to 100 (default 1).
 fn speed(v: Option<Positive>) -> Result<f64, Refusal> {
     let s = v.map_or(1.0, |s| f64::from(s.0));
-    if s > 100.0 {
-        return Err(format!("speed must be a number > 0 and at most 100 (1 plays at real time); got {s}"));
+    if !(0.01..=100.0).contains(&s) {
+        return Err(format!("speed must be a number from 0.01 to 100 (1 plays at real time); got {s}"));
     }
     Ok(s)
 }

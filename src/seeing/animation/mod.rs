@@ -17,7 +17,7 @@ use crate::log::fold::{self, Lent};
 use crate::outputs::CameraUsed;
 use crate::seeing::framing;
 use crate::seeing::overlay::{self, Canvas, Overlay};
-use crate::seeing::sensing::camera::{self, Mat4};
+use crate::seeing::sensing::camera::Mat4;
 use crate::seeing::sensing::capture::Scene;
 use crate::seeing::sensing::render;
 pub use pacing::Pacing;
@@ -53,7 +53,7 @@ impl Camera {
     /// The one view and lens for pictures of `scenes` (in time order), and the camera it is.
     pub fn fix(&self, scenes: &[&Scene]) -> (Mat4, Mat4, CameraUsed) {
         let (view, used) = framing::choose(&self.asked, scenes, f64::from(self.width) / f64::from(self.height));
-        let proj = self.projection.unwrap_or_else(|| camera::default_projection(self.width, self.height));
+        let proj = self.projection.unwrap_or_else(|| framing::lens(Some(&used), self.width, self.height));
         (view, proj, used)
     }
 

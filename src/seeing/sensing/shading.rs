@@ -69,6 +69,8 @@ pub fn shade(s: &Surface, lit: f32) -> [u8; 3] {
 /// ⌊v⌋ as an integer without a libm call (this runs per pixel; baseline x86-64 has no SSE4.1
 /// `roundss`, so `f32::floor` is a function call). NaN gives 0.
 fn floor(v: f32) -> i64 {
+    // Far beyond any world (and any map): clamped so that sums of two cannot overflow.
+    let v = v.clamp(-1e15, 1e15);
     let t = v as i64;
     if (t as f32) > v {
         t - 1

@@ -291,10 +291,15 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
         }
         bounded_body(&entry.body, &body_name(id))?;
     }
-    // The worldbody's own geoms too (`bodies_iter` leaves it out): a negative or huge size
-    // there would reach parry's shape constructors, which assert.
-    if let Some(world) = model.bodies.first() {
-        bounded_body(&world.body, "world")?;
+    // The worldbody's own geoms (`bodies_iter` leaves it out): a negative size there reaches
+    // parry's shape constructors, which assert. Only that is refused here — this runs on every
+    // fold, and a worldbody geom of size 0 or beyond the bounds was accepted before, so logs
+    // holding one must fold as they always did.
+    for (i, g) in model.bodies.first().map(|w| w.body.geoms.as_slice()).unwrap_or_default().iter().enumerate() {
+        if g.size[..used_sizes(g)].iter().any(|x| !(*x >= 0.0)) {
+            let geom = g.name.clone().unwrap_or_else(|| format!("#{i} of the worldbody"));
+            return Err(format!("geom {geom} has size {:?}; sizes must be numbers >= 0", g.size));
+        }
     }
     if free_root && top_level != 1 {
         return Err("a free joint is supported only on the single top-level body (the model's free base)".into());
@@ -731,6 +736,20 @@ fn find_joint<'a>(model: &'a Model, body: usize, name: Option<&str>) -> Option<&
 /// Refuses a body whose position, or a geom whose position or size, is not a finite number
 /// within [`crate::limits::MAX_EXTENT_M`] (a size must also be > 0): the engine panics on such
 /// values at load (a negative cylinder) or at every later step (a body at 1e400).
+/// How many of a geom's `size` numbers its shape uses (none when sized from a mesh).
+fn used_sizes(g: &rapier3d_mjcf::mjcf_rs::body::Geom) -> usize {
+    if g.mesh.is_some() {
+        return 0;
+    }
+    match g.type_ {
+        GeomType::Sphere => 1,
+        GeomType::Capsule | GeomType::Cylinder if g.fromto.is_some() => 1,
+        GeomType::Capsule | GeomType::Cylinder => 2,
+        GeomType::Box | GeomType::Ellipsoid => 3,
+        _ => 0,
+    }
+}
+
 fn bounded_body(body: &rapier3d_mjcf::mjcf_rs::body::Body, name: &str) -> Result<(), Refusal> {
     let bound = crate::limits::MAX_EXTENT_M;
     let within = |x: f64| x.abs() <= bound;
@@ -739,17 +758,7 @@ fn bounded_body(body: &rapier3d_mjcf::mjcf_rs::body::Body, name: &str) -> Result
     }
     for (i, g) in body.geoms.iter().enumerate() {
         let geom = g.name.clone().unwrap_or_else(|| format!("#{i} of body {name}"));
-        let used = match g.type_ {
-            GeomType::Sphere => 1,
-            GeomType::Capsule | GeomType::Cylinder if g.fromto.is_some() => 1,
-            GeomType::Capsule | GeomType::Cylinder => 2,
-            GeomType::Box | GeomType::Ellipsoid => 3,
-            _ => 0,
-        };
-        let used = match g.mesh {
-            Some(_) => 0, // sized from the mesh
-            None => used,
-        };
+        let used = used_sizes(g);
         if !g.size[..used].iter().all(|&x| x > 0.0 && within(x)) {
             return Err(format!("geom {geom} has size {:?}, not numbers > 0 and within {bound} m", &g.size[..used]));
         }

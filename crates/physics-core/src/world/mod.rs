@@ -158,8 +158,8 @@ pub struct Viewer {
 
 impl Viewer {
     /// Whether the camera is still the one every world starts with (distance 5, yaw 50, pitch
-    /// −35, at the origin). Snapshots written before `Tables::camera_set` existed tell from
-    /// this whether set_camera had been called (see there).
+    /// −35, at the origin): pictures without a camera of their own frame the scene while it is
+    /// (`World::camera_set`).
     pub fn camera_is_initial(&self) -> bool {
         let d = Viewer::default();
         (self.distance, self.yaw, self.pitch, self.target) == (d.distance, d.yaw, d.pitch, d.target)
@@ -230,13 +230,6 @@ pub struct Tables {
     pub as_given: AsGiven,
     /// Collision filters, pairs and markers the agent set (hashed when any).
     pub filters: filters::Filters,
-    /// Whether set_camera was ever called: pictures taken without a camera of their own use
-    /// the set_camera camera once there is one, and frame the scene themselves before. Not
-    /// hashed (worlds recorded before it keep their hashes) and not in the tables' encoding:
-    /// a snapshot tells it by its viewer camera differing from the initial one, and carries it
-    /// explicitly (version 6) only when set_camera chose the initial camera itself.
-    #[serde(skip)]
-    pub camera_set: bool,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -281,7 +274,6 @@ impl From<TablesV3> for Tables {
             constraints: t.constraints,
             as_given: t.as_given,
             filters: filters::Filters::default(),
-            camera_set: false,
         }
     }
 }
@@ -319,7 +311,6 @@ impl TablesV2 {
             viewer: self.viewer,
             constraints: self.constraints,
             filters: filters::Filters::default(),
-            camera_set: false,
         }
     }
 }
@@ -501,10 +492,12 @@ impl World {
         &self.tables.viewer
     }
 
-    /// Whether set_camera was ever called on this world's chain (pictures without a camera of
-    /// their own frame the scene themselves until it is).
+    /// Whether set_camera has placed the camera somewhere other than where every world starts:
+    /// pictures without a camera of their own use it then, and frame the scene themselves
+    /// while it is the initial one (so set_camera back to the initial camera means "frame
+    /// it"). Read off the hashed viewer settings: no state of its own, nothing new to snapshot.
     pub fn camera_set(&self) -> bool {
-        self.tables.camera_set
+        !self.tables.viewer.camera_is_initial()
     }
 
     /// Every object with its id, in id order (saved files list them).
@@ -621,7 +614,6 @@ impl World {
             Command::SetCamera { distance, yaw, pitch, target } => {
                 let v = &mut self.tables.viewer;
                 (v.distance, v.yaw, v.pitch, v.target) = (*distance, *yaw, *pitch, *target);
-                self.tables.camera_set = true;
                 Outcome::Message(Message::new(format!(
                     "Camera set: distance {distance} m, yaw {yaw}°, pitch {pitch}°, target {:?}",
                     crate::value::r32s(*target)
@@ -678,10 +670,7 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if t.camera_set && t.viewer.camera_is_initial() {
-            // The one state the older encodings cannot tell: set_camera chose the initial camera.
-            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t, true), out)
-        } else if t.filters.is_empty() {
+        let encoded = if t.filters.is_empty() {
             let v3 = self.tables_v3_ref();
             postcard::to_extend(&(3u32, &self.physics, v3), out)
         } else if !t.filters.pybullet_test {
@@ -689,7 +678,7 @@ impl World {
             let v3 = self.tables_v3_ref();
             postcard::to_extend(&(4u32, &self.physics, v3, t.filters.v4()), out)
         } else {
-            postcard::to_extend(&(5u32, &self.physics, t), out)
+            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t), out)
         };
         encoded.unwrap_or_default()
     }
@@ -743,14 +732,8 @@ impl World {
     pub fn restore(simulation_id: &str, gui: bool, bytes: &[u8]) -> Result<World, String> {
         let bad = |e: postcard::Error| format!("snapshot does not decode: {e}");
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
-        let (physics, mut tables) = match version {
+        let (physics, tables) = match version {
             SNAPSHOT_VERSION => {
-                let (_, physics, mut tables, camera_set): (u32, PhysicsWorld, Tables, bool) =
-                    postcard::from_bytes(bytes).map_err(bad)?;
-                tables.camera_set = camera_set;
-                (physics, tables)
-            }
-            5 => {
                 let (_, physics, tables): (u32, PhysicsWorld, Tables) =
                     postcard::from_bytes(bytes).map_err(bad)?;
                 (physics, tables)
@@ -782,9 +765,6 @@ impl World {
             }
             v => return Err(format!("snapshot version {v} is not supported")),
         };
-        if version != SNAPSHOT_VERSION {
-            tables.camera_set = !tables.viewer.camera_is_initial();
-        }
         Ok(World {
             simulation_id: simulation_id.to_string(),
             gui,
@@ -813,11 +793,8 @@ impl World {
 /// Version of the snapshot encoding (2 added constraints to the tables, 3 the values as given,
 /// 4 the collision filters, written only for worlds that have any — others are written as 3;
 /// 5 PyBullet's filter test (`Filters::pybullet_test`), written only for worlds that use it —
-/// worlds with the first release's filters are written as 4; 6 says set_camera was called
-/// (`Tables::camera_set`), written only when the camera it set is the initial one — every other
-/// world is written as before, so recorded snapshot hashes stay as they were; 1 to 5 still
-/// restore).
-pub const SNAPSHOT_VERSION: u32 = 6;
+/// worlds with the first release's filters are written as 4; 1 to 4 still restore).
+pub const SNAPSHOT_VERSION: u32 = 5;
 
 impl From<bodies::BodyOutcome> for Outcome {
     fn from(o: bodies::BodyOutcome) -> Outcome {
