@@ -296,7 +296,7 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
     // fold, and a worldbody geom of size 0 or beyond the bounds was accepted before, so logs
     // holding one must fold as they always did.
     for (i, g) in model.bodies.first().map(|w| w.body.geoms.as_slice()).unwrap_or_default().iter().enumerate() {
-        if g.size[..used_sizes(g)].iter().any(|x| !(*x >= 0.0)) {
+        if g.size[..used_sizes(g)].iter().any(|x| x.is_nan() || *x < 0.0) {
             let geom = g.name.clone().unwrap_or_else(|| format!("#{i} of the worldbody"));
             return Err(format!("geom {geom} has size {:?}; sizes must be numbers >= 0", g.size));
         }
