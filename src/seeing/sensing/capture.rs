@@ -27,7 +27,8 @@ pub struct Scene {
     pub parts: Vec<Posed>,
     /// The recorded viewer camera (set_camera) at that moment.
     pub camera: Viewer,
-    /// Whether set_camera had been called by then (`World::camera_set`).
+    /// Whether set_camera had moved the camera away from the initial one by then
+    /// (`World::camera_set`: pictures frame the scene until it has).
     pub camera_set: bool,
     /// Simulated time (s) at that moment.
     pub time: f64,
