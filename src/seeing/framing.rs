@@ -4,7 +4,8 @@
 //!
 //! 1. a view matrix given → that;
 //! 2. any of `distance`, `yaw`, `pitch`, `target` given → those, the rest as framed (4.);
-//! 3. set_camera called by the moment pictured (an interval's last event) → its camera;
+//! 3. set_camera has moved the camera from the initial one by the moment pictured (an
+//!    interval's last event) → its camera;
 //! 4. else **framed**: looking at the objects that move over the pictures (all of them that can
 //!    move when none does; the fixed ones, ground left out, when there are only those) from a
 //!    three-quarter elevated view, close enough that they fill the frame.
@@ -110,14 +111,14 @@ pub fn lens(used: Option<&CameraUsed>, width: u32, height: u32) -> Mat4 {
     }
 }
 
-/// The view matrix for pictures of `scenes` (in time order; the last one's set_camera state
+/// The view matrix for pictures of `scenes` (in time order; the last one's viewer camera
 /// counts) with an image aspect of `aspect`, and the camera it is.
 pub fn choose(asked: &Asked, scenes: &[&Scene], aspect: f64) -> (Mat4, CameraUsed) {
     if let Some(view) = asked.view {
         return (view, CameraUsed { source: "view_matrix".into(), distance: None, yaw: None, pitch: None, target: None });
     }
     let last = scenes.last();
-    let set = last.filter(|s| s.camera_set).map(|s| Terms::of_viewer(&s.camera));
+    let set = last.filter(|s| !s.camera.camera_is_initial()).map(|s| Terms::of_viewer(&s.camera));
     let (terms, source) = match (asked.any_term(), set) {
         (false, Some(t)) => (t, "set_camera"),
         (given, _) => {

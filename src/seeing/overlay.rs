@@ -2,6 +2,8 @@
 //! object ids at the objects, with a 5×7 bitmap font (no font files, no text engine: the
 //! characters these labels use are all it knows).
 
+use rapier3d::glamx::{DMat4, DVec4};
+
 use crate::seeing::sensing::camera::Mat4;
 use crate::seeing::sensing::capture::Scene;
 use crate::seeing::sensing::shading::CASTER_MAX_SIZE;
@@ -161,8 +163,7 @@ fn object_centres(scene: &Scene) -> Vec<(u32, [f64; 3])> {
 
 /// The pixel a world point lands on, if in front of the camera and inside the image.
 fn project(view: &Mat4, proj: &Mat4, p: [f64; 3], width: u32, height: u32) -> Option<(i64, i64)> {
-    let mul = |m: &Mat4, v: [f64; 4]| [0, 1, 2, 3].map(|r| m[r] * v[0] + m[4 + r] * v[1] + m[8 + r] * v[2] + m[12 + r] * v[3]);
-    let c = mul(proj, mul(view, [p[0], p[1], p[2], 1.0]));
+    let c = (DMat4::from_cols_array(proj) * DMat4::from_cols_array(view) * DVec4::new(p[0], p[1], p[2], 1.0)).to_array();
     if c[3] <= 1e-9 {
         return None;
     }

@@ -76,6 +76,16 @@ pub struct Shot {
     pub steps: u64,
 }
 
+impl Shot {
+    /// Captures the sample `m` of `w` onto `shots`, unless no object has existed yet (an empty
+    /// world says nothing, so an animation starts at the first object).
+    pub fn record(shots: &mut Vec<Shot>, w: &crate::world::World, m: &fold::Moment) {
+        if !shots.is_empty() || w.object_count() > 0 {
+            shots.push(Shot { scene: Scene::capture(w), seq: m.seq, steps: m.steps });
+        }
+    }
+}
+
 /// the documented default sampling: about 100 samples over the interval, `max(1, ceil(steps / 100))`.
 pub fn default_every(steps: u64) -> u64 {
     steps.div_ceil(100).max(1)
@@ -128,8 +138,8 @@ pub fn capture(lent: &Lent, every: u64, progress: &mut (dyn FnMut(u64) + Send)) 
         if m.at == fold::At::Step {
             progress(m.steps);
         }
-        if m.sample && (!shots.is_empty() || w.object_count() > 0) {
-            shots.push(Shot { scene: Scene::capture(w), seq: m.seq, steps: m.steps });
+        if m.sample {
+            Shot::record(&mut shots, w, m);
         }
         true
     })

@@ -125,9 +125,7 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
             progress(m.steps, steps);
         }
         if m.sample {
-            if !shots.is_empty() || w.object_count() > 0 {
-                shots.push(animation::Shot { scene: Scene::capture(w), seq: m.seq, steps: m.steps });
-            }
+            animation::Shot::record(&mut shots, w, m);
             // Over get_trajectory's cell bound the sampler says so at `finish`; the
             // re-simulation goes on for the pictures.
             sampler.sample(w, m.seq);
@@ -341,7 +339,6 @@ fn thumbnails(thumbs: &[(u64, Scene)], run: &[&Scene]) -> Result<BTreeMap<u64, V
     let (view, proj, _) = cam.fix(run);
     thumbs
         .par_iter()
-        .filter(|(_, s)| !s.parts.is_empty())
         .map(|(seq, s)| {
             let png = render::render_scene(s, THUMB.0, THUMB.1, &view, &proj).png()?;
             Ok((*seq, png))

@@ -27,9 +27,6 @@ pub struct Scene {
     pub parts: Vec<Posed>,
     /// The recorded viewer camera (set_camera) at that moment.
     pub camera: Viewer,
-    /// Whether set_camera had moved the camera away from the initial one by then
-    /// (`World::camera_set`: pictures frame the scene until it has).
-    pub camera_set: bool,
     /// Simulated time (s) at that moment.
     pub time: f64,
     /// Steps since creation at that moment.
@@ -45,6 +42,6 @@ impl Scene {
             .iter()
             .map(|p| Posed { object_id: p.object_id, shape: p.shape.clone(), pose: p.pose, color: p.color, fixed: p.fixed })
             .collect();
-        Scene { parts, camera: w.viewer().clone(), camera_set: w.camera_set(), time: w.current_time(), steps: w.steps() }
+        Scene { parts, camera: w.viewer().clone(), time: w.current_time(), steps: w.steps() }
     }
 }

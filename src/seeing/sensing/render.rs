@@ -13,6 +13,7 @@
 //! What is seen where — depth and segmentation — is the geometry pass's alone.
 
 use rapier3d::parry::shape::{Shape, TypedShape};
+use rapier3d::glamx::DMat4;
 use rapier3d::prelude::Vector;
 
 use super::camera::Mat4;
@@ -372,13 +373,10 @@ struct Rays {
 impl Rays {
     /// None when the matrices cannot be inverted.
     fn new(view: &Mat4, proj: &Mat4) -> Option<Rays> {
-        let mut pv = [0.0f64; 16];
-        for c in 0..4 {
-            for r in 0..4 {
-                pv[c * 4 + r] = (0..4).map(|k| proj[k * 4 + r] * view[c * 4 + k]).sum();
-            }
-        }
-        shading::invert(&pv).map(|inv| Rays { inv })
+        let pv = DMat4::from_cols_array(proj) * DMat4::from_cols_array(view);
+        let det = pv.determinant();
+        let inv = pv.inverse().to_cols_array();
+        (det.is_finite() && det != 0.0 && inv.iter().all(|v| v.is_finite())).then_some(Rays { inv })
     }
 
     /// The rays of one image row at normalised device y, `width` pixels, left to right.

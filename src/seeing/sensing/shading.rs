@@ -222,38 +222,3 @@ impl ShadowMap {
         lit as f32 * 0.25
     }
 }
-
-/// The inverse of a 4×4 column-major matrix (None if singular): the sky needs to turn pixels
-/// back into view rays whatever matrices the caller gave.
-pub fn invert(m: &[f64; 16]) -> Option<[f64; 16]> {
-    let mut a = [[0.0f64; 8]; 4];
-    for (r, row) in a.iter_mut().enumerate() {
-        for c in 0..4 {
-            row[c] = m[c * 4 + r];
-        }
-        row[4 + r] = 1.0;
-    }
-    for col in 0..4 {
-        let pivot = (col..4).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
-        if a[pivot][col].abs() < 1e-12 {
-            return None;
-        }
-        a.swap(col, pivot);
-        let d = a[col][col];
-        a[col].iter_mut().for_each(|v| *v /= d);
-        for r in 0..4 {
-            if r != col {
-                let f = a[r][col];
-                let pr = a[col];
-                a[r].iter_mut().zip(pr).for_each(|(v, p)| *v -= f * p);
-            }
-        }
-    }
-    let mut out = [0.0; 16];
-    for (r, row) in a.iter().enumerate() {
-        for c in 0..4 {
-            out[c * 4 + r] = row[4 + c];
-        }
-    }
-    Some(out)
-}

@@ -159,7 +159,8 @@ pub struct Viewer {
 impl Viewer {
     /// Whether the camera is still the one every world starts with (distance 5, yaw 50, pitch
     /// −35, at the origin): pictures without a camera of their own frame the scene while it is
-    /// (`World::camera_set`).
+    /// (`seeing::framing`; so set_camera back to the initial camera means "frame it"), read off
+    /// these hashed settings with no state of its own.
     pub fn camera_is_initial(&self) -> bool {
         let d = Viewer::default();
         (self.distance, self.yaw, self.pitch, self.target) == (d.distance, d.yaw, d.pitch, d.target)
@@ -490,14 +491,6 @@ impl World {
     /// default camera.
     pub fn viewer(&self) -> &Viewer {
         &self.tables.viewer
-    }
-
-    /// Whether set_camera has placed the camera somewhere other than where every world starts:
-    /// pictures without a camera of their own use it then, and frame the scene themselves
-    /// while it is the initial one (so set_camera back to the initial camera means "frame
-    /// it"). Read off the hashed viewer settings: no state of its own, nothing new to snapshot.
-    pub fn camera_set(&self) -> bool {
-        !self.tables.viewer.camera_is_initial()
     }
 
     /// Every object with its id, in id order (saved files list them).
