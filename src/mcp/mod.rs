@@ -244,7 +244,9 @@ impl PhysicsServer {
                     Ok(Command::StepSimulation { steps }) => *steps,
                     _ => 0,
                 };
-                let mut live = crate::seeing::viewer::live::Publisher::new(sim.id(), total);
+                // Whether its frames show contacts: read off the chain only while a viewer watches.
+                let contacts = crate::seeing::viewer::live::watched(sim.id()) && crate::seeing::viewer::past::contacts_asked_now(&sim);
+                let mut live = crate::seeing::viewer::live::Publisher::new(sim.id(), total, contacts);
                 let out = sim.change_observed(tool, a, decided, limits, ctl, &mut |w| live.observe(w));
                 // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).
                 tracing::debug!(target: "physics_mcp::timing", tool, sim_change_ms = started.elapsed().as_secs_f64() * 1e3);
@@ -345,7 +347,11 @@ impl PhysicsServer {
 #[tool_handler(router = self.tool_router)]
 impl ServerHandler for PhysicsServer {
     fn get_info(&self) -> ServerConfig {
+        // MCP Apps (SEP-1865): the viewer app, for hosts that show apps.
+        let ui = serde_json::Map::from_iter([("mimeTypes".to_string(), json!([crate::seeing::viewer::app::APP_MIME]))]);
+        let extensions = std::collections::BTreeMap::from([(crate::seeing::viewer::app::UI_EXTENSION.to_string(), ui)]);
         let capabilities = ServerCapabilities::builder()
+            .enable_extensions_with(extensions)
             .enable_logging()
             .enable_tools()
             .enable_resources()
@@ -356,6 +362,38 @@ impl ServerHandler for PhysicsServer {
         ServerConfig::new(capabilities)
             .with_server_info(Implementation::new("physics-mcp", env!("CARGO_PKG_VERSION")))
             .with_instructions(instructions::INSTRUCTIONS)
+    }
+
+    /// tools/list: the tools, and for a client that announced MCP Apps
+    /// (`io.modelcontextprotocol/ui`) the viewer app linked from the tools worth looking at.
+    /// Other clients get exactly the list they always had.
+    async fn list_tools(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        cx: RequestContext<RoleServer>,
+    ) -> Result<rmcp::model::ListToolsResult, ErrorData> {
+        use crate::seeing::viewer::app;
+        let supports_cache_hints = cx.protocol_version().is_some_and(|v| v >= rmcp::model::ProtocolVersion::V_2026_07_28);
+        let shows_apps = cx
+            .peer
+            .peer_info()
+            .and_then(|info| info.capabilities.extensions.as_ref().map(|e| e.contains_key(app::UI_EXTENSION)))
+            .unwrap_or(false);
+        let mut tools = self.tool_router.list_all();
+        if shows_apps {
+            for tool in tools.iter_mut().filter(|t| app::LINKED_TOOLS.contains(&t.name.as_ref())) {
+                tool.meta = Some(app::tool_meta());
+            }
+        }
+        Ok(rmcp::model::ListToolsResult {
+            result_type: Some(rmcp::model::ResultType::COMPLETE),
+            tools,
+            meta: None,
+            next_cursor: None,
+            ttl_ms: supports_cache_hints.then_some(0),
+            // The list depends on what this client announced.
+            cache_scope: supports_cache_hints.then_some(rmcp::model::CacheScope::Private),
+        })
     }
 
     async fn on_initialized(&self, cx: NotificationContext<RoleServer>) {

@@ -17,6 +17,7 @@ use serde_json::{json, Value};
 
 use super::subscriptions::Subscriptions;
 use super::PhysicsServer;
+use crate::seeing::viewer;
 use crate::sim::reads;
 use crate::sim::{lock_sim, Sim};
 use crate::sim::timeline::HISTORY_MAX_LIMIT;
@@ -65,11 +66,20 @@ impl Part {
     }
 }
 
-/// Splits `sim://{id}/{part}`.
 /// The simulation a `sim://` resource URI names (for routing a read to its owner).
 pub(super) fn sim_of_uri(uri: &str) -> Option<String> {
-    parse(uri).ok().map(|(id, _)| id.to_string())
+    viewer_read(uri).map(|(id, _, _)| id.to_string()).or_else(|| parse(uri).ok().map(|(id, _)| id.to_string()))
 }
+
+/// Splits `sim://{id}/viewer/{kind}?{query}`: what the viewer app reads through its host
+/// (`seeing::viewer::ask`), the same answers the viewer page gets over HTTP.
+fn viewer_read(uri: &str) -> Option<(&str, &str, &str)> {
+    let (id, rest) = uri.strip_prefix("sim://")?.split_once("/viewer/")?;
+    let (kind, query) = rest.split_once('?').unwrap_or((rest, ""));
+    Some((id, kind, query))
+}
+
+/// Splits `sim://{id}/{part}`.
 
 fn parse(uri: &str) -> Result<(&str, Part), String> {
     let rest = uri
@@ -145,7 +155,7 @@ fn contents(sim: &Sim, part: Part, uri: &str, max_px: usize, budget: usize) -> R
 impl PhysicsServer {
     /// resources/list: three per simulation, by simulation id.
     pub(super) fn resource_list(&self) -> ListResourcesResult {
-        let resources = self
+        let resources: Vec<Resource> = self
             .reg
             .list()
             .simulations
@@ -158,6 +168,10 @@ impl PhysicsServer {
                 })
             })
             .collect();
+        let app = Resource::new(viewer::app::APP_URI, "viewer")
+            .with_description("The simulation viewer as an MCP App (3D, timeline, inspector).")
+            .with_mime_type(viewer::app::APP_MIME);
+        let resources = std::iter::once(app).chain(resources).collect();
         // Simulations come and go: a client must not serve this list from a cache.
         ListResourcesResult::with_all_items(resources).with_ttl_ms(0)
     }
@@ -177,6 +191,23 @@ impl PhysicsServer {
 
     /// resources/read, on the blocking pool (it waits for a call in flight on the simulation).
     pub(super) async fn read_sim_resource(&self, uri: String) -> Result<ReadResourceResult, ErrorData> {
+        if uri == viewer::app::APP_URI {
+            let html = ResourceContents::text(viewer::app::app_html(), &uri).with_mime_type(viewer::app::APP_MIME);
+            return Ok(ReadResourceResult::new(vec![html.with_meta(viewer::app::resource_meta())]));
+        }
+        if let Some((id, kind, query)) = viewer_read(&uri) {
+            let (reg, budget) = (self.reg.clone(), self.reg.limits().max_reply_bytes);
+            let (id, kind, query) = (id.to_string(), kind.to_string(), query.to_string());
+            let answered = tokio::task::spawn_blocking(move || viewer::ask::answer_text(&reg, &id, &kind, &query))
+                .await
+                .map_err(|_| ErrorData::internal_error("Internal error: the viewer could not answer", None))?;
+            let text = answered
+                .map_err(|(_, why)| ErrorData::invalid_params(why, Some(json!({"uri": uri}))))?;
+            if text.len() > budget.saturating_sub(1024) {
+                return Err(ErrorData::invalid_params(format!("{uri} is {} bytes, over the reply budget; open the viewer page instead", text.len()), None));
+            }
+            return Ok(ReadResourceResult::new(vec![ResourceContents::text(text, &uri).with_mime_type("application/json")]).with_ttl_ms(0));
+        }
         let not_found = |why: String| ErrorData::resource_not_found(why, Some(json!({"uri": uri})));
         let (id, part) = parse(&uri).map_err(not_found)?;
         let sim = self.sim(id).await.map_err(not_found)?;

@@ -11,6 +11,8 @@ use crate::world::{Viewer, World};
 pub struct Posed {
     /// The object it belongs to.
     pub object_id: u32,
+    /// Its link (−1: a primitive or a robot's base): the viewer's inspector names it.
+    pub link_index: i64,
     /// Its shape (shared with the world it came from; shapes are never changed in place).
     pub shape: SharedShape,
     /// Its world pose when captured.
@@ -40,7 +42,7 @@ impl Scene {
             .scene()
             .parts
             .iter()
-            .map(|p| Posed { object_id: p.object_id, shape: p.shape.clone(), pose: p.pose, color: p.color, fixed: p.fixed })
+            .map(|p| Posed { object_id: p.object_id, link_index: p.link_index, shape: p.shape.clone(), pose: p.pose, color: p.color, fixed: p.fixed })
             .collect();
         Scene { parts, camera: w.viewer().clone(), time: w.current_time(), steps: w.steps() }
     }

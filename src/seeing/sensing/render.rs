@@ -59,8 +59,8 @@ impl Frame {
     }
 }
 
-/// A shape's triangles in its local frame.
-fn triangulate(shape: &dyn Shape) -> (Vec<Vector>, Vec<[u32; 3]>) {
+/// A shape's triangles in its local frame (the viewer page draws meshes from the same).
+pub(crate) fn triangulate(shape: &dyn Shape) -> (Vec<Vector>, Vec<[u32; 3]>) {
     match shape.as_typed_shape() {
         TypedShape::Cuboid(s) => s.to_trimesh(),
         TypedShape::Ball(s) => s.to_trimesh(20, 10),

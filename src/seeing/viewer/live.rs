@@ -51,7 +51,7 @@ static SLOTS: LazyLock<Mutex<BTreeMap<String, Slot>>> = LazyLock::new(Default::d
 static WATCHED: LazyLock<Mutex<BTreeMap<String, Instant>>> = LazyLock::new(Default::default);
 
 /// Whether a viewer asked for simulation `id` within [`WATCHED_FOR`].
-fn watched(id: &str) -> bool {
+pub fn watched(id: &str) -> bool {
     let table = WATCHED.lock().unwrap_or_else(|p| p.into_inner());
     table.get(id).is_some_and(|t| t.elapsed() < WATCHED_FOR)
 }
@@ -75,9 +75,26 @@ pub fn latest(id: &str) -> Option<Arc<Progress>> {
     guard.clone()
 }
 
+/// The latest published moment of simulation `id`, waiting up to `wait` for the first one
+/// after a viewer starts watching (a step publishes within `PUBLISH_EVERY` of being
+/// watched); None when `free` says the simulation is free again, or nothing came.
+pub fn latest_waiting(id: &str, wait: Duration, free: impl Fn() -> bool) -> Option<Arc<Progress>> {
+    let start = Instant::now();
+    loop {
+        if let Some(p) = latest(id) {
+            return Some(p);
+        }
+        if free() || start.elapsed() >= wait {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
 /// Publishes a running step's progress; clears it when dropped (the step is over).
 pub struct Publisher {
     id: String,
+    contacts: bool,
     slot: Slot,
     last: Instant,
     done: u64,
@@ -85,9 +102,10 @@ pub struct Publisher {
 }
 
 impl Publisher {
-    /// A publisher for a step of `total` steps on simulation `id`.
-    pub fn new(id: &str, total: u64) -> Publisher {
-        Publisher { id: id.to_string(), slot: slot(id), last: Instant::now(), done: 0, total }
+    /// A publisher for a step of `total` steps on simulation `id`; `contacts`: whether its
+    /// frames show contacts (`past::contacts_asked_now`).
+    pub fn new(id: &str, total: u64, contacts: bool) -> Publisher {
+        Publisher { id: id.to_string(), contacts, slot: slot(id), last: Instant::now(), done: 0, total }
     }
 
     /// The step observer: called after every step with the world (read-only).
@@ -107,7 +125,7 @@ impl Publisher {
             objects: w.objects().count(),
             done: self.done,
             total: self.total,
-            overlays: Overlays::of(w),
+            overlays: Overlays::of(w, self.contacts),
         };
         *self.slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(Arc::new(progress));
     }

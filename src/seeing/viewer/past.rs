@@ -3,7 +3,7 @@
 //! by the one core (`fold::lend` under the lock, `fold::resimulate` without it) and cached as
 //! a captured scene, so scrubbing back and forth or turning the camera costs a render only.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Arc, LazyLock, Mutex};
 
 use serde::Serialize;
@@ -12,7 +12,7 @@ use crate::command::Command;
 use crate::log::fold::{self, At};
 use crate::seeing::sensing::capture::Scene;
 use crate::sim::Sim;
-use crate::seeing::viewer::Overlays;
+use crate::seeing::viewer::{wire, Overlays};
 
 /// Past states kept rendered-ready (scenes are small: poses and shape handles).
 const CACHED: usize = 64;
@@ -22,6 +22,8 @@ const CACHED: usize = 64;
 pub struct Mark {
     /// The event.
     pub seq: u64,
+    /// Simulated time after it (s): the page's time axis.
+    pub time: f64,
     /// Its tool.
     pub tool: String,
     /// Steps it took (step events), else 0.
@@ -41,24 +43,100 @@ pub struct Timeline {
     pub head_seq: u64,
     /// Oldest first.
     pub events: Vec<Mark>,
+    /// The first enable_debug_visualization event on the chain: contacts are drawn from there on.
+    pub debug_since: Option<u64>,
+}
+
+impl Timeline {
+    /// Whether the state after event `seq` shows contacts (enable_debug_visualization was
+    /// called at or before it).
+    pub fn contacts_asked(&self, seq: u64) -> bool {
+        self.debug_since.is_some_and(|d| d <= seq)
+    }
+}
+
+/// Simulated time along a chain, as `World::current_time` keeps it: the timestep as given and
+/// the time and step count when it was given.
+struct Clock {
+    dt: f64,
+    time_at: f64,
+    steps_at: u64,
+    steps: u64,
+}
+
+impl Clock {
+    fn now(&self) -> f64 {
+        self.time_at + self.steps.saturating_sub(self.steps_at) as f64 * self.dt
+    }
+
+    /// Moves the clock over one event; an event that recorded its time (results from event
+    /// version 3 on, and a load's, whose world came from a file) sets it.
+    fn pass(&mut self, cmd: Option<&Command>, result: Option<&str>) -> f64 {
+        match cmd {
+            Some(Command::StepSimulation { steps }) => self.steps += steps,
+            Some(Command::SetTimestep { timestep, timestep_given }) => {
+                let now = self.now();
+                (self.dt, self.time_at, self.steps_at) = (timestep_given.unwrap_or_else(|| crate::value::r32(*timestep)), now, self.steps);
+            }
+            _ => {}
+        }
+        let recorded = result.and_then(|r| serde_json::from_str::<serde_json::Value>(r).ok()).and_then(|v| {
+            v.get("time").or_else(|| v.get("current_time")).and_then(serde_json::Value::as_f64)
+        });
+        if let Some(t) = recorded.filter(|t| t.is_finite()) {
+            (self.time_at, self.steps_at) = (t, self.steps);
+        }
+        self.now()
+    }
 }
 
 /// The timeline of `sim` (read from its log; no physics).
-pub fn timeline(sim: &Sim) -> Result<Timeline, String> {
+fn read_timeline(sim: &Sim) -> Result<Timeline, String> {
     let chain = sim.log().chain_to(sim.log().head_seq()).map_err(|e| format!("the log could not be read: {e}"))?;
-    let mut total = 0;
+    let mut clock = Clock { dt: 1.0 / 240.0, time_at: 0.0, steps_at: 0, steps: 0 };
+    let mut debug_since = None;
     let events = chain
         .iter()
         .map(|e| {
-            let steps = match fold::decode(e, sim.log()) {
-                Ok(Some(Command::StepSimulation { steps })) => steps,
+            let cmd = fold::decode(e, sim.log()).ok().flatten();
+            let steps = match cmd {
+                Some(Command::StepSimulation { steps }) => steps,
                 _ => 0,
             };
-            total += steps;
-            Mark { seq: e.seq, tool: e.tool.clone(), steps, total_steps: total, inherited: e.inherited }
+            if matches!(cmd, Some(Command::SetDebugVisualization { .. })) && debug_since.is_none() {
+                debug_since = Some(e.seq);
+            }
+            let time = clock.pass(cmd.as_ref(), e.result.as_deref());
+            Mark { seq: e.seq, time, tool: e.tool.clone(), steps, total_steps: clock.steps, inherited: e.inherited }
         })
         .collect();
-    Ok(Timeline { simulation_id: sim.id().to_string(), head_seq: sim.log().head_seq(), events })
+    Ok(Timeline { simulation_id: sim.id().to_string(), head_seq: sim.log().head_seq(), events, debug_since })
+}
+
+/// The latest timeline read of each simulation, by id: re-read only when the head moved, and
+/// what a page is answered while a call holds the simulation.
+static TIMELINES: LazyLock<Mutex<BTreeMap<String, Arc<Timeline>>>> = LazyLock::new(Default::default);
+
+/// The timeline of `sim` at its head (cached until the head moves).
+pub fn timeline(sim: &Sim) -> Result<Arc<Timeline>, String> {
+    let head = sim.log().head_seq();
+    if let Some(t) = last_timeline(sim.id()).filter(|t| t.head_seq == head) {
+        return Ok(t);
+    }
+    let t = Arc::new(read_timeline(sim)?);
+    let mut table = TIMELINES.lock().unwrap_or_else(|p| p.into_inner());
+    table.insert(sim.id().to_string(), t.clone());
+    Ok(t)
+}
+
+/// The timeline last read of simulation `id`, without its lock.
+pub fn last_timeline(id: &str) -> Option<Arc<Timeline>> {
+    TIMELINES.lock().unwrap_or_else(|p| p.into_inner()).get(id).cloned()
+}
+
+/// Whether `sim`'s present shows contacts (see `Overlays::of`).
+pub fn contacts_asked_now(sim: &Sim) -> bool {
+    timeline(sim).is_ok_and(|t| t.contacts_asked(t.head_seq))
 }
 
 /// A past state, ready to render.
@@ -102,6 +180,7 @@ pub struct Request {
     key: Key,
     lent: Option<fold::Lent>,
     step: Option<u64>,
+    contacts: bool,
 }
 
 /// Looks `seq` (and `step`) up on `sim`'s chain and lends what re-simulating it needs; a cached
@@ -109,8 +188,9 @@ pub struct Request {
 pub fn request(sim: &Sim, seq: u64, step: Option<u64>) -> Result<Request, String> {
     let key = (sim.id().to_string(), seq, step);
     if cached(&key).is_some() {
-        return Ok(Request { key, lent: None, step });
+        return Ok(Request { key, lent: None, step, contacts: false });
     }
+    let contacts = timeline(sim)?.contacts_asked(seq);
     let lent = match step {
         None => fold::lend(sim.log(), sim.id(), Some(seq), Some(seq))?,
         Some(k) => {
@@ -126,11 +206,12 @@ pub fn request(sim: &Sim, seq: u64, step: Option<u64>) -> Result<Request, String
             fold::lend(sim.log(), sim.id(), Some(parent), Some(seq))?
         }
     };
-    Ok(Request { key, lent: Some(lent), step })
+    Ok(Request { key, lent: Some(lent), step, contacts })
 }
 
 /// Re-simulates a request (no lock held) or takes it from the cache.
 pub fn resolve(req: Request) -> Result<Arc<Past>, String> {
+    let contacts = req.contacts;
     let Some(lent) = req.lent else {
         return cached(&req.key).ok_or_else(|| "the state left the cache; ask again".to_string());
     };
@@ -148,7 +229,7 @@ pub fn resolve(req: Request) -> Result<Arc<Past>, String> {
                 time: w.current_time(),
                 objects: w.objects().count(),
                 state_hash: w.state_hash(),
-                overlays: Overlays::of(w),
+                overlays: Overlays::of(w, contacts),
             });
         }
         !here
@@ -157,4 +238,79 @@ pub fn resolve(req: Request) -> Result<Arc<Past>, String> {
     let past = Arc::new(found.ok_or_else(|| format!("seq {seq} step {step:?} was not reached"))?);
     remember(req.key, past.clone());
     Ok(past)
+}
+
+/// One moment of a clip: where it is and every part's pose then.
+#[derive(Serialize, Debug)]
+pub struct ClipFrame {
+    /// The scene's key (`wire::key`).
+    pub key: String,
+    /// The event the moment is in (or after).
+    pub seq: u64,
+    /// Steps into event `seq` (None: after it).
+    pub step: Option<u64>,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Steps since creation.
+    pub steps: u64,
+    /// `wire::poses`.
+    pub poses: String,
+}
+
+/// Frames of an interval for playing it: every `every`-th step from the state after `from`
+/// to the state after `to`, by one re-simulation.
+#[derive(Serialize, Debug)]
+pub struct Clip {
+    /// The frames, oldest first.
+    pub frames: Vec<ClipFrame>,
+    /// The scenes the frames' keys name, except `have`.
+    pub scenes: Vec<wire::SceneJson>,
+    /// Whether the frames reach `to` (false: the byte budget ended the clip; ask again from
+    /// the last frame).
+    pub complete: bool,
+}
+
+/// What a clip re-simulates, lent under the lock.
+pub struct ClipRequest {
+    lent: fold::Lent,
+    every: u64,
+    after: Option<f64>,
+    have: Option<String>,
+}
+
+/// Lends `from..to` of `sim`'s chain for a clip sampled every `every` steps, leaving out
+/// moments at or before simulated time `after`.
+pub fn clip_request(sim: &Sim, from: u64, to: Option<u64>, every: u64, after: Option<f64>, have: Option<String>) -> Result<ClipRequest, String> {
+    let lent = fold::lend(sim.log(), sim.id(), Some(from), to)?;
+    Ok(ClipRequest { lent, every: every.max(1), after, have })
+}
+
+/// Re-simulates a clip (no lock held) until it reaches its end or `budget` bytes of frames.
+pub fn clip(req: ClipRequest, budget: usize) -> Result<Clip, String> {
+    let mut out = Clip { frames: Vec::new(), scenes: Vec::new(), complete: true };
+    let (mut used, mut last_key) = (0usize, req.have.clone());
+    fold::resimulate(&req.lent, req.every, &mut |w, m| {
+        if !m.sample || req.after.is_some_and(|a| w.current_time() <= a) {
+            return true;
+        }
+        let scene = Scene::capture(w);
+        let key = wire::key(&scene);
+        if last_key.as_deref() != Some(key.as_str()) {
+            let s = wire::scene(&scene);
+            used += serde_json::to_string(&s).map_or(0, |t| t.len());
+            out.scenes.push(s);
+            last_key = Some(key.clone());
+        }
+        let step = (m.at == At::Step).then_some(m.step_in_event);
+        let frame = ClipFrame { key, seq: m.seq, step, time: w.current_time(), steps: w.steps(), poses: wire::poses(&scene) };
+        used += frame.poses.len() + 120;
+        out.frames.push(frame);
+        if used > budget && !m.last {
+            out.complete = false;
+            return false;
+        }
+        true
+    })
+    .map_err(|e| format!("the interval could not be re-simulated: {e}"))?;
+    Ok(out)
 }

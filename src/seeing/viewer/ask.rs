@@ -1,0 +1,313 @@
+//! What the viewer page asks, answered the same way over HTTP (`GET /viewer/{id}/{kind}?…`)
+//! and to the MCP App through the host (`resources/read` of `sim://{id}/viewer/{kind}?…`,
+//! which is a look and not logged):
+//!
+//! - `timeline`: the head's chain with a time axis (`past::Timeline`);
+//! - `poses` (`seq`, `step`: a past moment; `have`: the scene key the page holds): every
+//!   part's pose now or then, and the scene itself when its key is not `have`;
+//! - `clip` (`from_seq`, `to_seq`, `every`, `after`, `have`): frames for playing an interval,
+//!   by one re-simulation;
+//! - `object` (`id`): an object's summary and its height and speed over the chain, for the
+//!   inspector;
+//! - `frame`: the server-rendered PNG (`png.rs`).
+//!
+//! Never "busy": while a call holds the simulation, the present is the newest moment a
+//! running step published, or else the last one a page was shown.
+
+use std::collections::{BTreeMap, HashMap};
+use std::sync::{Arc, LazyLock, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use axum::http::StatusCode;
+use serde::Serialize;
+
+use super::live::{self, Progress};
+use super::png::{self, CameraJson, Failed, FrameQuery};
+use super::{past, wire, BodyFrame, Overlays};
+use crate::log::fold;
+use crate::outputs::{ObjectSummary, ObjectTrack};
+use crate::seeing::sensing::capture::Scene;
+use crate::seeing::trajectory;
+use crate::sim::{Registry, SharedSim, Sim};
+use crate::value::{r32, r32s};
+
+/// How long an answer waits for a call holding the simulation before it says "ask again"
+/// (202): past states and the timeline need the log, which the call holds.
+const WAIT_FOR_LOCK: Duration = Duration::from_secs(3);
+/// How long the present waits for a running step's first published moment.
+const WAIT_FOR_PUBLISHED: Duration = Duration::from_millis(400);
+/// Most bytes of frames one clip answer carries (a resource read's reply must stay under the
+/// reply budget; HTTP pages ask again from the last frame).
+pub const CLIP_BUDGET: usize = 512 * 1024;
+
+/// The present of a simulation as a page may see it.
+pub enum Present<'a> {
+    /// Nobody holds it: the world itself.
+    Free(MutexGuard<'a, Sim>),
+    /// A call holds it: the newest moment its stepping published, or the last one shown.
+    Running(Arc<Progress>),
+}
+
+/// The last present each simulation's page was shown, by id: what a page gets while a call
+/// that publishes nothing (a load, a batch) holds the simulation.
+static SHOWN: LazyLock<Mutex<HashMap<String, Arc<Progress>>>> = LazyLock::new(Default::default);
+
+fn remember_shown(id: &str, p: Arc<Progress>) {
+    SHOWN.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), p);
+}
+
+fn last_shown(id: &str) -> Option<Arc<Progress>> {
+    SHOWN.lock().unwrap_or_else(|p| p.into_inner()).get(id).cloned()
+}
+
+/// "Ask again": a call has held the simulation for longer than a page should wait.
+fn ask_again() -> Failed {
+    (StatusCode::ACCEPTED, "a call is running on this simulation; ask again".to_string())
+}
+
+/// The simulation's lock, waiting up to `WAIT_FOR_LOCK` for a call in flight.
+pub fn lock_within(sim: &SharedSim) -> Result<MutexGuard<'_, Sim>, Failed> {
+    let start = Instant::now();
+    loop {
+        if let Ok(guard) = sim.try_lock() {
+            return Ok(guard);
+        }
+        if start.elapsed() >= WAIT_FOR_LOCK {
+            return Err(ask_again());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// The present of `sim` without waiting behind a long call.
+pub fn present<'a>(sim: &'a SharedSim, id: &str) -> Result<Present<'a>, Failed> {
+    let start = Instant::now();
+    loop {
+        if let Ok(guard) = sim.try_lock() {
+            return Ok(Present::Free(guard));
+        }
+        if let Some(p) = live::latest_waiting(id, WAIT_FOR_PUBLISHED, || sim.try_lock().is_ok()) {
+            return Ok(Present::Running(p));
+        }
+        if sim.try_lock().is_err() {
+            if let Some(p) = last_shown(id) {
+                return Ok(Present::Running(p));
+            }
+        }
+        if start.elapsed() >= WAIT_FOR_LOCK {
+            return Err(ask_again());
+        }
+    }
+}
+
+/// One moment for the page: every part's pose, and the scene when the page lacks it.
+#[derive(Serialize, Debug)]
+pub struct PoseFrame {
+    /// The scene's key.
+    pub key: String,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Steps since creation.
+    pub steps: u64,
+    /// Objects.
+    pub objects: usize,
+    /// The state hash ("" for a running step's moment: hashes are computed at its end).
+    pub state_hash: String,
+    /// The past event shown (None: the present).
+    pub seq: Option<u64>,
+    /// Steps into event `seq`.
+    pub step: Option<u64>,
+    /// [done, asked] of a running step.
+    pub progress: Option<[u64; 2]>,
+    /// The recorded viewer camera (set_camera) then.
+    pub camera: CameraJson,
+    /// Whether the camera is the initial one (pages frame the scene themselves then).
+    pub camera_is_initial: bool,
+    /// `wire::poses`.
+    pub poses: String,
+    /// Contacts shown (enable_debug_visualization called).
+    pub show_contacts: bool,
+    /// Body frames shown.
+    pub show_frames: bool,
+    /// Contact points when shown.
+    pub contacts: Vec<[f64; 3]>,
+    /// Body frames when shown.
+    pub frames: Vec<BodyFrame>,
+    /// The scene, when the page's `have` is not its key.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scene: Option<wire::SceneJson>,
+}
+
+/// What a page asked, parsed.
+enum Ask {
+    Timeline,
+    Poses { seq: Option<u64>, step: Option<u64>, have: Option<String> },
+    Clip { from: u64, to: Option<u64>, every: u64, after: Option<f64>, have: Option<String> },
+    Object { id: u32 },
+    Frame(FrameQuery),
+}
+
+type Query = BTreeMap<String, String>;
+
+fn number<T: std::str::FromStr>(q: &Query, name: &str) -> Result<Option<T>, Failed> {
+    q.get(name)
+        .map(|v| v.parse::<T>().map_err(|_| (StatusCode::BAD_REQUEST, format!("{name} must be a number; got {v:?}"))))
+        .transpose()
+}
+
+fn parse(kind: &str, query: &str) -> Result<Ask, Failed> {
+    let q: Query = form_urlencoded::parse(query.as_bytes()).into_owned().collect();
+    let have = q.get("have").cloned();
+    Ok(match kind {
+        "timeline" => Ask::Timeline,
+        "poses" => Ask::Poses { seq: number(&q, "seq")?, step: number(&q, "step")?, have },
+        "clip" => Ask::Clip {
+            from: number(&q, "from_seq")?.ok_or_else(|| (StatusCode::BAD_REQUEST, "from_seq is required".to_string()))?,
+            to: number(&q, "to_seq")?,
+            every: number(&q, "every")?.unwrap_or(1),
+            after: number(&q, "after")?,
+            have,
+        },
+        "object" => Ask::Object { id: number(&q, "id")?.ok_or_else(|| (StatusCode::BAD_REQUEST, "id is required".to_string()))? },
+        "frame" => Ask::Frame(FrameQuery {
+            w: number(&q, "w")?,
+            h: number(&q, "h")?,
+            distance: number(&q, "distance")?,
+            yaw: number(&q, "yaw")?,
+            pitch: number(&q, "pitch")?,
+            tx: number(&q, "tx")?,
+            ty: number(&q, "ty")?,
+            tz: number(&q, "tz")?,
+            seq: number(&q, "seq")?,
+            step: number(&q, "step")?,
+        }),
+        other => return Err((StatusCode::NOT_FOUND, format!("the viewer has no {other:?}; it answers timeline, poses, clip, object and frame"))),
+    })
+}
+
+/// A moment as the page gets it.
+struct Moment<'a> {
+    scene: &'a Scene,
+    objects: usize,
+    state_hash: String,
+    seq: Option<u64>,
+    step: Option<u64>,
+    progress: Option<[u64; 2]>,
+    overlays: &'a Overlays,
+}
+
+fn pose_frame(m: Moment, have: Option<&str>) -> PoseFrame {
+    let key = wire::key(m.scene);
+    let cam = &m.scene.camera;
+    PoseFrame {
+        scene: (have != Some(key.as_str())).then(|| wire::scene(m.scene)),
+        key,
+        time: m.scene.time,
+        steps: m.scene.steps,
+        objects: m.objects,
+        state_hash: m.state_hash,
+        seq: m.seq,
+        step: m.step,
+        progress: m.progress,
+        camera: CameraJson { distance: r32(cam.distance), yaw: r32(cam.yaw), pitch: r32(cam.pitch), target: r32s(cam.target) },
+        camera_is_initial: cam.camera_is_initial(),
+        poses: wire::poses(m.scene),
+        show_contacts: m.overlays.show_contacts,
+        show_frames: m.overlays.show_frames,
+        contacts: m.overlays.contacts.clone(),
+        frames: m.overlays.frames.clone(),
+    }
+}
+
+fn progress_frame(p: &Progress, have: Option<&str>) -> PoseFrame {
+    let running = (p.total > 0).then_some([p.done, p.total]);
+    pose_frame(Moment { scene: &p.scene, objects: p.objects, state_hash: String::new(), seq: None, step: None, progress: running, overlays: &p.overlays }, have)
+}
+
+fn poses(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>, have: Option<&str>) -> Result<PoseFrame, Failed> {
+    let bad = |e: String| (StatusCode::BAD_REQUEST, e);
+    if let Some(seq) = seq {
+        let req = past::request(&*lock_within(sim)?, seq, step).map_err(bad)?;
+        let p = past::resolve(req).map_err(bad)?;
+        let m = Moment { scene: &p.scene, objects: p.objects, state_hash: p.state_hash.clone(), seq: Some(seq), step, progress: None, overlays: &p.overlays };
+        return Ok(pose_frame(m, have));
+    }
+    match present(sim, id)? {
+        Present::Free(guard) => {
+            let w = guard.world();
+            let shown = Arc::new(Progress {
+                scene: Scene::capture(w),
+                steps: w.steps(),
+                time: w.current_time(),
+                objects: w.object_count(),
+                done: 0,
+                total: 0,
+                overlays: Overlays::of(w, past::contacts_asked_now(&guard)),
+            });
+            let mut frame = progress_frame(&shown, have);
+            frame.state_hash = guard.state_hash().to_string();
+            drop(guard);
+            remember_shown(id, shown);
+            Ok(frame)
+        }
+        Present::Running(p) => Ok(progress_frame(&p, have)),
+    }
+}
+
+/// The inspector's answer: what the object is (in the present world) and its track over the
+/// head's chain (about 100 samples, with velocities).
+#[derive(Serialize, Debug)]
+pub struct Inspected {
+    /// The object.
+    pub object_id: u32,
+    /// Its summary now (None: it is gone since).
+    pub summary: Option<ObjectSummary>,
+    /// Sample times (s).
+    pub times: Vec<f64>,
+    /// Its samples.
+    pub track: Option<ObjectTrack>,
+}
+
+fn object(sim: &SharedSim, id: u32) -> Result<Inspected, Failed> {
+    let bad = |e: String| (StatusCode::BAD_REQUEST, e);
+    let (summary, lent) = {
+        let guard = lock_within(sim)?;
+        let summary = guard.world().object_summaries().into_iter().find(|s| s.object_id == id);
+        let root = past::timeline(&guard).map_err(bad)?.events.first().map(|e| e.seq);
+        (summary, fold::lend(guard.log(), guard.id(), root, None).map_err(bad)?)
+    };
+    let req = trajectory::Request { every: None, object_ids: Some(vec![id]), include_velocities: true };
+    let t = trajectory::sample_interval(&lent, &req).map_err(bad)?;
+    Ok(Inspected { object_id: id, summary, times: t.times, track: t.objects.into_iter().find(|o| o.object_id == id) })
+}
+
+fn clip(sim: &SharedSim, from: u64, to: Option<u64>, every: u64, after: Option<f64>, have: Option<String>) -> Result<past::Clip, Failed> {
+    let bad = |e: String| (StatusCode::BAD_REQUEST, e);
+    let req = past::clip_request(&*lock_within(sim)?, from, to, every, after, have).map_err(bad)?;
+    past::clip(req, CLIP_BUDGET).map_err(bad)
+}
+
+fn timeline(sim: &SharedSim, id: &str) -> Result<Arc<past::Timeline>, Failed> {
+    if let Ok(guard) = sim.try_lock() {
+        return past::timeline(&guard).map_err(|e| (StatusCode::INTERNAL_SERVER_ERROR, e));
+    }
+    if let Some(t) = past::last_timeline(id) {
+        return Ok(t);
+    }
+    past::timeline(&*lock_within(sim)?).map_err(|e| (StatusCode::INTERNAL_SERVER_ERROR, e))
+}
+
+/// Answers `kind?query` for simulation `id` as JSON text (blocking: run it off the async
+/// threads).
+pub fn answer_text(reg: &Registry, id: &str, kind: &str, query: &str) -> Result<String, Failed> {
+    let ask = parse(kind, query)?;
+    let sim = reg.get(id).map_err(|why| (StatusCode::NOT_FOUND, why))?;
+    let text = |v: Result<String, serde_json::Error>| v.map_err(|e| (StatusCode::INTERNAL_SERVER_ERROR, format!("Internal error: {e}")));
+    match ask {
+        Ask::Timeline => text(serde_json::to_string(&*timeline(&sim, id)?)),
+        Ask::Poses { seq, step, have } => text(serde_json::to_string(&poses(&sim, id, seq, step, have.as_deref())?)),
+        Ask::Clip { from, to, every, after, have } => text(serde_json::to_string(&clip(&sim, from, to, every, after, have)?)),
+        Ask::Object { id: object_id } => text(serde_json::to_string(&object(&sim, object_id)?)),
+        Ask::Frame(q) => text(serde_json::to_string(&png::answer(sim, id, &q, reg.limits().max_image_px)?)),
+    }
+}
