@@ -8,6 +8,7 @@ mod common;
 mod broken_clients;
 mod cli_call;
 mod context_cost;
+mod mcp_app;
 mod output_schemas;
 mod params;
 mod resources;

@@ -130,6 +130,9 @@ async fn the_viewer_follows_a_gui_simulation_without_changing_it() {
     assert_eq!(get(&base, "/viewer/no-such-sim", None).await.0, 404);
     assert_eq!(get(&base, "/viewer/no-such-sim/frame", None).await.0, 404);
     assert_eq!(get(&base, &format!("/viewer/{sim}"), Some("evil.example")).await.0, 403);
+    for kind in ["poses", "timeline", "clip?from_seq=1", "object?id=0"] {
+        assert_eq!(get(&base, &format!("/viewer/{sim}/{kind}"), Some("evil.example")).await.0, 403, "{kind}");
+    }
     let (status, why) = get(&base, &format!("/viewer/{sim}/frame?w=100000&h=100000"), None).await;
     assert_eq!(status, 400, "{why}");
 
@@ -162,6 +165,12 @@ async fn with_a_token_the_viewer_wants_it_in_the_query() {
     assert_eq!(get(&base, &format!("/viewer/{sim}?token=s3cret"), None).await.0, 200);
     let (status, body) = get(&base, &format!("/viewer/{sim}/frame?w=64&h=48&token=s3cret"), None).await;
     assert_eq!(status, 200, "{body}");
+    for kind in ["poses", "timeline", "clip?from_seq=1", "object?id=0"] {
+        assert_eq!(get(&base, &format!("/viewer/{sim}/{kind}"), None).await.0, 401, "{kind} without the token");
+        let sep = if kind.contains('?') { '&' } else { '?' };
+        let (status, body) = get(&base, &format!("/viewer/{sim}/{kind}{sep}token=s3cret"), None).await;
+        assert!(status == 200 || kind.starts_with("object") && status == 400, "{kind}: {status} {body}");
+    }
     // The query token opens the viewer only, not MCP.
     assert_eq!(get(&base, "/mcp?token=s3cret", None).await.0, 401);
 }

@@ -110,8 +110,17 @@ async fn watch_step(url: &str, base: &str, sim: &str, steps: u64) -> Vec<u64> {
         })
     };
     let mut seen: Vec<u64> = Vec::new();
+    let mut asked = 0;
     while !stepping.is_finished() {
-        let (status, f) = get_json(&format!("{base}/viewer/{sim}/frame?w=80&h=60")).await;
+        // The WebGL page's poses and the server-rendered frame alike: never "busy".
+        asked += 1;
+        let kind = if asked % 2 == 0 { "poses?" } else { "frame?w=80&h=60&" };
+        let (status, f) = get_json(&format!("{base}/viewer/{sim}/{kind}")).await;
+        assert!(stepping.is_finished() || status == 200, "{kind} answered {status} during a step: {f}");
+        if status == 200 && kind == "poses?" && f["progress"].is_array() {
+            assert!(!f["poses"].as_str().unwrap().is_empty());
+            continue;
+        }
         if status == 200 && f["progress"].is_array() {
             assert_eq!(f["progress"][1], steps);
             assert!(!f["png"].as_str().unwrap().is_empty());
