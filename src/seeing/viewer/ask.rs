@@ -224,6 +224,24 @@ fn progress_frame(p: &Progress, have: Option<&str>) -> PoseFrame {
     pose_frame(Moment { scene: &p.scene, objects: p.objects, state_hash: String::new(), seq: None, step: None, progress: running, overlays: &p.overlays }, have)
 }
 
+/// The frame of world `w` as it is (state hash `state_hash`), and the moment kept to show
+/// while a later call holds the simulation. The whole server cost of a live frame
+/// (`benches/viewer.rs` measures it against the PNG frame).
+pub fn world_frame(w: &crate::world::World, state_hash: &str, contacts_asked: bool, have: Option<&str>) -> (PoseFrame, Arc<Progress>) {
+    let shown = Arc::new(Progress {
+        scene: Scene::capture(w),
+        steps: w.steps(),
+        time: w.current_time(),
+        objects: w.object_count(),
+        done: 0,
+        total: 0,
+        overlays: Overlays::of(w, contacts_asked),
+    });
+    let mut frame = progress_frame(&shown, have);
+    frame.state_hash = state_hash.to_string();
+    (frame, shown)
+}
+
 fn poses(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>, have: Option<&str>) -> Result<PoseFrame, Failed> {
     let bad = |e: String| (StatusCode::BAD_REQUEST, e);
     if let Some(seq) = seq {
@@ -234,18 +252,7 @@ fn poses(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>, have: O
     }
     match present(sim, id)? {
         Present::Free(guard) => {
-            let w = guard.world();
-            let shown = Arc::new(Progress {
-                scene: Scene::capture(w),
-                steps: w.steps(),
-                time: w.current_time(),
-                objects: w.object_count(),
-                done: 0,
-                total: 0,
-                overlays: Overlays::of(w, past::contacts_asked_now(&guard)),
-            });
-            let mut frame = progress_frame(&shown, have);
-            frame.state_hash = guard.state_hash().to_string();
+            let (frame, shown) = world_frame(guard.world(), guard.state_hash(), past::contacts_asked_now(&guard), have);
             drop(guard);
             remember_shown(id, shown);
             Ok(frame)
