@@ -127,6 +127,15 @@ async fn updates_progress_and_cancellation_travel_between_nodes() {
     assert_eq!(status, 200, "a frame of C's simulation through A: {frame}");
     let frame: Value = serde_json::from_str(&frame).expect("a frame is JSON");
     assert_eq!(frame["state_hash"], info["state_hash"], "the frame through A is the owner's state");
+    // The WebGL page's poses, and the MCP App's read of them, come from the owner too.
+    let (status, poses) = crate::nats::http_get(port, &format!("/viewer/{sim}/poses")).expect("poses through A");
+    assert_eq!(status, 200, "poses of C's simulation through A: {poses}");
+    let poses: Value = serde_json::from_str(&poses).expect("poses are JSON");
+    assert_eq!(poses["state_hash"], info["state_hash"], "the poses through A are the owner's state");
+    let read = on_a.read_resource(ReadResourceRequestParams::new(format!("sim://{sim}/viewer/poses"))).await.expect("the app's read through A");
+    let Some(ResourceContents::TextResourceContents { text, .. }) = read.contents.into_iter().next() else { panic!("viewer poses are not text") };
+    let read: Value = serde_json::from_str(&text).expect("viewer poses are JSON");
+    assert_eq!(read["state_hash"], info["state_hash"], "the app's read through A is the owner's state");
 
     // Progress of a forwarded long step reaches B's client.
     let light = cc.new_sim(json!({})).await;
