@@ -8,6 +8,7 @@ mod common;
 mod animation;
 mod browser_viewer;
 mod cli_pictures;
+mod host_harness;
 mod readable_pictures;
 mod report_page;
 mod trajectory;
