@@ -2,6 +2,7 @@
 //! client over streamable HTTP — no mocks.
 #![allow(dead_code)]
 
+pub mod host;
 pub mod pictures;
 
 use std::io::{BufRead, BufReader};
@@ -74,6 +75,11 @@ impl Server {
             }
         }
         copy(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures"), &self.workspace);
+    }
+
+    /// `http://127.0.0.1:PORT`: the server's origin (`url` is its MCP endpoint, `…/mcp`).
+    pub fn base_url(&self) -> &str {
+        self.url.strip_suffix("/mcp").unwrap_or(&self.url)
     }
 
     /// Starts `physics-mcp serve` on 127.0.0.1:0 over `dir/data` and `dir/workspace`.

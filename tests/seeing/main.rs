@@ -9,6 +9,7 @@ mod animation;
 mod browser_3d;
 mod browser_viewer;
 mod cli_pictures;
+mod host_harness;
 mod readable_pictures;
 mod report_page;
 mod trajectory;
