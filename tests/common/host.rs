@@ -31,6 +31,8 @@ pub const CHROMIUM_FLAGS: [&str; 3] = ["--disable-features=IsolateSandboxedIfram
 /// The running host: it stops when dropped.
 pub struct Host {
     addr: SocketAddr,
+    /// What the page POSTed to `/report` (the app's probes, relayed by host.html), oldest first.
+    reports: Arc<std::sync::Mutex<Vec<String>>>,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
@@ -58,6 +60,8 @@ impl Host {
         listener.set_nonblocking(true).unwrap();
         let addr = listener.local_addr().unwrap();
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        let reports: Arc<std::sync::Mutex<Vec<String>>> = Arc::default();
+        let sink = reports.clone();
         let thread = std::thread::spawn(move || {
             let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap();
             rt.block_on(async move {
@@ -66,6 +70,12 @@ impl Host {
                 let app = Router::new()
                     .route("/host.html", get(|| file("host.html", "text/html; charset=utf-8")))
                     .route("/ext-apps-host.js", get(|| file("vendor/ext-apps-host.js", "text/javascript; charset=utf-8")))
+                    // The page tells the test what the app reported, in wall-clock time: headless
+                    // Chromium's virtual time does not wait for streamed MCP replies.
+                    .route("/report", axum::routing::post(move |body: String| {
+                        let sink = sink.clone();
+                        async move { sink.lock().unwrap().push(body); "" }
+                    }))
                     .route("/mcp", axum::routing::any(proxy))
                     .route("/mcp/{*rest}", axum::routing::any(proxy))
                     .with_state(Arc::new(Upstream { http, origin }));
@@ -78,7 +88,12 @@ impl Host {
             // Open event streams end with the runtime, without waiting for the browser.
             rt.shutdown_background();
         });
-        Host { addr, stop: Some(stop), thread: Some(thread) }
+        Host { addr, reports, stop: Some(stop), thread: Some(thread) }
+    }
+
+    /// The reports the page has POSTed so far (JSON texts), oldest first.
+    pub fn reports(&self) -> Vec<String> {
+        self.reports.lock().unwrap().clone()
     }
 
     /// `http://127.0.0.1:PORT`, the host page's origin.

@@ -110,7 +110,7 @@ fn status_line(dom: &str) -> String {
 /// Chromium's own background traffic off, as far as flags go (Chromium 148 otherwise opens five
 /// connections to www.google.com at start, which the stand-in proxy would count).
 const QUIET_BROWSER: [&str; 8] = [
-    "--disable-features=NetworkTimeServiceQuerying,OptimizationHints,OptimizationHintsFetching,OptimizationGuideModelDownloading,MediaRouter,Translate,AutofillServerCommunication,InterestFeedContentSuggestions,CertificateTransparencyComponentUpdater,SafeBrowsing,NetworkPrediction,PreconnectToSearch,SearchPrefetchServicePrefetching,LoadingPredictorUseLocalPredictions,LoadingPredictorPrefetch",
+    "--disable-features=IsolateSandboxedIframes,NetworkTimeServiceQuerying,OptimizationHints,OptimizationHintsFetching,OptimizationGuideModelDownloading,MediaRouter,Translate,AutofillServerCommunication,InterestFeedContentSuggestions,CertificateTransparencyComponentUpdater,SafeBrowsing,NetworkPrediction,PreconnectToSearch,SearchPrefetchServicePrefetching,LoadingPredictorUseLocalPredictions,LoadingPredictorPrefetch",
     "--no-pings",
     "--dns-prefetch-disable",
     "--disable-domain-reliability",
@@ -131,10 +131,43 @@ pub(crate) struct Watched {
     pub(crate) outside: Vec<String>,
 }
 
-/// Loads `url` in headless Chromium with every non-loopback request sent to a local
-/// stand-in proxy (which answers nothing and records the request line), console messages on
-/// stderr, and `extra` flags.
-pub(crate) fn watched(url: &str, profile: &Path, budget_ms: u32, extra: &[&str]) -> Watched {
+/// Headless Chromium on `url` in wall-clock time — no virtual time, which does not wait for
+/// streamed replies (an MCP host's calls) — until `done` holds (checked every 100 ms) or
+/// `limit` passes; then it is stopped. Requests beyond loopback go to a recording stand-in
+/// proxy, as in `watched`. Returns whether `done` held, and the requests it saw.
+pub(crate) fn run_until(url: &str, profile: &Path, extra: &[&str], limit: std::time::Duration, done: impl Fn() -> bool) -> (bool, Vec<String>) {
+    let (port, seen) = stand_in_proxy();
+    let mut child = Command::new(chromium())
+        .args(["--headless=new", "--no-sandbox", "--hide-scrollbars"])
+        .args(WEBGL)
+        .args(["--disable-dev-shm-usage", "--disable-quic", "--no-first-run", "--disable-background-networking"])
+        .args(["--disable-component-update", "--disable-sync"])
+        .args(QUIET_BROWSER)
+        .arg(format!("--proxy-server=127.0.0.1:{port}"))
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .args(extra)
+        .arg(url)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("run chromium");
+    let start = std::time::Instant::now();
+    let mut ok = false;
+    while start.elapsed() < limit {
+        if done() {
+            ok = true;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let outside = seen.lock().unwrap().iter().filter(|l| !CHROMIUM_OWN_HOSTS.iter().any(|h| l.contains(h))).cloned().collect();
+    (ok, outside)
+}
+
+/// A stand-in proxy on loopback that answers nothing and records each request's first line.
+fn stand_in_proxy() -> (u16, Arc<Mutex<Vec<String>>>) {
     let proxy = TcpListener::bind("127.0.0.1:0").unwrap();
     let port = proxy.local_addr().unwrap().port();
     let seen = Arc::new(Mutex::new(Vec::new()));
@@ -149,6 +182,14 @@ pub(crate) fn watched(url: &str, profile: &Path, budget_ms: u32, extra: &[&str])
             log.lock().unwrap().push(line);
         }
     });
+    (port, seen)
+}
+
+/// Loads `url` in headless Chromium with every non-loopback request sent to a local
+/// stand-in proxy (which answers nothing and records the request line), console messages on
+/// stderr, and `extra` flags.
+pub(crate) fn watched(url: &str, profile: &Path, budget_ms: u32, extra: &[&str]) -> Watched {
+    let (port, seen) = stand_in_proxy();
     let out = Command::new(chromium())
         .args(["--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars"])
         .args(WEBGL)

@@ -6,6 +6,7 @@
 mod common;
 
 mod animation;
+mod app_in_host;
 mod browser_3d;
 mod browser_viewer;
 mod cli_pictures;
