@@ -62,6 +62,7 @@ impl Host {
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
         let reports: Arc<std::sync::Mutex<Vec<String>>> = Arc::default();
         let sink = reports.clone();
+        let held = reports.clone();
         let thread = std::thread::spawn(move || {
             let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap();
             rt.block_on(async move {
@@ -75,6 +76,22 @@ impl Host {
                     .route("/report", axum::routing::post(move |body: String| {
                         let sink = sink.clone();
                         async move { sink.lock().unwrap().push(body); "" }
+                    }))
+                    // `host.html?…&hold=1` loads this image, which answers once the app has
+                    // reported a drawn frame (at most 30 s): the page's load event, which a
+                    // plain `--screenshot` waits for, then comes after the app drew.
+                    .route("/hold", get(move || {
+                        let held = held.clone();
+                        async move {
+                            let from = held.lock().unwrap().len();
+                            for _ in 0..300 {
+                                if held.lock().unwrap()[from..].iter().any(|r| r.contains("\"mode\":\"app\"") && r.contains("\"rgb\":[")) {
+                                    break;
+                                }
+                                tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+                            }
+                            ([(header::CONTENT_TYPE, "image/gif")], &b"GIF89a\x01\x00\x01\x00\x00\x00\x00;"[..])
+                        }
                     }))
                     .route("/mcp", axum::routing::any(proxy))
                     .route("/mcp/{*rest}", axum::routing::any(proxy))
@@ -109,6 +126,11 @@ impl Host {
     /// `url`, sending `Authorization: Bearer <token>` to the server (`--token`).
     pub fn url_with_token(&self, tool: &str, args_json: &str, token: &str) -> String {
         self.page(&[("tool", tool), ("args", args_json), ("token", token)])
+    }
+
+    /// `url` whose load event waits for the app's first drawn frame (for a screenshot).
+    pub fn url_held(&self, tool: &str, args_json: &str) -> String {
+        self.page(&[("tool", tool), ("args", args_json), ("hold", "1")])
     }
 
     fn page(&self, query: &[(&str, &str)]) -> String {

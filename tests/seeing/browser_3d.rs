@@ -89,9 +89,6 @@ async fn browser_the_3d_viewer_draws_scrubs_inspects_and_plays() {
     assert!(w.outside.is_empty(), "requests beyond loopback: {:?}", w.outside);
     let seen = pixel(&shot, at["x"].as_u64().unwrap(), at["y"].as_u64().unwrap());
     assert!(reddish(&seen), "the screenshot has {seen:?} at the red box's projection");
-    if std::env::var_os("UPDATE_SCREENSHOTS").is_some() {
-        std::fs::copy(&shot, Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/viewer.png")).unwrap();
-    }
 
     // Scrubbed back: the box is where get_object_state said it was after the first step call.
     let back = probed(&format!("{url}?probe=1&seq={past_seq}"), dir.path(), "past", |p| p["seq"] == past_seq);

@@ -46,7 +46,8 @@ pub(crate) fn headless(url: &str, profile: &Path, budget_ms: u32, extra: &[&str]
         .args(["--disable-dev-shm-usage", "--disable-quic", "--no-first-run", "--disable-background-networking"])
         .args(["--disable-component-update", "--disable-sync", "--no-proxy-server"])
         .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(format!("--virtual-time-budget={budget_ms}"))
+        // 0: no virtual time (the page's load event decides when it is done).
+        .args((budget_ms > 0).then(|| format!("--virtual-time-budget={budget_ms}")))
         .arg("--run-all-compositor-stages-before-draw")
         .args(extra)
         .arg(url)
