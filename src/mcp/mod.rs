@@ -245,7 +245,7 @@ impl PhysicsServer {
                     _ => 0,
                 };
                 // Whether its frames show contacts: read off the chain only while a viewer watches.
-                let contacts = crate::seeing::viewer::live::watched(sim.id()) && crate::seeing::viewer::past::contacts_asked_now(&sim);
+                let contacts = crate::seeing::viewer::live::watched(sim.id()) && crate::seeing::viewer::past::contacts_asked_now(sim);
                 let mut live = crate::seeing::viewer::live::Publisher::new(sim.id(), total, contacts);
                 let out = sim.change_observed(tool, a, decided, limits, ctl, &mut |w| live.observe(w));
                 // The in-process cost of the call, for measuring what MCP adds (benches/physics.rs).

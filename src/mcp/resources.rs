@@ -80,7 +80,6 @@ fn viewer_read(uri: &str) -> Option<(&str, &str, &str)> {
 }
 
 /// Splits `sim://{id}/{part}`.
-
 fn parse(uri: &str) -> Result<(&str, Part), String> {
     let rest = uri
         .strip_prefix("sim://")

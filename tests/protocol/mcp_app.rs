@@ -7,7 +7,7 @@
 use crate::common;
 
 use common::Server;
-use rmcp::model::{ClientCapabilities, ClientInfo, ReadResourceRequestParams, ResourceContents};
+use rmcp::model::{ClientCapabilities, ClientConfig, ReadResourceRequestParams, ResourceContents};
 use rmcp::ServiceExt;
 use serde_json::{json, Value};
 
@@ -15,10 +15,10 @@ const APP: &str = "ui://physics-mcp/viewer";
 const LINKED: [&str; 4] = ["create_simulation", "step_simulation", "render_animation", "get_trajectory"];
 
 /// A client that shows MCP Apps, as a host announces it.
-async fn app_client(url: &str) -> rmcp::service::RunningService<rmcp::RoleClient, ClientInfo> {
+async fn app_client(url: &str) -> rmcp::service::RunningService<rmcp::RoleClient, ClientConfig> {
     let mut ext = std::collections::BTreeMap::new();
     ext.insert("io.modelcontextprotocol/ui".to_string(), serde_json::from_value(json!({"mimeTypes": ["text/html;profile=mcp-app"]})).unwrap());
-    let mut info = ClientInfo::default();
+    let mut info = ClientConfig::default();
     info.capabilities = ClientCapabilities::builder().enable_extensions_with(ext).build();
     let transport = rmcp::transport::StreamableHttpClientTransport::from_uri(url.to_string());
     info.serve(transport).await.expect("initialize an app-showing client")

@@ -27,7 +27,7 @@ pub(crate) fn probe(dom: &str, id: &str) -> Value {
 }
 
 /// The probed object `id` (its projected pixel, world position and the colour read back).
-pub(crate) fn object<'a>(probe: &'a Value, id: u64) -> &'a Value {
+pub(crate) fn object(probe: &Value, id: u64) -> &Value {
     probe["objects"].as_array().unwrap().iter().find(|o| o["id"] == id).unwrap_or_else(|| panic!("object {id} not drawn: {probe}"))
 }
 
