@@ -160,10 +160,16 @@ enum Cmd {
         /// Also write the interval's samples (poses, velocities, joints) to this .csv or .jsonl.
         #[arg(long)]
         trajectory: Option<PathBuf>,
+        /// Also write the interval as an MCAP file for Foxglove (/scene, /tf on simulated time).
+        #[arg(long, value_name = "OUT.mcap")]
+        mcap: Option<PathBuf>,
+        /// With --mcap: also the contact points at every sample, on /contacts.
+        #[arg(long, requires = "mcap")]
+        contacts: bool,
         /// Instead of checking, write the head's chain (or --from..--to) as a looping GIF.
         #[arg(long, value_name = "OUT.gif")]
         render: Option<PathBuf>,
-        /// The interval and sampling for --trajectory and --render.
+        /// The interval and sampling for --trajectory, --mcap and --render.
         #[command(flatten)]
         interval: physics_mcp::cli::IntervalArgs,
         /// Frame size for --render, WxH.
@@ -459,7 +465,7 @@ fn main() {
                         run_render(&file, &out, span, interval.every, size, force)
                     }
                     Cmd::Report { file, out, force } => run_report(&file, &out, force),
-                    Cmd::Replay { file, until, json, trajectory, interval, force, .. } => {
+                    Cmd::Replay { file, until, json, trajectory, mcap, contacts, interval, force, .. } => {
                         if !run_replay(&file, until, json)? {
                             std::process::exit(1);
                         }
@@ -469,6 +475,14 @@ fn main() {
                             eprintln!(
                                 "trajectory: {} samples of {} objects (seq {} to {}, every {} steps) written to {}",
                                 t.samples, t.objects.len(), t.from_seq, t.to_seq, t.every, out.display()
+                            );
+                        }
+                        if let Some(out) = mcap {
+                            let (t, bytes) = physics_mcp::log::replay::write_mcap(&file, &out, &interval, contacts, force)
+                                .map_err(|e| anyhow::anyhow!("--mcap: {e}"))?;
+                            eprintln!(
+                                "mcap: {} samples (seq {} to {}, every {} steps), {bytes} bytes, written to {}",
+                                t.samples, t.from_seq, t.to_seq, t.every, out.display()
                             );
                         }
                         Ok(())

@@ -448,17 +448,35 @@ pub fn lend_interval(path: &Path, from: Option<u64>, to: Option<u64>) -> Result<
 /// sampled by the one re-simulation core (recorded hashes checked), written as .csv or .jsonl.
 /// An existing `out` is replaced only with `force` (`--force`).
 pub fn write_trajectory(path: &Path, out: &Path, args: &crate::cli::IntervalArgs, force: bool) -> Result<crate::outputs::Trajectory, String> {
-    let shown = out.display().to_string();
-    crate::seeing::trajectory::is_jsonl(&shown, "--trajectory")?;
-    let lent = lend_interval(path, args.from, args.to)?;
-    let req = crate::seeing::trajectory::Request { every: args.every.filter(|e| *e > 0), object_ids: None, include_velocities: true };
+    use crate::seeing::trajectory::{self, FileForm};
+    let form = trajectory::file_form(&out.display().to_string(), "--trajectory", &[FileForm::Csv, FileForm::Jsonl])?;
+    let (lent, req) = interval_request(path, args, true)?;
+    let t = trajectory::sample_interval(&lent, &req)?;
+    crate::files::write::write_operator_file(out, &trajectory::file_bytes(&t, form), force)?;
+    Ok(t)
+}
+
+/// `replay FILE --mcap OUT`: the same interval and samples as `--trajectory`, every object,
+/// as Foxglove messages (`seeing::foxglove`), with the contact points when `contacts`
+/// (`--contacts`). An existing `out` is replaced only with `force`. Returns the trajectory
+/// sampled and the file's size.
+pub fn write_mcap(path: &Path, out: &Path, args: &crate::cli::IntervalArgs, contacts: bool, force: bool) -> Result<(crate::outputs::Trajectory, usize), String> {
+    use crate::seeing::trajectory::{self, FileForm};
+    trajectory::file_form(&out.display().to_string(), "--mcap", &[FileForm::Mcap])?;
+    let (lent, req) = interval_request(path, args, false)?;
+    let (t, bytes) = crate::seeing::foxglove::export(&lent, &req, contacts)?;
+    crate::files::write::write_operator_file(out, &bytes, force)?;
+    Ok((t, bytes.len()))
+}
+
+/// The interval `args` names of the log at `path` and what to sample of it: every object,
+/// at `--every` (refused when 0), velocities when `velocities`.
+fn interval_request(path: &Path, args: &crate::cli::IntervalArgs, velocities: bool) -> Result<(fold::Lent, crate::seeing::trajectory::Request), String> {
     if args.every == Some(0) {
         return Err("--every must be at least 1".into());
     }
-    let t = crate::seeing::trajectory::sample_interval(&lent, &req)?;
-    let bytes = crate::seeing::trajectory::file_bytes(&t, &shown, "--trajectory")?;
-    crate::files::write::write_operator_file(out, &bytes, force)?;
-    Ok(t)
+    let lent = lend_interval(path, args.from, args.to)?;
+    Ok((lent, crate::seeing::trajectory::Request { every: args.every, object_ids: None, include_velocities: velocities }))
 }
 
 /// A read's recorded arguments: inline, or — over 64 KB, as a large ray batch's are — the

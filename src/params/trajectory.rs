@@ -21,7 +21,7 @@ pub struct GetTrajectory {
     pub object_ids: Option<Vec<ObjectId>>,
     /// Default false.
     pub include_velocities: Option<Bool>,
-    /// New .csv or .jsonl file.
+    /// New .csv/.jsonl/.mcap
     pub output_path: Option<Text>,
     /// full: exact, unmoved objects too.
     pub detail: Option<Text>,

@@ -1,7 +1,8 @@
 //! Seeing a simulation: sensing (rays, contacts, camera), trajectories, animations, the
-//! session report and the web viewer.
+//! session report, the web viewer and the MCAP export for Foxglove.
 
 pub mod animation;
+pub mod foxglove;
 pub mod framing;
 pub mod overlay;
 pub mod report;

@@ -1,5 +1,6 @@
 //! Trajectories (docs/tools.md "Seeing time"): the pose sampler — an observer of the re-simulation
-//! core (`fold::resimulate`) and of live stepping — its bounds, and its files (CSV, JSONL).
+//! core (`fold::resimulate`) and of live stepping — its bounds, and its files (CSV, JSONL; the
+//! MCAP export rides along the same sampling, `seeing::foxglove`).
 //! get_trajectory, step_simulation's `sample_every` and `replay --trajectory` all sample
 //! here, with the same reads as get_object_state / get_joint_state, so a sample is bit for
 //! bit what those tools said at that step.
@@ -196,12 +197,18 @@ impl Sampler {
 
 /// Re-simulates `lent` and samples it (get_trajectory, `replay --trajectory`).
 pub fn sample_interval(lent: &Lent, req: &Request) -> Result<Trajectory, Refusal> {
+    sample_interval_with(lent, req, &mut |_, _| true)
+}
+
+/// `sample_interval` with another observer riding along the same re-simulation (the MCAP
+/// export), called after the sampler at every moment; either returning false stops it.
+pub fn sample_interval_with(lent: &Lent, req: &Request, also: fold::Observer) -> Result<Trajectory, Refusal> {
     let every = req.every.unwrap_or_else(|| default_every(lent.interval_steps()));
     if let Some(ids) = &req.object_ids {
         check_cells(max_samples(lent.interval_steps(), every), ids.len() as u64, "every")?;
     }
     let mut sampler = Sampler::new(lent.interval, every, req);
-    fold::resimulate(lent, every, &mut |w, m| sampler.observe(w, m)).map_err(resim_error)?;
+    fold::resimulate(lent, every, &mut |w, m| sampler.observe(w, m) && also(w, m)).map_err(resim_error)?;
     sampler.finish("every")
 }
 
@@ -295,20 +302,42 @@ pub fn to_jsonl(t: &Trajectory) -> String {
     out
 }
 
-/// Whether `path` names a trajectory file (true: .jsonl, false: .csv), or a refusal naming
-/// `param`.
-pub fn is_jsonl(path: &str, param: &str) -> Result<bool, Refusal> {
-    match std::path::Path::new(path).extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("csv") => Ok(false),
-        Some("jsonl") => Ok(true),
-        _ => Err(format!("{param} must end in .csv or .jsonl; got {path}")),
-    }
+/// The forms a trajectory file takes, told by the file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileForm {
+    /// `.csv`: one row per sample and object (`to_csv`).
+    Csv,
+    /// `.jsonl`: one JSON object per sample (`to_jsonl`).
+    Jsonl,
+    /// `.mcap`: Foxglove messages on simulated time (`seeing::foxglove`; get_trajectory's
+    /// output_path only — the command line has `replay --mcap`).
+    Mcap,
 }
 
-/// The file form of `t` for a path's extension (.csv or .jsonl), or a refusal naming
-/// `param`.
-pub fn file_bytes(t: &Trajectory, path: &str, param: &str) -> Result<Vec<u8>, Refusal> {
-    Ok(if is_jsonl(path, param)? { to_jsonl(t) } else { to_csv(t) }.into_bytes())
+/// The form `path` asks for among `allowed`, or a one-sentence refusal naming `param`.
+pub fn file_form(path: &str, param: &str, allowed: &[FileForm]) -> Result<FileForm, Refusal> {
+    let form = match std::path::Path::new(path).extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("csv") => Some(FileForm::Csv),
+        Some("jsonl") => Some(FileForm::Jsonl),
+        Some("mcap") => Some(FileForm::Mcap),
+        _ => None,
+    };
+    form.filter(|f| allowed.contains(f)).ok_or_else(|| {
+        let names: Vec<&str> = allowed.iter().map(|f| match f {
+            FileForm::Csv => ".csv",
+            FileForm::Jsonl => ".jsonl",
+            FileForm::Mcap => ".mcap",
+        }).collect();
+        let (last, rest) = names.split_last().unwrap_or((&"", &[]));
+        let listed = if rest.is_empty() { last.to_string() } else { format!("{} or {last}", rest.join(", ")) };
+        format!("{param} must end in {listed}; got {path}")
+    })
+}
+
+/// The table file of `t` in form `form` (.csv or .jsonl; an MCAP is written while sampling,
+/// by `seeing::foxglove::export`).
+pub fn file_bytes(t: &Trajectory, form: FileForm) -> Vec<u8> {
+    if form == FileForm::Jsonl { to_jsonl(t) } else { to_csv(t) }.into_bytes()
 }
 
 /// What a model reads by default: with `precision` every number is rounded to that many

@@ -14,7 +14,8 @@ use crate::mcp::PhysicsServer;
 use crate::log::fold::{self, Lent};
 use crate::outputs::Trajectory;
 use crate::sim::lock_sim;
-use crate::seeing::trajectory::{self, Request};
+use crate::seeing::foxglove;
+use crate::seeing::trajectory::{self, FileForm, Request};
 use crate::sim::sampled_step::Sampling;
 use crate::value::{self, Args, Refusal};
 use crate::files::{write, Sandbox};
@@ -48,8 +49,9 @@ const DEFAULT_DECIMALS: u32 = 4;
 /// decimals to round to (None: exact).
 type Shortening = Option<Option<u32>>;
 
-/// What get_trajectory asks besides the interval: what to sample, output_path, shortening.
-type Asking = (Request, Option<String>, Shortening);
+/// What get_trajectory asks besides the interval: what to sample, output_path (with the form
+/// its extension asks for), shortening.
+type Asking = (Request, Option<(String, FileForm)>, Shortening);
 
 /// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path, shortening.
 fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
@@ -69,20 +71,33 @@ fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
         include_velocities: p.include_velocities.is_some_and(|b| b.0),
     };
     let path = p.output_path.map(|t| t.0);
-    if let Some(p) = &path {
-        trajectory::is_jsonl(p, "output_path")?;
-    }
+    let path = path.map(|p| trajectory::file_form(&p, "output_path", &[FileForm::Csv, FileForm::Jsonl, FileForm::Mcap]).map(|f| (p, f))).transpose()?;
     Ok((interval, (req, path, shortening)))
 }
 
-/// The reply of get_trajectory: the table inline (within the reply budget) or in the file.
-fn deliver(t: Trajectory, path: Option<String>, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
-    let Some(user) = path else {
-        // Inline: held to the reply budget where the read is logged (`look_back`).
+/// get_trajectory's work: the interval sampled, and with an output path its file — written
+/// there (never over an existing file; checked before the re-simulation too) with the reply
+/// a summary; without one, the table inline (compact unless asked otherwise), held to the
+/// reply budget where the read is logged (`look_back`).
+fn sample_and_deliver((req, path, shortening): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
+    let Some((user, form)) = path else {
+        let mut t = trajectory::sample_interval(lent, &req)?;
+        if let Some(precision) = shortening {
+            trajectory::compact(&mut t, precision);
+        }
         return Ok(t);
     };
-    let bytes = trajectory::file_bytes(&t, &user, "output_path")?;
     let target = write::new_output(sandbox, "output_path", &user)?;
+    let (t, bytes) = match form {
+        // Poses and scene as Foxglove messages; contacts only from the command line (`replay
+        // --mcap --contacts`): get_trajectory has no parameter for them.
+        FileForm::Mcap => foxglove::export(lent, &req, false)?,
+        _ => {
+            let t = trajectory::sample_interval(lent, &req)?;
+            let bytes = trajectory::file_bytes(&t, form);
+            (t, bytes)
+        }
+    };
     write::create_new(sandbox, &target, "output_path", &user, &bytes)?;
     Ok(trajectory::summary(t, sandbox.shown(&target)))
 }
@@ -173,15 +188,7 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
     async fn get_trajectory(&self, args: JsonObject) -> Result<Json<Trajectory>, String> {
         let sandbox = self.reg.sandbox().clone();
-        self.look_back("get_trajectory", args, trajectory_args, move |(req, path, shortening), lent| {
-            let mut t = trajectory::sample_interval(lent, &req)?;
-            // The inline table is what a model reads; a file keeps every sample.
-            if let (None, Some(precision)) = (&path, shortening) {
-                trajectory::compact(&mut t, precision);
-            }
-            deliver(t, path, &sandbox)
-        })
-        .await
+        self.look_back("get_trajectory", args, trajectory_args, move |asking, lent| sample_and_deliver(asking, lent, &sandbox)).await
     }
 }
 

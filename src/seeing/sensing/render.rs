@@ -59,7 +59,8 @@ impl Frame {
     }
 }
 
-/// A shape's triangles in its local frame (the viewer page draws meshes from the same).
+/// A shape's triangles in its local frame (the viewer page and the MCAP export draw meshes
+/// from the same, so they show what the pictures show).
 pub(crate) fn triangulate(shape: &dyn Shape) -> (Vec<Vector>, Vec<[u32; 3]>) {
     match shape.as_typed_shape() {
         TypedShape::Cuboid(s) => s.to_trimesh(),
