@@ -11,6 +11,7 @@ mod browser_3d;
 mod browser_viewer;
 mod cli_pictures;
 mod host_harness;
+mod mcap_export;
 mod readable_pictures;
 mod report_page;
 mod trajectory;
