@@ -326,7 +326,7 @@ impl Export {
                 json!({"timestamp": stamp(ns), "type": 0, "id": id})
             })
             .collect();
-        let first = self.sequence.get(&self.scene).is_none();
+        let first = !self.sequence.contains_key(&self.scene);
         if entities.is_empty() && deletions.is_empty() && !first {
             return Ok(false);
         }

@@ -136,7 +136,7 @@ async fn an_interval_exports_to_mcap_on_simulated_time_with_the_poses_get_trajec
     let moved = tracks.iter().find(|o| o["object_id"] == bx).unwrap();
     assert_ne!(moved["positions"][0], moved["positions"][samples - 1], "the box falls");
     // The arm's links have frames of their own.
-    assert!(transform(&in_samples[0], &format!("object_{arm}/link_1")).is_some());
+    assert!(transform(in_samples[0], &format!("object_{arm}/link_1")).is_some());
 
     // The scene: everything at the start, then only the late box, at the time it was added.
     let scene = &r.messages["/scene"];
