@@ -45,17 +45,14 @@ const FRAME_TRANSFORMS_SCHEMA: &str = include_str!("../../assets/foxglove/FrameT
 /// contacts too).
 pub const MAX_FILE_BYTES: usize = 256 << 20;
 
-/// The frame every body's transform is given in.
+/// The frame every body's transform is given in: Foxglove's 3D panel follows a display frame,
+/// and one fixed root makes every body placeable from any of them.
 pub const WORLD_FRAME: &str = "world";
-
-/// Whether `path` names an MCAP file (by its extension, as the other outputs are told apart).
-pub fn is_mcap(path: &str) -> bool {
-    std::path::Path::new(path).extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
-}
 
 /// Re-simulates `lent` once, sampling it as get_trajectory does and writing the samples as
 /// MCAP; `with_contacts` adds the `/contacts` topic. Returns the trajectory (for the summary
-/// a reply gives) and the file's bytes.
+/// a reply gives, and so the file's poses are the table's) and the file's bytes, for the
+/// files layer to write: nothing here may touch the disk.
 pub fn export(lent: &Lent, req: &Request, with_contacts: bool) -> Result<(Trajectory, Vec<u8>), Refusal> {
     let mut out = Export::new(req.object_ids.clone(), with_contacts)?;
     let t = trajectory::sample_interval_with(lent, req, &mut |w, m| out.observe(w, m))?;
