@@ -148,8 +148,7 @@ fn bodies(w: &World, ids: Option<&[u32]>) -> Vec<Body> {
             Some(_) => collider.and_then(|c| c.position_wrt_parent().copied()).unwrap_or(Pose::IDENTITY),
             None => Pose::IDENTITY,
         };
-        let rgb = style::object_rgb(p.object_id, p.color);
-        let color = [rgb[0], rgb[1], rgb[2], p.color.map_or(1.0, |c| c[3].clamp(0.0, 1.0))];
+        let color = style::object_rgba(p.object_id, p.color);
         let (index, generation) = p.collider.into_raw_parts();
         let [tx, ty, tz] = offset.translation.to_array();
         let [qx, qy, qz, qw] = offset.rotation.to_array();

@@ -28,6 +28,14 @@ pub fn object_rgb(object_id: u32, color: Option<[f32; 4]>) -> [f32; 3] {
     }
 }
 
+/// `object_rgb` with the object's own alpha (1 when it has no colour): what the browser viewer
+/// and the MCAP export draw with, so a translucent object is translucent in both.
+pub fn object_rgba(object_id: u32, color: Option<[f32; 4]>) -> [f32; 4] {
+    let [r, g, b] = object_rgb(object_id, color);
+    let a = color.map_or(1.0, |c| if c[3].is_finite() { c[3].clamp(0.0, 1.0) } else { 1.0 });
+    [r, g, b, a]
+}
+
 /// `object_rgb` as 8-bit sRGB-ish bytes (what a pixel of a fully lit face shows, and what a
 /// plot line uses).
 pub fn object_bytes(object_id: u32, color: Option<[f32; 4]>) -> [u8; 3] {

@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::seeing::sensing::capture::{Posed, Scene};
 use crate::seeing::sensing::render::triangulate;
-use crate::seeing::style::object_rgb;
+use crate::seeing::style::{object_rgb, object_rgba};
 use crate::value::{r32, r32s};
 
 /// A collider's shape as the page builds it: primitives by their sizes (three.js draws them
@@ -157,8 +157,7 @@ pub fn scene(s: &Scene) -> SceneJson {
         .parts
         .iter()
         .map(|p| {
-            let [r, g, b] = object_rgb(p.object_id, p.color);
-            let a = p.color.map_or(1.0, |c| if c[3].is_finite() { c[3].clamp(0.0, 1.0) } else { 1.0 });
+            let [r, g, b, a] = object_rgba(p.object_id, p.color);
             PartJson {
                 object_id: p.object_id,
                 link_index: p.link_index,
