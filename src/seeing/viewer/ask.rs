@@ -22,14 +22,14 @@ use axum::http::StatusCode;
 use serde::Serialize;
 
 use super::live::{self, Progress};
-use super::png::{self, CameraJson, Failed, FrameQuery};
-use super::{past, wire, BodyFrame, Overlays};
+use super::moment::{Moment, Shown};
+use super::png::{self, Failed, FrameQuery};
+use super::{past, wire, Overlays};
 use crate::log::fold;
 use crate::outputs::{ObjectSummary, ObjectTrack};
 use crate::seeing::sensing::capture::Scene;
 use crate::seeing::trajectory;
 use crate::sim::{Registry, SharedSim, Sim};
-use crate::value::{r32, r32s};
 
 /// How long an answer waits for a call holding the simulation before it says "ask again"
 /// (202): past states and the timeline need the log, which the call holds.
@@ -105,34 +105,13 @@ pub fn present<'a>(sim: &'a SharedSim, id: &str) -> Result<Present<'a>, Failed> 
 pub struct PoseFrame {
     /// The scene's key.
     pub key: String,
-    /// Simulated time (s).
-    pub time: f64,
-    /// Steps since creation.
-    pub steps: u64,
-    /// Objects.
-    pub objects: usize,
-    /// The state hash ("" for a running step's moment: hashes are computed at its end).
-    pub state_hash: String,
-    /// The past event shown (None: the present).
-    pub seq: Option<u64>,
-    /// Steps into event `seq`.
-    pub step: Option<u64>,
-    /// [done, asked] of a running step.
-    pub progress: Option<[u64; 2]>,
-    /// The recorded viewer camera (set_camera) then.
-    pub camera: CameraJson,
-    /// Whether the camera is the initial one (pages frame the scene themselves then).
+    /// Whether the recorded camera is the initial one (pages frame the scene themselves then).
     pub camera_is_initial: bool,
     /// `wire::poses`.
     pub poses: String,
-    /// Contacts shown (enable_debug_visualization called).
-    pub show_contacts: bool,
-    /// Body frames shown.
-    pub show_frames: bool,
-    /// Contact points when shown.
-    pub contacts: Vec<[f64; 3]>,
-    /// Body frames when shown.
-    pub frames: Vec<BodyFrame>,
+    /// What the moment says about itself.
+    #[serde(flatten)]
+    pub shown: Shown,
     /// The scene, when the page's `have` is not its key.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scene: Option<wire::SceneJson>,
@@ -185,43 +164,23 @@ fn parse(kind: &str, query: &str) -> Result<Ask, Failed> {
     })
 }
 
-/// A moment as the page gets it.
-struct Moment<'a> {
-    scene: &'a Scene,
-    objects: usize,
-    state_hash: String,
-    seq: Option<u64>,
-    step: Option<u64>,
-    progress: Option<[u64; 2]>,
-    overlays: &'a Overlays,
-}
-
-fn pose_frame(m: Moment, have: Option<&str>) -> PoseFrame {
+fn pose_frame(m: &Moment, have: Option<&str>) -> PoseFrame {
     let key = wire::key(m.scene);
-    let cam = &m.scene.camera;
     PoseFrame {
         scene: (have != Some(key.as_str())).then(|| wire::scene(m.scene)),
         key,
-        time: m.scene.time,
-        steps: m.scene.steps,
-        objects: m.objects,
-        state_hash: m.state_hash,
-        seq: m.seq,
-        step: m.step,
-        progress: m.progress,
-        camera: CameraJson { distance: r32(cam.distance), yaw: r32(cam.yaw), pitch: r32(cam.pitch), target: r32s(cam.target) },
-        camera_is_initial: cam.camera_is_initial(),
+        camera_is_initial: m.scene.camera.camera_is_initial(),
         poses: wire::poses(m.scene),
-        show_contacts: m.overlays.show_contacts,
-        show_frames: m.overlays.show_frames,
-        contacts: m.overlays.contacts.clone(),
-        frames: m.overlays.frames.clone(),
+        shown: Shown::of(m),
     }
 }
 
-fn progress_frame(p: &Progress, have: Option<&str>) -> PoseFrame {
+/// A published (or last shown) moment of the present, with `state_hash` when it is the
+/// world's own.
+fn progress_frame(p: &Progress, state_hash: &str, have: Option<&str>) -> PoseFrame {
     let running = (p.total > 0).then_some([p.done, p.total]);
-    pose_frame(Moment { scene: &p.scene, objects: p.objects, state_hash: String::new(), seq: None, step: None, progress: running, overlays: &p.overlays }, have)
+    let m = Moment { scene: &p.scene, objects: p.objects, state_hash, seq: None, step: None, progress: running, overlays: &p.overlays };
+    pose_frame(&m, have)
 }
 
 /// The frame of world `w` as it is (state hash `state_hash`), and the moment kept to show
@@ -237,9 +196,7 @@ pub fn world_frame(w: &crate::world::World, state_hash: &str, contacts_asked: bo
         total: 0,
         overlays: Overlays::of(w, contacts_asked),
     });
-    let mut frame = progress_frame(&shown, have);
-    frame.state_hash = state_hash.to_string();
-    (frame, shown)
+    (progress_frame(&shown, state_hash, have), shown)
 }
 
 fn poses(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>, have: Option<&str>) -> Result<PoseFrame, Failed> {
@@ -247,8 +204,8 @@ fn poses(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>, have: O
     if let Some(seq) = seq {
         let req = past::request(&*lock_within(sim)?, seq, step).map_err(bad)?;
         let p = past::resolve(req).map_err(bad)?;
-        let m = Moment { scene: &p.scene, objects: p.objects, state_hash: p.state_hash.clone(), seq: Some(seq), step, progress: None, overlays: &p.overlays };
-        return Ok(pose_frame(m, have));
+        let m = Moment { scene: &p.scene, objects: p.objects, state_hash: &p.state_hash, seq: Some(seq), step, progress: None, overlays: &p.overlays };
+        return Ok(pose_frame(&m, have));
     }
     match present(sim, id)? {
         Present::Free(guard) => {
@@ -257,7 +214,7 @@ fn poses(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>, have: O
             remember_shown(id, shown);
             Ok(frame)
         }
-        Present::Running(p) => Ok(progress_frame(&p, have)),
+        Present::Running(p) => Ok(progress_frame(&p, "", have)),
     }
 }
 

@@ -31,6 +31,7 @@ use crate::world::World;
 pub mod app;
 pub mod ask;
 pub mod live;
+pub mod moment;
 pub mod past;
 pub mod png;
 pub mod wire;

@@ -6,12 +6,12 @@ use axum::http::StatusCode;
 use base64::Engine;
 use serde::{Deserialize, Serialize};
 
-use super::{past, BodyFrame, Overlays};
+use super::moment::{CameraJson, Moment, Shown};
+use super::{past, Overlays};
 use crate::seeing::sensing::camera::{self, Mat4};
 use crate::seeing::sensing::capture::Scene;
 use crate::seeing::sensing::render;
 use crate::sim::SharedSim;
-use crate::value::{r32, r32s};
 use crate::world::{Viewer as RecordedCamera, World};
 
 /// The frame size when the page does not ask for one.
@@ -42,19 +42,6 @@ pub struct FrameQuery {
     pub step: Option<u64>,
 }
 
-/// The recorded viewer camera.
-#[derive(Serialize, Debug)]
-pub struct CameraJson {
-    /// Distance (m).
-    pub distance: f64,
-    /// Yaw (degrees).
-    pub yaw: f64,
-    /// Pitch (degrees).
-    pub pitch: f64,
-    /// Target point.
-    pub target: [f64; 3],
-}
-
 /// What `/frame` answers: the image, the matrices it was rendered with, and overlays.
 #[derive(Serialize, Debug)]
 pub struct FrameJson {
@@ -70,31 +57,9 @@ pub struct FrameJson {
     pub view_matrix: Vec<f64>,
     /// Projection matrix used.
     pub projection_matrix: Vec<f64>,
-    /// The simulation's recorded camera (set_camera).
-    pub camera: CameraJson,
-    /// Simulated time (s).
-    pub time: f64,
-    /// Steps taken.
-    pub steps: u64,
-    /// Number of objects.
-    pub objects: usize,
-    /// The state hash now.
-    pub state_hash: String,
-    /// Whether contact points are shown (enable_debug_visualization).
-    pub show_contacts: bool,
-    /// Whether body frames are shown.
-    pub show_frames: bool,
-    /// Contact points (on A) when shown.
-    pub contacts: Vec<[f64; 3]>,
-    /// Body frames when shown.
-    pub frames: Vec<BodyFrame>,
-    /// The past event shown (None: the present).
-    pub seq: Option<u64>,
-    /// Steps into event `seq` shown.
-    pub step: Option<u64>,
-    /// A running step's progress, [steps done, steps asked], when this frame is one of its
-    /// published moments.
-    pub progress: Option<[u64; 2]>,
+    /// What the moment says about itself.
+    #[serde(flatten)]
+    pub shown: Shown,
 }
 
 /// The size the page asked for, checked against --max-image-px.
@@ -106,15 +71,9 @@ fn size(q: &FrameQuery, max_px: usize) -> Result<(u32, u32), String> {
     Ok((width, height))
 }
 
-/// The recorded camera as the page sees it, and the matrices for this frame: the page's own
-/// camera when it sent one, else the recorded one.
-fn matrices(cam: &RecordedCamera, q: &FrameQuery, width: u32, height: u32) -> (CameraJson, Mat4, Mat4) {
-    let recorded = CameraJson {
-        distance: r32(cam.distance),
-        yaw: r32(cam.yaw),
-        pitch: r32(cam.pitch),
-        target: r32s(cam.target),
-    };
+/// The matrices for this frame: the page's own camera when it sent one, else the recorded one.
+fn matrices(cam: &RecordedCamera, q: &FrameQuery, width: u32, height: u32) -> (Mat4, Mat4) {
+    let recorded = CameraJson::of(cam);
     let own = [q.distance, q.yaw, q.pitch];
     let (distance, yaw, pitch) = match own {
         [Some(d), Some(y), Some(p)] if d.is_finite() && d > 0.0 && y.is_finite() && p.is_finite() => (d, y, p.clamp(-89.9, 89.9)),
@@ -126,55 +85,22 @@ fn matrices(cam: &RecordedCamera, q: &FrameQuery, width: u32, height: u32) -> (C
     };
     let view: Mat4 = camera::view_matrix_from_yaw_pitch(target, distance, yaw, pitch, 2);
     let proj: Mat4 = camera::default_projection(width, height);
-    (recorded, view, proj)
+    (view, proj)
 }
 
-/// What a frame of a captured scene (a past state, a running step's moment) says about it.
-pub struct SceneInfo<'a> {
-    /// Simulation id.
-    pub simulation_id: &'a str,
-    /// Steps since creation.
-    pub steps: u64,
-    /// Simulated time (s).
-    pub time: f64,
-    /// Objects.
-    pub objects: usize,
-    /// State hash ("" while a step runs: it is only computed at the end).
-    pub state_hash: &'a str,
-    /// The past event shown.
-    pub seq: Option<u64>,
-    /// Steps into it.
-    pub step: Option<u64>,
-    /// [done, asked] of a running step.
-    pub progress: Option<[u64; 2]>,
-    /// What to draw over it, taken when the scene was captured.
-    pub overlays: &'a Overlays,
-}
-
-/// Renders a captured scene as the page asked, with the overlays of its moment.
-pub fn scene_frame(s: &Scene, info: SceneInfo, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
+/// Renders a captured moment of simulation `simulation_id` as the page asked, with its overlays.
+pub fn scene_frame(m: &Moment, simulation_id: &str, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
     let (width, height) = size(q, max_px)?;
-    let (recorded, view, proj) = matrices(&s.camera, q, width, height);
-    let image = render::render_scene(s, width, height, &view, &proj);
+    let (view, proj) = matrices(&m.scene.camera, q, width, height);
+    let image = render::render_scene(m.scene, width, height, &view, &proj);
     Ok(FrameJson {
-        simulation_id: info.simulation_id.to_string(),
+        simulation_id: simulation_id.to_string(),
         width,
         height,
         png: base64::engine::general_purpose::STANDARD.encode(image.png()?),
         view_matrix: view.to_vec(),
         projection_matrix: proj.to_vec(),
-        camera: recorded,
-        time: info.time,
-        steps: info.steps,
-        objects: info.objects,
-        state_hash: info.state_hash.to_string(),
-        show_contacts: info.overlays.show_contacts,
-        show_frames: info.overlays.show_frames,
-        contacts: info.overlays.contacts.clone(),
-        frames: info.overlays.frames.clone(),
-        seq: info.seq,
-        step: info.step,
-        progress: info.progress,
+        shown: Shown::of(m),
     })
 }
 
@@ -183,20 +109,10 @@ pub fn scene_frame(s: &Scene, info: SceneInfo, q: &FrameQuery, max_px: usize) ->
 /// `render::render` gives).
 pub fn frame(w: &World, state_hash: &str, contacts_asked: bool, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
     let overlays = Overlays::of(w, contacts_asked);
-    let info = SceneInfo {
-        simulation_id: w.simulation_id(),
-        steps: w.steps(),
-        time: w.current_time(),
-        objects: w.object_count(),
-        state_hash,
-        seq: None,
-        step: None,
-        progress: None,
-        overlays: &overlays,
-    };
-    scene_frame(&Scene::capture(w), info, q, max_px)
+    let scene = Scene::capture(w);
+    let m = Moment { scene: &scene, objects: w.object_count(), state_hash, seq: None, step: None, progress: None, overlays: &overlays };
+    scene_frame(&m, w.simulation_id(), q, max_px)
 }
-
 
 /// A failed viewer answer: an HTTP status and one sentence.
 pub type Failed = (StatusCode, String);
@@ -211,18 +127,8 @@ pub fn answer(sim: SharedSim, sim_id: &str, q: &FrameQuery, max_px: usize) -> Re
             past::request(&guard, seq, q.step).map_err(bad)?
         };
         let p = past::resolve(req).map_err(bad)?;
-        let info = SceneInfo {
-            simulation_id: sim_id,
-            steps: p.steps,
-            time: p.time,
-            objects: p.objects,
-            state_hash: &p.state_hash,
-            seq: Some(seq),
-            step: q.step,
-            progress: None,
-            overlays: &p.overlays,
-        };
-        return scene_frame(&p.scene, info, q, max_px).map_err(bad);
+        let m = Moment { scene: &p.scene, objects: p.objects, state_hash: &p.state_hash, seq: Some(seq), step: q.step, progress: None, overlays: &p.overlays };
+        return scene_frame(&m, sim_id, q, max_px).map_err(bad);
     }
     match super::ask::present(&sim, sim_id)? {
         super::ask::Present::Free(guard) => {
@@ -230,18 +136,9 @@ pub fn answer(sim: SharedSim, sim_id: &str, q: &FrameQuery, max_px: usize) -> Re
             frame(guard.world(), guard.state_hash(), contacts, q, max_px).map_err(bad)
         }
         super::ask::Present::Running(p) => {
-            let info = SceneInfo {
-                simulation_id: sim_id,
-                steps: p.steps,
-                time: p.time,
-                objects: p.objects,
-                state_hash: "",
-                seq: None,
-                step: None,
-                progress: Some([p.done, p.total]),
-                overlays: &p.overlays,
-            };
-            scene_frame(&p.scene, info, q, max_px).map_err(bad)
+            let running = (p.total > 0).then_some([p.done, p.total]);
+            let m = Moment { scene: &p.scene, objects: p.objects, state_hash: "", seq: None, step: None, progress: running, overlays: &p.overlays };
+            scene_frame(&m, sim_id, q, max_px).map_err(bad)
         }
     }
 }
