@@ -200,8 +200,12 @@ impl PhysicsServer {
             let answered = tokio::task::spawn_blocking(move || viewer::ask::answer_text(&reg, &id, &kind, &query))
                 .await
                 .map_err(|_| ErrorData::internal_error("Internal error: the viewer could not answer", None))?;
-            let text = answered
-                .map_err(|(_, why)| ErrorData::invalid_params(why, Some(json!({"uri": uri}))))?;
+            let text = match answered {
+                Ok(text) => text,
+                // "Ask again" (a call holds the simulation): JSON null, which the app asks again on.
+                Err((status, _)) if status == axum::http::StatusCode::ACCEPTED => "null".to_string(),
+                Err((_, why)) => return Err(ErrorData::invalid_params(why, Some(json!({"uri": uri})))),
+            };
             if text.len() > budget.saturating_sub(1024) {
                 return Err(ErrorData::invalid_params(format!("{uri} is {} bytes, over the reply budget; open the viewer page instead", text.len()), None));
             }
