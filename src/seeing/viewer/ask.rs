@@ -14,8 +14,8 @@
 //! Never "busy": while a call holds the simulation, the present is the newest moment a
 //! running step published, or else the last one a page was shown.
 
-use std::collections::{BTreeMap, HashMap};
-use std::sync::{Arc, LazyLock, Mutex, MutexGuard};
+use std::collections::BTreeMap;
+use std::sync::{Arc, MutexGuard};
 use std::time::{Duration, Instant};
 
 use axum::http::StatusCode;
@@ -24,6 +24,7 @@ use serde::Serialize;
 use super::live::{self, Progress};
 use super::moment::{Moment, Shown};
 use super::png::{self, Failed, FrameQuery};
+use super::recent::Recent;
 use super::{past, wire, Overlays};
 use crate::log::fold;
 use crate::outputs::{ObjectSummary, ObjectTrack};
@@ -50,14 +51,14 @@ pub enum Present<'a> {
 
 /// The last present each simulation's page was shown, by id: what a page gets while a call
 /// that publishes nothing (a load, a batch) holds the simulation.
-static SHOWN: LazyLock<Mutex<HashMap<String, Arc<Progress>>>> = LazyLock::new(Default::default);
+static SHOWN: Recent<String, Arc<Progress>> = Recent::new(64);
 
 fn remember_shown(id: &str, p: Arc<Progress>) {
-    SHOWN.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), p);
+    SHOWN.put(id.to_string(), p);
 }
 
 fn last_shown(id: &str) -> Option<Arc<Progress>> {
-    SHOWN.lock().unwrap_or_else(|p| p.into_inner()).get(id).cloned()
+    SHOWN.get(&id.to_string())
 }
 
 /// "Ask again": a call has held the simulation for longer than a page should wait.

@@ -34,6 +34,7 @@ pub mod live;
 pub mod moment;
 pub mod past;
 pub mod png;
+pub mod recent;
 pub mod wire;
 
 /// One body frame to draw: where a body is and how it is turned.

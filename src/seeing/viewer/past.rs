@@ -3,8 +3,7 @@
 //! by the one core (`fold::lend` under the lock, `fold::resimulate` without it) and cached as
 //! a captured scene, so scrubbing back and forth or turning the camera costs a render only.
 
-use std::collections::{BTreeMap, VecDeque};
-use std::sync::{Arc, LazyLock, Mutex};
+use std::sync::Arc;
 
 use serde::Serialize;
 
@@ -12,6 +11,7 @@ use crate::command::Command;
 use crate::log::fold::{self, At};
 use crate::seeing::sensing::capture::Scene;
 use crate::sim::Sim;
+use crate::seeing::viewer::recent::Recent;
 use crate::seeing::viewer::{wire, Overlays};
 
 /// Past states kept rendered-ready (scenes are small: poses and shape handles).
@@ -113,9 +113,9 @@ fn read_timeline(sim: &Sim) -> Result<Timeline, String> {
     Ok(Timeline { simulation_id: sim.id().to_string(), head_seq: sim.log().head_seq(), events, debug_since })
 }
 
-/// The latest timeline read of each simulation, by id: re-read only when the head moved, and
-/// what a page is answered while a call holds the simulation.
-static TIMELINES: LazyLock<Mutex<BTreeMap<String, Arc<Timeline>>>> = LazyLock::new(Default::default);
+/// The latest timeline read of recently watched simulations, by id: re-read only when the
+/// head moved, and what a page is answered while a call holds the simulation.
+static TIMELINES: Recent<String, Arc<Timeline>> = Recent::new(CACHED);
 
 /// The timeline of `sim` at its head (cached until the head moves).
 pub fn timeline(sim: &Sim) -> Result<Arc<Timeline>, String> {
@@ -124,14 +124,13 @@ pub fn timeline(sim: &Sim) -> Result<Arc<Timeline>, String> {
         return Ok(t);
     }
     let t = Arc::new(read_timeline(sim)?);
-    let mut table = TIMELINES.lock().unwrap_or_else(|p| p.into_inner());
-    table.insert(sim.id().to_string(), t.clone());
+    TIMELINES.put(sim.id().to_string(), t.clone());
     Ok(t)
 }
 
 /// The timeline last read of simulation `id`, without its lock.
 pub fn last_timeline(id: &str) -> Option<Arc<Timeline>> {
-    TIMELINES.lock().unwrap_or_else(|p| p.into_inner()).get(id).cloned()
+    TIMELINES.get(&id.to_string())
 }
 
 /// Whether `sim`'s present shows contacts (see `Overlays::of`).
@@ -157,22 +156,15 @@ pub struct Past {
 
 type Key = (String, u64, Option<u64>);
 
-/// Recently re-simulated states, oldest first.
-type Cache = VecDeque<(Key, Arc<Past>)>;
-
-static CACHE: LazyLock<Mutex<Cache>> = LazyLock::new(Default::default);
+/// Recently re-simulated states.
+static CACHE: Recent<Key, Arc<Past>> = Recent::new(CACHED);
 
 fn cached(key: &Key) -> Option<Arc<Past>> {
-    let cache = CACHE.lock().unwrap_or_else(|p| p.into_inner());
-    cache.iter().find(|(k, _)| k == key).map(|(_, p)| p.clone())
+    CACHE.get(key)
 }
 
 fn remember(key: Key, past: Arc<Past>) {
-    let mut cache = CACHE.lock().unwrap_or_else(|p| p.into_inner());
-    if cache.len() >= CACHED {
-        cache.pop_front();
-    }
-    cache.push_back((key, past));
+    CACHE.put(key, past);
 }
 
 /// What to lend for the state after `seq` (and `step` steps into it), decided under the lock.
