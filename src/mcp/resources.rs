@@ -204,10 +204,15 @@ impl PhysicsServer {
                 Ok(text) => text,
                 // "Ask again" (a call holds the simulation): JSON null, which the app asks again on.
                 Err((status, _)) if status == axum::http::StatusCode::ACCEPTED => "null".to_string(),
+                Err((status, why)) if status == axum::http::StatusCode::NOT_FOUND => {
+                    return Err(ErrorData::resource_not_found(why, Some(json!({"uri": uri}))))
+                }
                 Err((_, why)) => return Err(ErrorData::invalid_params(why, Some(json!({"uri": uri})))),
             };
-            if text.len() > budget.saturating_sub(1024) {
-                return Err(ErrorData::invalid_params(format!("{uri} is {} bytes, over the reply budget; open the viewer page instead", text.len()), None));
+            // As the reply carries it: a JSON string, escaped.
+            let carried = serde_json::to_string(&text).map_or(usize::MAX, |q| q.len());
+            if carried > budget.saturating_sub(1024) {
+                return Err(ErrorData::invalid_params(format!("{uri} is {carried} bytes, over the reply budget; open the viewer page instead"), None));
             }
             return Ok(ReadResourceResult::new(vec![ResourceContents::text(text, &uri).with_mime_type("application/json")]).with_ttl_ms(0));
         }

@@ -45,6 +45,10 @@ const FRAME_TRANSFORMS_SCHEMA: &str = include_str!("../../assets/foxglove/FrameT
 /// contacts too).
 pub const MAX_FILE_BYTES: usize = 256 << 20;
 
+/// Bytes a message adds to the file besides its payload: the record's opcode, length, channel,
+/// sequence and two times (31 B) and its message-index entry (16 B), rounded up.
+const MESSAGE_OVERHEAD: usize = 48;
+
 /// The frame every body's transform is given in: Foxglove's 3D panel follows a display frame,
 /// and one fixed root makes every body placeable from any of them.
 pub const WORLD_FRAME: &str = "world";
@@ -337,7 +341,9 @@ impl Export {
         let header = mcap::records::MessageHeader { channel_id: channel, sequence: *sequence, log_time: ns, publish_time: ns };
         *sequence += 1;
         self.writer.write_to_known_channel(&header, &data).map_err(mcap_error)?;
-        self.bytes += data.len();
+        // The message record's header (opcode, length, channel, sequence, two times) and its
+        // chunk-index entry come on top of the payload: counted so the bound holds for the file.
+        self.bytes += data.len() + MESSAGE_OVERHEAD;
         if self.bytes > MAX_FILE_BYTES {
             return Err(format!(
                 "the MCAP file would be over {} MiB; give a larger every, a shorter interval or fewer object_ids",

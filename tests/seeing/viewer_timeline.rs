@@ -215,3 +215,40 @@ async fn a_past_frame_carries_the_overlays_of_its_moment() {
     let (_, present) = get_json(&format!("{base}/viewer/{sim}/frame?w=80&h=60")).await;
     assert_ne!(present["frames"], past["frames"]);
 }
+
+/// The timeline a watching page reads after every call (extended from the last one it read)
+/// holds each event of the chain with the time its call answered — across a set_timestep, an
+/// undo (the head moves back: read again from the root) and a branch after it.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_watched_timeline_keeps_each_events_time_across_undo() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let base = base_of(&server.url);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({"gui": true})).await;
+    let mut landed: Vec<(u64, f64)> = Vec::new();
+    let at = |r: &Value| (r["head_seq"].as_u64().unwrap(), r["time"].as_f64().unwrap());
+    let calls = [
+        ("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]})),
+        ("step_simulation", json!({"sim_id": sim, "steps": 24})),
+        ("set_timestep", json!({"sim_id": sim, "timestep": 0.01})),
+        ("step_simulation", json!({"sim_id": sim, "steps": 10})),
+    ];
+    for (tool, args) in calls {
+        landed.push(at(&c.call(tool, args).await));
+        assert_eq!(get_json(&format!("{base}/viewer/{sim}/timeline")).await.0, 200);
+    }
+    c.call("undo", json!({"sim_id": sim})).await;
+    landed.pop();
+    assert_eq!(get_json(&format!("{base}/viewer/{sim}/timeline")).await.0, 200);
+    landed.push(at(&c.call("step_simulation", json!({"sim_id": sim, "steps": 5})).await));
+    let (status, t) = get_json(&format!("{base}/viewer/{sim}/timeline")).await;
+    assert_eq!(status, 200, "{t}");
+    let marks: Vec<(u64, f64)> = t["events"].as_array().unwrap()[1..].iter().map(|m| (m["seq"].as_u64().unwrap(), m["time"].as_f64().unwrap())).collect();
+    assert_eq!(marks.len(), landed.len(), "{t}");
+    for ((seq, time), (want_seq, want_time)) in marks.iter().zip(&landed) {
+        assert_eq!(seq, want_seq, "{t}");
+        assert!((time - want_time).abs() < 1e-9, "seq {seq}: timeline {time} vs the call's {want_time}");
+    }
+    assert!((landed.last().unwrap().1 - (0.1 + 0.05)).abs() < 1e-6, "24/240 + 5 × 0.01: {landed:?}");
+}

@@ -37,8 +37,8 @@ use crate::sim::{Registry, SharedSim, Sim};
 const WAIT_FOR_LOCK: Duration = Duration::from_secs(3);
 /// How long the present waits for a running step's first published moment.
 const WAIT_FOR_PUBLISHED: Duration = Duration::from_millis(400);
-/// Most bytes of frames one clip answer carries (a resource read's reply must stay under the
-/// reply budget; HTTP pages ask again from the last frame).
+/// Most bytes of frames one clip answer carries (at most half the reply budget: a resource
+/// read's reply must stay under it; pages ask again from the last frame).
 pub const CLIP_BUDGET: usize = 512 * 1024;
 
 /// The present of a simulation as a page may see it.
@@ -122,7 +122,7 @@ pub struct PoseFrame {
 enum Ask {
     Timeline,
     Poses { seq: Option<u64>, step: Option<u64>, have: Option<String> },
-    Clip { from: u64, to: Option<u64>, every: u64, after: Option<f64>, have: Option<String> },
+    Clip { from: u64, to: Option<u64>, every: u64, after: Option<(u64, Option<u64>)>, have: Option<String> },
     Object { id: u32 },
     Frame(FrameQuery),
 }
@@ -140,12 +140,22 @@ fn parse(kind: &str, query: &str) -> Result<Ask, Failed> {
     let have = q.get("have").cloned();
     Ok(match kind {
         "timeline" => Ask::Timeline,
-        "poses" => Ask::Poses { seq: number(&q, "seq")?, step: number(&q, "step")?, have },
+        "poses" => {
+            let (seq, step) = (number(&q, "seq")?, number(&q, "step")?);
+            if seq.is_none() && step.is_some() {
+                return Err((StatusCode::BAD_REQUEST, "step needs seq (the step event it is inside)".to_string()));
+            }
+            Ask::Poses { seq, step, have }
+        }
         "clip" => Ask::Clip {
             from: number(&q, "from_seq")?.ok_or_else(|| (StatusCode::BAD_REQUEST, "from_seq is required".to_string()))?,
             to: number(&q, "to_seq")?,
             every: number(&q, "every")?.unwrap_or(1),
-            after: number(&q, "after")?,
+            after: match (number(&q, "after_seq")?, number(&q, "after_step")?) {
+                (Some(seq), step) => Some((seq, step)),
+                (None, None) => None,
+                (None, Some(_)) => return Err((StatusCode::BAD_REQUEST, "after_step needs after_seq".to_string())),
+            },
             have,
         },
         "object" => Ask::Object { id: number(&q, "id")?.ok_or_else(|| (StatusCode::BAD_REQUEST, "id is required".to_string()))? },
@@ -233,23 +243,33 @@ pub struct Inspected {
     pub track: Option<ObjectTrack>,
 }
 
-fn object(sim: &SharedSim, id: u32) -> Result<Inspected, Failed> {
+/// Inspections lately answered, by (simulation, head, object): a second click on an object is
+/// not a second re-simulation of the whole chain.
+static INSPECTED: Recent<(String, u64, u32), Arc<Inspected>> = Recent::new(16);
+
+fn object(sim: &SharedSim, id: u32) -> Result<Arc<Inspected>, Failed> {
     let bad = |e: String| (StatusCode::BAD_REQUEST, e);
-    let (summary, lent) = {
+    let (key, summary, lent) = {
         let guard = lock_within(sim)?;
+        let key = (guard.id().to_string(), guard.log().head_seq(), id);
+        if let Some(done) = INSPECTED.get(&key) {
+            return Ok(done);
+        }
         let summary = guard.world().object_summaries().into_iter().find(|s| s.object_id == id);
         let root = past::timeline(&guard).map_err(bad)?.events.first().map(|e| e.seq);
-        (summary, fold::lend(guard.log(), guard.id(), root, None).map_err(bad)?)
+        (key, summary, fold::lend(guard.log(), guard.id(), root, None).map_err(bad)?)
     };
     let req = trajectory::Request { every: None, object_ids: Some(vec![id]), include_velocities: true };
-    let t = trajectory::sample_interval(&lent, &req).map_err(bad)?;
-    Ok(Inspected { object_id: id, summary, times: t.times, track: t.objects.into_iter().find(|o| o.object_id == id) })
+    let t = trajectory::sample_interval(&lent, &req).map_err(|e| (StatusCode::BAD_REQUEST, e.replace("object_ids", "id")))?;
+    let done = Arc::new(Inspected { object_id: id, summary, times: t.times, track: t.objects.into_iter().find(|o| o.object_id == id) });
+    INSPECTED.put(key, done.clone());
+    Ok(done)
 }
 
-fn clip(sim: &SharedSim, from: u64, to: Option<u64>, every: u64, after: Option<f64>, have: Option<String>) -> Result<past::Clip, Failed> {
+fn clip(sim: &SharedSim, from: u64, to: Option<u64>, every: u64, after: Option<(u64, Option<u64>)>, have: Option<String>, budget: usize) -> Result<past::Clip, Failed> {
     let bad = |e: String| (StatusCode::BAD_REQUEST, e);
     let req = past::clip_request(&*lock_within(sim)?, from, to, every, after, have).map_err(bad)?;
-    past::clip(req, CLIP_BUDGET).map_err(bad)
+    past::clip(req, budget).map_err(bad)
 }
 
 fn timeline(sim: &SharedSim, id: &str) -> Result<Arc<past::Timeline>, Failed> {
@@ -271,8 +291,12 @@ pub fn answer_text(reg: &Registry, id: &str, kind: &str, query: &str) -> Result<
     match ask {
         Ask::Timeline => text(serde_json::to_string(&*timeline(&sim, id)?)),
         Ask::Poses { seq, step, have } => text(serde_json::to_string(&poses(&sim, id, seq, step, have.as_deref())?)),
-        Ask::Clip { from, to, every, after, have } => text(serde_json::to_string(&clip(&sim, from, to, every, after, have)?)),
-        Ask::Object { id: object_id } => text(serde_json::to_string(&object(&sim, object_id)?)),
+        // Half the reply budget: a clip's last frame and scenes may go past its budget.
+        Ask::Clip { from, to, every, after, have } => {
+            let budget = CLIP_BUDGET.min(reg.limits().max_reply_bytes / 2);
+            text(serde_json::to_string(&clip(&sim, from, to, every, after, have, budget)?))
+        }
+        Ask::Object { id: object_id } => text(serde_json::to_string(&*object(&sim, object_id)?)),
         Ask::Frame(q) => text(serde_json::to_string(&png::answer(sim, id, &q, reg.limits().max_image_px)?)),
     }
 }

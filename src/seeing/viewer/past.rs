@@ -35,7 +35,7 @@ pub struct Mark {
 }
 
 /// The timeline of `sim`: every state-changing event from its root to its head.
-#[derive(Serialize, Debug)]
+#[derive(Serialize, Debug, Clone)]
 pub struct Timeline {
     /// The simulation.
     pub simulation_id: String,
@@ -45,6 +45,9 @@ pub struct Timeline {
     pub events: Vec<Mark>,
     /// The first enable_debug_visualization event on the chain: contacts are drawn from there on.
     pub debug_since: Option<u64>,
+    /// The clock after the head, to extend the timeline by the events after it.
+    #[serde(skip)]
+    clock: Clock,
 }
 
 impl Timeline {
@@ -57,6 +60,7 @@ impl Timeline {
 
 /// Simulated time along a chain, as `World::current_time` keeps it: the timestep as given and
 /// the time and step count when it was given.
+#[derive(Clone, Debug)]
 struct Clock {
     dt: f64,
     time_at: f64,
@@ -90,27 +94,50 @@ impl Clock {
     }
 }
 
-/// The timeline of `sim` (read from its log; no physics).
-fn read_timeline(sim: &Sim) -> Result<Timeline, String> {
-    let chain = sim.log().chain_to(sim.log().head_seq()).map_err(|e| format!("the log could not be read: {e}"))?;
-    let mut clock = Clock { dt: 1.0 / 240.0, time_at: 0.0, steps_at: 0, steps: 0 };
-    let mut debug_since = None;
-    let events = chain
-        .iter()
-        .map(|e| {
-            let cmd = fold::decode(e, sim.log()).ok().flatten();
-            let steps = match cmd {
-                Some(Command::StepSimulation { steps }) => steps,
-                _ => 0,
-            };
-            if matches!(cmd, Some(Command::SetDebugVisualization { .. })) && debug_since.is_none() {
-                debug_since = Some(e.seq);
+/// The timeline of `sim` (read from its log; no physics): `before`, the timeline at an
+/// earlier head, extended by the events after it when that head is still on the chain, else
+/// read from the root — so a watched simulation does not re-read its whole chain per call.
+fn read_timeline(sim: &Sim, before: Option<&Timeline>) -> Result<Timeline, String> {
+    let read = |e: crate::log::StoreError| format!("the log could not be read: {e}");
+    let head = sim.log().head_seq();
+    let (mut t, newer) = match before {
+        Some(b) => {
+            let mut back = sim.log().chain_back(head, &mut |e| e.seq <= b.head_seq).map_err(read)?;
+            if back.last().is_some_and(|e| e.seq == b.head_seq) {
+                back.pop();
+                back.reverse();
+                (Timeline { head_seq: head, ..b.clone() }, back)
+            } else {
+                (Timeline::empty(sim.id(), head), sim.log().chain_to(head).map_err(read)?)
             }
-            let time = clock.pass(cmd.as_ref(), e.result.as_deref());
-            Mark { seq: e.seq, time, tool: e.tool.clone(), steps, total_steps: clock.steps, inherited: e.inherited }
-        })
-        .collect();
-    Ok(Timeline { simulation_id: sim.id().to_string(), head_seq: sim.log().head_seq(), events, debug_since })
+        }
+        None => (Timeline::empty(sim.id(), head), sim.log().chain_to(head).map_err(read)?),
+    };
+    for e in &newer {
+        let cmd = fold::decode(e, sim.log()).ok().flatten();
+        let steps = match cmd {
+            Some(Command::StepSimulation { steps }) => steps,
+            _ => 0,
+        };
+        if matches!(cmd, Some(Command::SetDebugVisualization { .. })) && t.debug_since.is_none() {
+            t.debug_since = Some(e.seq);
+        }
+        let time = t.clock.pass(cmd.as_ref(), e.result.as_deref());
+        t.events.push(Mark { seq: e.seq, time, tool: e.tool.clone(), steps, total_steps: t.clock.steps, inherited: e.inherited });
+    }
+    Ok(t)
+}
+
+impl Timeline {
+    fn empty(id: &str, head: u64) -> Timeline {
+        Timeline {
+            simulation_id: id.to_string(),
+            head_seq: head,
+            events: Vec::new(),
+            debug_since: None,
+            clock: Clock { dt: 1.0 / 240.0, time_at: 0.0, steps_at: 0, steps: 0 },
+        }
+    }
 }
 
 /// The latest timeline read of recently watched simulations, by id: re-read only when the
@@ -123,7 +150,7 @@ pub fn timeline(sim: &Sim) -> Result<Arc<Timeline>, String> {
     if let Some(t) = last_timeline(sim.id()).filter(|t| t.head_seq == head) {
         return Ok(t);
     }
-    let t = Arc::new(read_timeline(sim)?);
+    let t = Arc::new(read_timeline(sim, last_timeline(sim.id()).as_deref())?);
     TIMELINES.put(sim.id().to_string(), t.clone());
     Ok(t)
 }
@@ -171,6 +198,8 @@ fn remember(key: Key, past: Arc<Past>) {
 pub struct Request {
     key: Key,
     lent: Option<fold::Lent>,
+    /// The state itself when it was cached (held here, so it cannot leave the cache meanwhile).
+    found: Option<Arc<Past>>,
     step: Option<u64>,
     contacts: bool,
 }
@@ -179,8 +208,8 @@ pub struct Request {
 /// state lends nothing. Refuses a seq off the chain, or a step outside a step event's steps.
 pub fn request(sim: &Sim, seq: u64, step: Option<u64>) -> Result<Request, String> {
     let key = (sim.id().to_string(), seq, step);
-    if cached(&key).is_some() {
-        return Ok(Request { key, lent: None, step, contacts: false });
+    if let Some(found) = cached(&key) {
+        return Ok(Request { key, lent: None, found: Some(found), step, contacts: false });
     }
     let contacts = timeline(sim)?.contacts_asked(seq);
     let lent = match step {
@@ -198,15 +227,16 @@ pub fn request(sim: &Sim, seq: u64, step: Option<u64>) -> Result<Request, String
             fold::lend(sim.log(), sim.id(), Some(parent), Some(seq))?
         }
     };
-    Ok(Request { key, lent: Some(lent), step, contacts })
+    Ok(Request { key, lent: Some(lent), found: None, step, contacts })
 }
 
 /// Re-simulates a request (no lock held) or takes it from the cache.
 pub fn resolve(req: Request) -> Result<Arc<Past>, String> {
     let contacts = req.contacts;
-    let Some(lent) = req.lent else {
-        return cached(&req.key).ok_or_else(|| "the state left the cache; ask again".to_string());
-    };
+    if let Some(found) = req.found {
+        return Ok(found);
+    }
+    let Some(lent) = req.lent else { return Err("nothing to re-simulate".to_string()) };
     let (seq, step) = (req.key.1, req.step);
     let mut found: Option<Past> = None;
     fold::resimulate(&lent, step.unwrap_or(1), &mut |w, m| {
@@ -266,15 +296,22 @@ pub struct Clip {
 pub struct ClipRequest {
     lent: fold::Lent,
     every: u64,
-    after: Option<f64>,
+    after: Option<(u64, u64)>,
     have: Option<String>,
 }
 
+/// A moment's place on a chain, for resuming a clip after it: seqs rise along a chain, and
+/// inside an event its steps come before its end.
+fn place(seq: u64, step: Option<u64>) -> (u64, u64) {
+    (seq, step.unwrap_or(u64::MAX))
+}
+
 /// Lends `from..to` of `sim`'s chain for a clip sampled every `every` steps, leaving out
-/// moments at or before simulated time `after`.
-pub fn clip_request(sim: &Sim, from: u64, to: Option<u64>, every: u64, after: Option<f64>, have: Option<String>) -> Result<ClipRequest, String> {
+/// moments up to the one after `after` = (seq, step in it; None: its end) — where the last
+/// clip stopped.
+pub fn clip_request(sim: &Sim, from: u64, to: Option<u64>, every: u64, after: Option<(u64, Option<u64>)>, have: Option<String>) -> Result<ClipRequest, String> {
     let lent = fold::lend(sim.log(), sim.id(), Some(from), to)?;
-    Ok(ClipRequest { lent, every: every.max(1), after, have })
+    Ok(ClipRequest { lent, every: every.max(1), after: after.map(|(seq, step)| place(seq, step)), have })
 }
 
 /// Re-simulates a clip (no lock held) until it reaches its end or `budget` bytes of frames.
@@ -282,7 +319,8 @@ pub fn clip(req: ClipRequest, budget: usize) -> Result<Clip, String> {
     let mut out = Clip { frames: Vec::new(), scenes: Vec::new(), complete: true };
     let (mut used, mut last_key) = (0usize, req.have.clone());
     fold::resimulate(&req.lent, req.every, &mut |w, m| {
-        if !m.sample || req.after.is_some_and(|a| w.current_time() <= a) {
+        let step = (m.at == At::Step).then_some(m.step_in_event);
+        if !m.sample || req.after.is_some_and(|a| place(m.seq, step) <= a) {
             return true;
         }
         let scene = Scene::capture(w);
@@ -293,7 +331,6 @@ pub fn clip(req: ClipRequest, budget: usize) -> Result<Clip, String> {
             out.scenes.push(s);
             last_key = Some(key.clone());
         }
-        let step = (m.at == At::Step).then_some(m.step_in_event);
         let frame = ClipFrame { key, seq: m.seq, step, time: w.current_time(), steps: w.steps(), poses: wire::poses(&scene) };
         used += frame.poses.len() + 120;
         out.frames.push(frame);

@@ -132,8 +132,13 @@ pub fn answer(sim: SharedSim, sim_id: &str, q: &FrameQuery, max_px: usize) -> Re
     }
     match super::ask::present(&sim, sim_id)? {
         super::ask::Present::Free(guard) => {
-            let contacts = past::contacts_asked_now(&guard);
-            frame(guard.world(), guard.state_hash(), contacts, q, max_px).map_err(bad)
+            // Captured under the lock, rendered after it: a render never holds up a call.
+            let w = guard.world();
+            let (overlays, scene) = (Overlays::of(w, past::contacts_asked_now(&guard)), Scene::capture(w));
+            let (objects, hash) = (w.object_count(), guard.state_hash().to_string());
+            drop(guard);
+            let m = Moment { scene: &scene, objects, state_hash: &hash, seq: None, step: None, progress: None, overlays: &overlays };
+            scene_frame(&m, sim_id, q, max_px).map_err(bad)
         }
         super::ask::Present::Running(p) => {
             let running = (p.total > 0).then_some([p.done, p.total]);
