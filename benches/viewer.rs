@@ -35,11 +35,11 @@ fn median(n: usize, mut f: impl FnMut()) -> f64 {
 fn bench_viewer_frames(c: &mut Criterion) {
     let w = collapsed_pile();
     let hash = w.state_hash();
-    let key = ask::world_frame(&w, &hash, false, None).0.key;
-    let poses_frame = || serde_json::to_string(&ask::world_frame(&w, &hash, false, Some(&key)).0).unwrap();
+    let key = ask::world_frame(&w, &hash, false, None).key;
+    let poses_frame = || serde_json::to_string(&ask::world_frame(&w, &hash, false, Some(&key))).unwrap();
     let q = png::FrameQuery { w: Some(640), h: Some(480), ..Default::default() };
     let png_frame = || serde_json::to_string(&png::frame(&w, &hash, false, &q, 4_000_000).unwrap()).unwrap();
-    let scene_frame = serde_json::to_string(&ask::world_frame(&w, &hash, false, None).0).unwrap();
+    let scene_frame = serde_json::to_string(&ask::world_frame(&w, &hash, false, None)).unwrap();
 
     let mut g = c.benchmark_group("viewer_frame_pile_1000");
     g.sample_size(20);

@@ -5,8 +5,8 @@
 //! - `timeline`: the head's chain with a time axis (`past::Timeline`);
 //! - `poses` (`seq`, `step`: a past moment; `have`: the scene key the page holds): every
 //!   part's pose now or then, and the scene itself when its key is not `have`;
-//! - `clip` (`from_seq`, `to_seq`, `every`, `after`, `have`): frames for playing an interval,
-//!   by one re-simulation;
+//! - `clip` (`from_seq`, `to_seq`, `every`, `after_seq`, `after_step`, `have`): frames for
+//!   playing an interval, by one re-simulation, resuming after where the last clip stopped;
 //! - `object` (`id`): an object's summary and its height and speed over the chain, for the
 //!   inspector;
 //! - `frame`: the server-rendered PNG (`png.rs`).
@@ -22,13 +22,13 @@ use axum::http::StatusCode;
 use serde::Serialize;
 
 use super::live::{self, Progress};
-use super::moment::{Moment, Shown};
+use super::moment::{Captured, Moment, Shown};
 use super::png::{self, Failed, FrameQuery};
 use super::recent::Recent;
-use super::{past, wire, Overlays};
+use super::past::Past;
+use super::{past, wire};
 use crate::log::fold;
 use crate::outputs::{ObjectSummary, ObjectTrack};
-use crate::seeing::sensing::capture::Scene;
 use crate::seeing::trajectory;
 use crate::sim::{Registry, SharedSim, Sim};
 
@@ -176,56 +176,84 @@ fn parse(kind: &str, query: &str) -> Result<Ask, Failed> {
 }
 
 fn pose_frame(m: &Moment, have: Option<&str>) -> PoseFrame {
-    let key = wire::key(m.scene);
+    let scene = &m.seen.scene;
+    let key = wire::key(scene);
     PoseFrame {
-        scene: (have != Some(key.as_str())).then(|| wire::scene(m.scene)),
+        scene: (have != Some(key.as_str())).then(|| wire::scene(scene)),
         key,
-        camera_is_initial: m.scene.camera.camera_is_initial(),
-        poses: wire::poses(m.scene),
+        camera_is_initial: scene.camera.camera_is_initial(),
+        poses: wire::poses(scene),
         shown: Shown::of(m),
     }
 }
 
-/// A published (or last shown) moment of the present, with `state_hash` when it is the
-/// world's own.
-fn progress_frame(p: &Progress, state_hash: &str, have: Option<&str>) -> PoseFrame {
-    let running = (p.total > 0).then_some([p.done, p.total]);
-    let m = Moment { scene: &p.scene, objects: p.objects, state_hash, seq: None, step: None, progress: running, overlays: &p.overlays };
-    pose_frame(&m, have)
+/// A moment the viewer answers about, held while it is answered: a past state, the present
+/// as captured, or a running step's published (or the last shown) moment.
+pub enum Held {
+    /// After event `seq` (`step` steps into it).
+    Past {
+        /// The state re-simulated (or cached).
+        past: Arc<Past>,
+        /// The event.
+        seq: u64,
+        /// Steps into it.
+        step: Option<u64>,
+    },
+    /// The present.
+    Present {
+        /// As captured (not running: `done` and `total` are 0).
+        now: Arc<Progress>,
+        /// Its state hash.
+        state_hash: String,
+    },
+    /// While a call holds the simulation.
+    Running(Arc<Progress>),
 }
 
-/// The frame of world `w` as it is (state hash `state_hash`), and the moment kept to show
-/// while a later call holds the simulation. The whole server cost of a live frame
+impl Held {
+    /// The moment as answers describe it.
+    pub fn moment(&self) -> Moment<'_> {
+        match self {
+            Held::Past { past, seq, step } => Moment { seen: &past.seen, state_hash: &past.state_hash, seq: Some(*seq), step: *step, progress: None },
+            Held::Present { now, state_hash } => Moment { seen: &now.seen, state_hash, seq: None, step: None, progress: None },
+            Held::Running(p) => {
+                let running = (p.total > 0).then_some([p.done, p.total]);
+                Moment { seen: &p.seen, state_hash: "", seq: None, step: None, progress: running }
+            }
+        }
+    }
+}
+
+/// The present of world `w` (state hash `state_hash`), held; also what is shown while a later
+/// call holds the simulation.
+pub fn present_of(w: &crate::world::World, state_hash: &str, contacts_asked: bool) -> Held {
+    let now = Arc::new(Progress { seen: Captured::of(w, contacts_asked), done: 0, total: 0 });
+    Held::Present { now, state_hash: state_hash.to_string() }
+}
+
+/// The frame of world `w` as it is — the whole server cost of a live frame
 /// (`benches/viewer.rs` measures it against the PNG frame).
-pub fn world_frame(w: &crate::world::World, state_hash: &str, contacts_asked: bool, have: Option<&str>) -> (PoseFrame, Arc<Progress>) {
-    let shown = Arc::new(Progress {
-        scene: Scene::capture(w),
-        steps: w.steps(),
-        time: w.current_time(),
-        objects: w.object_count(),
-        done: 0,
-        total: 0,
-        overlays: Overlays::of(w, contacts_asked),
-    });
-    (progress_frame(&shown, state_hash, have), shown)
+pub fn world_frame(w: &crate::world::World, state_hash: &str, contacts_asked: bool, have: Option<&str>) -> PoseFrame {
+    pose_frame(&present_of(w, state_hash, contacts_asked).moment(), have)
 }
 
-fn poses(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>, have: Option<&str>) -> Result<PoseFrame, Failed> {
+/// The moment a page asked of simulation `id`: after `seq` (`step` steps into it), else now.
+pub fn held(sim: &SharedSim, id: &str, seq: Option<u64>, step: Option<u64>) -> Result<Held, Failed> {
     let bad = |e: String| (StatusCode::BAD_REQUEST, e);
     if let Some(seq) = seq {
         let req = past::request(&*lock_within(sim)?, seq, step).map_err(bad)?;
-        let p = past::resolve(req).map_err(bad)?;
-        let m = Moment { scene: &p.scene, objects: p.objects, state_hash: &p.state_hash, seq: Some(seq), step, progress: None, overlays: &p.overlays };
-        return Ok(pose_frame(&m, have));
+        return Ok(Held::Past { past: past::resolve(req).map_err(bad)?, seq, step });
     }
     match present(sim, id)? {
         Present::Free(guard) => {
-            let (frame, shown) = world_frame(guard.world(), guard.state_hash(), past::contacts_asked_now(&guard), have);
+            let held = present_of(guard.world(), guard.state_hash(), past::contacts_asked_now(&guard));
             drop(guard);
-            remember_shown(id, shown);
-            Ok(frame)
+            if let Held::Present { now, .. } = &held {
+                remember_shown(id, now.clone());
+            }
+            Ok(held)
         }
-        Present::Running(p) => Ok(progress_frame(&p, "", have)),
+        Present::Running(p) => Ok(Held::Running(p)),
     }
 }
 
@@ -290,7 +318,7 @@ pub fn answer_text(reg: &Registry, id: &str, kind: &str, query: &str) -> Result<
     let text = |v: Result<String, serde_json::Error>| v.map_err(|e| (StatusCode::INTERNAL_SERVER_ERROR, format!("Internal error: {e}")));
     match ask {
         Ask::Timeline => text(serde_json::to_string(&*timeline(&sim, id)?)),
-        Ask::Poses { seq, step, have } => text(serde_json::to_string(&poses(&sim, id, seq, step, have.as_deref())?)),
+        Ask::Poses { seq, step, have } => text(serde_json::to_string(&pose_frame(&held(&sim, id, seq, step)?.moment(), have.as_deref()))),
         // Half the reply budget: a clip's last frame and scenes may go past its budget.
         Ask::Clip { from, to, every, after, have } => {
             let budget = CLIP_BUDGET.min(reg.limits().max_reply_bytes / 2);

@@ -15,8 +15,7 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, LazyLock, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::seeing::sensing::capture::Scene;
-use crate::seeing::viewer::Overlays;
+use crate::seeing::viewer::moment::Captured;
 use crate::world::World;
 
 /// How often a running step publishes (wall time): 10 pictures a second to choose from.
@@ -24,20 +23,12 @@ pub const PUBLISH_EVERY: Duration = Duration::from_millis(100);
 
 /// One published moment of a running step.
 pub struct Progress {
-    /// What the camera would see.
-    pub scene: Scene,
-    /// Steps since the simulation's creation (the world's step count then).
-    pub steps: u64,
-    /// Simulated time (s).
-    pub time: f64,
-    /// Objects then.
-    pub objects: usize,
+    /// The world then.
+    pub seen: Captured,
     /// Steps this call has taken so far.
     pub done: u64,
     /// Steps this call asked for.
     pub total: u64,
-    /// Contacts and body frames at that moment, as the recorded viewer settings ask.
-    pub overlays: Overlays,
 }
 
 /// How long a viewer's request keeps a running step publishing.
@@ -118,15 +109,7 @@ impl Publisher {
         if !watched(&self.id) {
             return;
         }
-        let progress = Progress {
-            scene: Scene::capture(w),
-            steps: w.steps(),
-            time: w.current_time(),
-            objects: w.objects().count(),
-            done: self.done,
-            total: self.total,
-            overlays: Overlays::of(w, self.contacts),
-        };
+        let progress = Progress { seen: Captured::of(w, self.contacts), done: self.done, total: self.total };
         *self.slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(Arc::new(progress));
     }
 }

@@ -8,14 +8,30 @@ use serde::Serialize;
 use super::{BodyFrame, Overlays};
 use crate::seeing::sensing::capture::Scene;
 use crate::value::{r32, r32s};
-use crate::world::Viewer as RecordedCamera;
+use crate::world::{Viewer as RecordedCamera, World};
 
-/// A captured moment and what is known of it besides the scene.
-pub struct Moment<'a> {
-    /// What the camera sees then (with its time, steps and recorded camera).
-    pub scene: &'a Scene,
+/// What a world looks like to the viewer at one moment, detached from the world: the present,
+/// a running step's published moment and a re-simulated past state are all one of these.
+pub struct Captured {
+    /// What the camera sees (with its time, steps and recorded camera).
+    pub scene: Scene,
     /// Objects then.
     pub objects: usize,
+    /// Contacts and body frames then, as the recorded settings ask.
+    pub overlays: Overlays,
+}
+
+impl Captured {
+    /// `w` as it is now; `contacts_asked`: see `Overlays::of`.
+    pub fn of(w: &World, contacts_asked: bool) -> Captured {
+        Captured { scene: Scene::capture(w), objects: w.object_count(), overlays: Overlays::of(w, contacts_asked) }
+    }
+}
+
+/// A captured moment and where it is: what every viewer answer describes.
+pub struct Moment<'a> {
+    /// The moment.
+    pub seen: &'a Captured,
     /// The state hash ("" for a running step's moment: hashes are computed at its end).
     pub state_hash: &'a str,
     /// The past event shown (None: the present).
@@ -24,8 +40,6 @@ pub struct Moment<'a> {
     pub step: Option<u64>,
     /// [done, asked] of a running step.
     pub progress: Option<[u64; 2]>,
-    /// Contacts and body frames then, as the recorded settings ask.
-    pub overlays: &'a Overlays,
 }
 
 /// The recorded viewer camera (set_camera).
@@ -81,16 +95,17 @@ pub struct Shown {
 impl Shown {
     /// What `m` says about itself.
     pub fn of(m: &Moment) -> Shown {
+        let (scene, overlays) = (&m.seen.scene, &m.seen.overlays);
         Shown {
-            camera: CameraJson::of(&m.scene.camera),
-            time: m.scene.time,
-            steps: m.scene.steps,
-            objects: m.objects,
+            camera: CameraJson::of(&scene.camera),
+            time: scene.time,
+            steps: scene.steps,
+            objects: m.seen.objects,
             state_hash: m.state_hash.to_string(),
-            show_contacts: m.overlays.show_contacts,
-            show_frames: m.overlays.show_frames,
-            contacts: m.overlays.contacts.clone(),
-            frames: m.overlays.frames.clone(),
+            show_contacts: overlays.show_contacts,
+            show_frames: overlays.show_frames,
+            contacts: overlays.contacts.clone(),
+            frames: overlays.frames.clone(),
             seq: m.seq,
             step: m.step,
             progress: m.progress,

@@ -12,7 +12,8 @@ use crate::log::fold::{self, At};
 use crate::seeing::sensing::capture::Scene;
 use crate::sim::Sim;
 use crate::seeing::viewer::recent::Recent;
-use crate::seeing::viewer::{wire, Overlays};
+use crate::seeing::viewer::moment::Captured;
+use crate::seeing::viewer::wire;
 
 /// Past states kept rendered-ready (scenes are small: poses and shape handles).
 const CACHED: usize = 64;
@@ -167,18 +168,10 @@ pub fn contacts_asked_now(sim: &Sim) -> bool {
 
 /// A past state, ready to render.
 pub struct Past {
-    /// What the camera sees.
-    pub scene: Scene,
-    /// Steps since creation.
-    pub steps: u64,
-    /// Simulated time (s).
-    pub time: f64,
-    /// Objects.
-    pub objects: usize,
+    /// The world then.
+    pub seen: Captured,
     /// Its state hash.
     pub state_hash: String,
-    /// Contacts and body frames then, as its recorded viewer settings asked.
-    pub overlays: Overlays,
 }
 
 type Key = (String, u64, Option<u64>);
@@ -245,14 +238,7 @@ pub fn resolve(req: Request) -> Result<Arc<Past>, String> {
             Some(k) => m.at == At::Step && m.seq == seq && m.step_in_event == k,
         };
         if here {
-            found = Some(Past {
-                scene: Scene::capture(w),
-                steps: w.steps(),
-                time: w.current_time(),
-                objects: w.objects().count(),
-                state_hash: w.state_hash(),
-                overlays: Overlays::of(w, contacts),
-            });
+            found = Some(Past { seen: Captured::of(w, contacts), state_hash: w.state_hash() });
         }
         !here
     })

@@ -7,9 +7,7 @@ use base64::Engine;
 use serde::{Deserialize, Serialize};
 
 use super::moment::{CameraJson, Moment, Shown};
-use super::{past, Overlays};
 use crate::seeing::sensing::camera::{self, Mat4};
-use crate::seeing::sensing::capture::Scene;
 use crate::seeing::sensing::render;
 use crate::sim::SharedSim;
 use crate::world::{Viewer as RecordedCamera, World};
@@ -91,8 +89,8 @@ fn matrices(cam: &RecordedCamera, q: &FrameQuery, width: u32, height: u32) -> (M
 /// Renders a captured moment of simulation `simulation_id` as the page asked, with its overlays.
 pub fn scene_frame(m: &Moment, simulation_id: &str, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
     let (width, height) = size(q, max_px)?;
-    let (view, proj) = matrices(&m.scene.camera, q, width, height);
-    let image = render::render_scene(m.scene, width, height, &view, &proj);
+    let (view, proj) = matrices(&m.seen.scene.camera, q, width, height);
+    let image = render::render_scene(&m.seen.scene, width, height, &view, &proj);
     Ok(FrameJson {
         simulation_id: simulation_id.to_string(),
         width,
@@ -108,10 +106,7 @@ pub fn scene_frame(m: &Moment, simulation_id: &str, q: &FrameQuery, max_px: usiz
 /// frame as `scene_frame` of the world captured now (`Scene::capture` gives the pixels
 /// `render::render` gives).
 pub fn frame(w: &World, state_hash: &str, contacts_asked: bool, q: &FrameQuery, max_px: usize) -> Result<FrameJson, String> {
-    let overlays = Overlays::of(w, contacts_asked);
-    let scene = Scene::capture(w);
-    let m = Moment { scene: &scene, objects: w.object_count(), state_hash, seq: None, step: None, progress: None, overlays: &overlays };
-    scene_frame(&m, w.simulation_id(), q, max_px)
+    scene_frame(&super::ask::present_of(w, state_hash, contacts_asked).moment(), w.simulation_id(), q, max_px)
 }
 
 /// A failed viewer answer: an HTTP status and one sentence.
@@ -120,30 +115,7 @@ pub type Failed = (StatusCode, String);
 /// The `/frame` answer for simulation `sim_id`: a past state when `q.seq` says so, else the
 /// present — or, while a call holds the simulation, the newest moment its stepping published.
 pub fn answer(sim: SharedSim, sim_id: &str, q: &FrameQuery, max_px: usize) -> Result<FrameJson, Failed> {
-    let bad = |e: String| (StatusCode::BAD_REQUEST, e);
-    if let Some(seq) = q.seq {
-        let req = {
-            let guard = super::ask::lock_within(&sim)?;
-            past::request(&guard, seq, q.step).map_err(bad)?
-        };
-        let p = past::resolve(req).map_err(bad)?;
-        let m = Moment { scene: &p.scene, objects: p.objects, state_hash: &p.state_hash, seq: Some(seq), step: q.step, progress: None, overlays: &p.overlays };
-        return scene_frame(&m, sim_id, q, max_px).map_err(bad);
-    }
-    match super::ask::present(&sim, sim_id)? {
-        super::ask::Present::Free(guard) => {
-            // Captured under the lock, rendered after it: a render never holds up a call.
-            let w = guard.world();
-            let (overlays, scene) = (Overlays::of(w, past::contacts_asked_now(&guard)), Scene::capture(w));
-            let (objects, hash) = (w.object_count(), guard.state_hash().to_string());
-            drop(guard);
-            let m = Moment { scene: &scene, objects, state_hash: &hash, seq: None, step: None, progress: None, overlays: &overlays };
-            scene_frame(&m, sim_id, q, max_px).map_err(bad)
-        }
-        super::ask::Present::Running(p) => {
-            let running = (p.total > 0).then_some([p.done, p.total]);
-            let m = Moment { scene: &p.scene, objects: p.objects, state_hash: "", seq: None, step: None, progress: running, overlays: &p.overlays };
-            scene_frame(&m, sim_id, q, max_px).map_err(bad)
-        }
-    }
+    // Held, the lock already given back: a render never holds up a call.
+    let held = super::ask::held(&sim, sim_id, q.seq, q.step)?;
+    scene_frame(&held.moment(), sim_id, q, max_px).map_err(|e| (StatusCode::BAD_REQUEST, e))
 }

@@ -13,11 +13,12 @@ use serde::Serialize;
 
 use crate::seeing::sensing::capture::{Posed, Scene};
 use crate::seeing::sensing::render::triangulate;
-use crate::seeing::style::{object_rgb, object_rgba};
+use crate::seeing::style::object_rgba;
 use crate::value::{r32, r32s};
 
 /// A collider's shape as the page builds it: primitives by their sizes (three.js draws them
-/// smooth), anything else as the triangles the CPU renderer draws.
+/// smooth), anything else as the triangles the CPU renderer draws (the world makes no
+/// half-spaces: MJCF planes are boxes, `world::mjcf`).
 #[derive(Serialize, Debug, Clone, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum ShapeJson {
@@ -46,11 +47,6 @@ pub enum ShapeJson {
         b: [f64; 3],
         /// Radius (m).
         r: f64,
-    },
-    /// An infinite plane through the local origin.
-    Plane {
-        /// Its normal (local).
-        normal: [f64; 3],
     },
     /// Triangles: vertices as little-endian f32 x, y, z and indices as little-endian u32, each
     /// base64.
@@ -97,7 +93,6 @@ fn shape_json(p: &Posed) -> ShapeJson {
         TypedShape::Ball(s) => ShapeJson::Sphere { r: r32(s.radius) },
         TypedShape::Cylinder(s) => ShapeJson::Cylinder { hh: r32(s.half_height), r: r32(s.radius) },
         TypedShape::Capsule(s) => ShapeJson::Capsule { a: r32s(s.segment.a.to_array()), b: r32s(s.segment.b.to_array()), r: r32(s.radius) },
-        TypedShape::HalfSpace(s) => ShapeJson::Plane { normal: r32s(s.normal.to_array()) },
         _ => {
             let (vertices, triangles) = triangulate(&*p.shape);
             let v: Vec<u8> = vertices.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
@@ -114,10 +109,9 @@ fn signature(p: &Posed, h: &mut blake3::Hasher) {
     h.update(&p.object_id.to_le_bytes());
     h.update(&p.link_index.to_le_bytes());
     h.update(&[u8::from(p.fixed)]);
-    for c in object_rgb(p.object_id, p.color) {
+    for c in object_rgba(p.object_id, p.color) {
         h.update(&c.to_le_bytes());
     }
-    h.update(&p.color.map_or(1.0, |c| c[3]).to_le_bytes());
     let shape = &*p.shape;
     h.update(&(shape.shape_type() as u32).to_le_bytes());
     let aabb = shape.compute_local_aabb();
