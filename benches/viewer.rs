@@ -1,4 +1,4 @@
-//! Issue 28 benchmark (`cargo bench --bench viewer`): what one live viewer frame of the
+//! The live viewer frame benchmark (`cargo bench --bench viewer`): what one frame of the
 //! collapsed 1,000-box pile costs the server, the WebGL page's poses frame (scene capture,
 //! key, poses, JSON) against the server-rendered 640×480 PNG frame of before, in one run;
 //! and the bytes each sends. `REPORT` lines carry the figures for docs/benchmarks.md.
