@@ -261,12 +261,15 @@ pub fn fold(
 }
 
 /// The world a chain's first event (create_simulation) builds, its values validated first
-/// (a foreign file's root may hold anything), with the command's own result.
+/// (a foreign file's root may hold anything), under the state hash rules of the root's event
+/// version, with the command's own result.
 pub fn create_root(e: &Event, blobs: &dyn BlobSource) -> Result<(World, Outcome), FoldError> {
     let refused = |why: String| FoldError::Refused { seq: e.seq, why };
     let root = decode(e, blobs)?.ok_or_else(|| refused("it has no command".into()))?;
     root.validate_values().map_err(refused)?;
     let (world, result) = World::create(&root).ok_or_else(|| refused("the chain does not start with create_simulation".into()))?;
+    // The chain keeps the state hash its root was recorded under (older logs: v1).
+    let world = world.with_hash_rules(crate::command::hash_rules_of(e.version));
     let result = result.land(e.seq, world.current_time());
     Ok((world, result))
 }

@@ -21,7 +21,7 @@ use crate::command::{Blob, Command};
 use crate::limits::Limits;
 use crate::outputs::{Batched, Outcome};
 use crate::sim::reads::{Read, ReadContext};
-use crate::sim::{Sim, SNAPSHOT_EVERY_BODY_STEPS, SNAPSHOT_EVERY_CHANGES};
+use crate::sim::{snapshot_every_changes, Sim, SNAPSHOT_EVERY_BODY_STEPS};
 use crate::log::sqlite::{Event, Kind};
 use crate::value::{Args, Refusal};
 use crate::world::{StepControl, StepObserver, World};
@@ -358,7 +358,7 @@ fn work_out(
         }
         events.push(e);
     }
-    if changes_since >= SNAPSHOT_EVERY_CHANGES && head != head_before {
+    if changes_since >= snapshot_every_changes(world.object_count()) && head != head_before {
         snapshots.push(snapshot_of(world, head));
         (work_since, changes_since) = (0, 0);
     }

@@ -39,8 +39,18 @@ use crate::world::World;
 /// the last one — about half a second for a 1000-body pile — so rebuilding any recent state
 /// (undo, fork, restart) costs at most that much re-simulation, whatever the world's size…
 pub const SNAPSHOT_EVERY_BODY_STEPS: u64 = 100_000;
-/// …or after this many state-changing events since the last one.
+/// …or after this many state-changing events since the last one (`snapshot_every_changes`).
 pub const SNAPSHOT_EVERY_CHANGES: u32 = 64;
+
+/// The state-changing events after which a snapshot is due in a world of `objects` objects:
+/// `SNAPSHOT_EVERY_CHANGES`, or a quarter of the objects if that is more. A snapshot costs time
+/// and disk in proportion to the world, so a big world takes one after proportionally more
+/// changes: each change's share of the snapshot cost is the same at any size (adding the
+/// 10,000th box costs what adding the 100th does), and rebuilding from the last snapshot folds
+/// at most a quarter as many one-object changes as the snapshot restores objects.
+pub fn snapshot_every_changes(objects: usize) -> u32 {
+    SNAPSHOT_EVERY_CHANGES.max(u32::try_from(objects / 4).unwrap_or(u32::MAX))
+}
 
 /// Snapshots on a chain kept unconditionally, newest first.
 pub const SNAPSHOTS_KEPT_RECENT: usize = 100;

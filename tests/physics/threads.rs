@@ -187,9 +187,10 @@ fn pool_of(threads: usize) -> std::sync::Arc<rapier3d::rayon::ThreadPool> {
 }
 
 /// The scene's hashes: after building, after every chunk, the snapshot's content hash at the
-/// half-way chunk, then after every chunk continued from that snapshot restored.
+/// half-way chunk, then after every chunk continued from that snapshot restored. Under state
+/// hash v1, which the reference was recorded with (its snapshots are then written as then).
 fn run(scene: &Scene, pool: &Pool) -> Vec<String> {
-    let mut w = (scene.build)();
+    let mut w = (scene.build)().with_hash_rules(physics_mcp::world::HashRules::V1);
     with_pool(&mut w, pool);
     let mut hashes = vec![format!("built {}", w.state_hash())];
     let chunks = scene.steps / CHUNK;

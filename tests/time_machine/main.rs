@@ -10,6 +10,7 @@ mod cancelled_step;
 mod compat_v1;
 mod engine_build;
 mod fork_chains;
+mod incremental_hash;
 mod properties;
 mod record_replays;
 mod replays;

@@ -1,7 +1,8 @@
 //! Seeded property tests over random sequences of tool calls:
 //! folding twice gives the same hashes; stopping (restart = snapshot + refold) at a random
 //! point and continuing equals an uninterrupted run; undo k then redo k restores the hash; a
-//! fork at seq s then the same calls reproduces the original's hashes.
+//! fork at seq s then the same calls reproduces the original's hashes; after every call the
+//! kept (incremental) state hash equals one recomputed from nothing.
 //!
 //! The seed comes from `PHYSICS_SEED` (a decimal u64) or a fixed default; every failure prints
 //! `seed=…` so it replays exactly: `PHYSICS_SEED=… cargo test --test properties`.
@@ -24,6 +25,8 @@ enum Op {
     AddSphere([f32; 3]),
     Step(u64),
     Force(u32, [f32; 3]),
+    Torque(u32, [f32; 3]),
+    Pose(u32, [f32; 3]),
     Velocity(u32, [f32; 3]),
     Friction(u32, f32),
     Remove(u32),
@@ -41,6 +44,8 @@ fn op() -> impl Strategy<Value = Op> {
         2 => xyz(1.0).prop_map(Op::AddSphere),
         4 => (1u64..40).prop_map(Op::Step),
         2 => (0u32..6, xyz(20.0)).prop_map(|(i, f)| Op::Force(i, f)),
+        1 => (0u32..6, xyz(5.0)).prop_map(|(i, t)| Op::Torque(i, t)),
+        1 => (0u32..6, xyz(1.0)).prop_map(|(i, p)| Op::Pose(i, p)),
         1 => (0u32..6, xyz(2.0)).prop_map(|(i, v)| Op::Velocity(i, v)),
         1 => (0u32..6, 0.0f32..1.0).prop_map(|(i, f)| Op::Friction(i, f)),
         1 => (0u32..6).prop_map(Op::Remove),
@@ -70,8 +75,17 @@ fn new_sim(reg: &Registry, id: &str) -> SharedSim {
     sim
 }
 
-/// Applies one op (refusals are part of the behaviour) and returns the state hash after it.
+/// Applies one op (refusals are part of the behaviour) and returns the state hash after it,
+/// having checked that the kept hash is the one a full recompute gives.
 fn run(sim: &SharedSim, op: &Op) -> String {
+    let hash = apply(sim, op);
+    let s = lock_sim(sim);
+    assert_eq!(s.world().state_hash(), s.world().state_hash_from_scratch(), "the kept hash drifted after {op:?}");
+    assert_eq!(s.world().state_hash(), hash, "the recorded hash is the world's after {op:?}");
+    hash
+}
+
+fn apply(sim: &SharedSim, op: &Op) -> String {
     let mut s = lock_sim(sim);
     let a = Args::new();
     let l = Limits::default();
@@ -87,6 +101,8 @@ fn run(sim: &SharedSim, op: &Op) -> String {
         },
         Op::Step(steps) => Command::StepSimulation { steps },
         Op::Force(object_id, force) => Command::ApplyForce { object_id, force, position: None, link_index: -1 },
+        Op::Torque(object_id, torque) => Command::ApplyTorque { object_id, torque, link_index: -1 },
+        Op::Pose(object_id, position) => Command::SetObjectPose { object_id, position, orientation: [0.0, 0.6, 0.0, 0.8] },
         Op::Velocity(object_id, v) => Command::SetObjectVelocity { object_id, linear_velocity: Some(v), angular_velocity: None },
         Op::Friction(object_id, f) => Command::ChangeDynamics {
             object_id, link_index: -1, change: DynamicsChange { lateral_friction: Some(f), ..Default::default() },

@@ -66,6 +66,8 @@ async fn record(script: &Path, out: &Path) -> Result<Vec<PathBuf>, String> {
     let text = std::fs::read_to_string(script).map_err(|e| format!("{}: {e}", script.display()))?;
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start(dir.path(), &[]);
+    // The fixtures (URDFs, MJCF models) are in the workspace for scripts that load them.
+    server.copy_fixtures();
     let client = server.client().await;
     let ran = run_script(&client, &text).await;
     drop(client);

@@ -6,7 +6,7 @@
 use crate::common;
 
 use physics_mcp::command::{Command, ConstraintSpec, ConstraintType, DynamicsChange, Shape};
-use physics_mcp::world::World;
+use physics_mcp::world::{HashRules, World};
 
 fn apply(w: &mut World, c: Command) {
     w.apply(&c, &mut |_| true);
@@ -202,19 +202,21 @@ fn robots_with_motors_restore_bit_identically() {
     assert!(wheel.abs() > 1.0 && (shoulder - 1.0).abs() < 0.05, "wheel {wheel}, shoulder {shoulder}");
 }
 
-/// Filtered worlds of both kinds restore and continue bit for bit: the first release's filters
-/// (tested both ways, `pybullet_test` absent) are still written as snapshot version 4 with the
-/// hash they always had, PyBullet's test as version 5; each restores to its own rule.
+/// Filtered worlds of both kinds restore and continue bit for bit: in a chain of state hash v1
+/// the first release's filters (tested both ways, `pybullet_test` absent) are still written as
+/// snapshot version 4 with the hash they always had, PyBullet's test as version 5; a world of
+/// state hash v2 is written as version 6; each restores to its own rules.
 #[test]
 fn filtered_worlds_of_both_rules_restore_and_continue_bit_identically() {
     let mut hashes = Vec::new();
-    for (pybullet_test, version) in [(false, 4u32), (true, 5)] {
-        let mut w = pile();
+    for (rules, pybullet_test, version) in [(HashRules::V1, false, 4u32), (HashRules::V1, true, 5), (HashRules::V2, true, 6)] {
+        let mut w = pile().with_hash_rules(rules);
         apply(&mut w, Command::SetCollisionFilter { object_id: 1, link_index: -1, group: 2, mask: 1, pybullet_test });
         apply(&mut w, Command::SetCollisionPair { a: (2, -1), b: (3, -1), enable: false });
         let bytes = w.snapshot();
         assert_eq!(bytes[0] as u32, version, "pybullet_test {pybullet_test}: snapshot version");
         let mut r = World::restore("pile", false, &bytes).unwrap();
+        assert_eq!(r.hash_rules(), rules);
         assert_eq!(r.state_hash(), w.state_hash());
         assert_eq!(r.snapshot(), bytes, "re-serialised");
         for k in 0..3 {
@@ -225,6 +227,7 @@ fn filtered_worlds_of_both_rules_restore_and_continue_bit_identically() {
         hashes.push(w.state_hash());
     }
     assert_ne!(hashes[0], hashes[1], "the rule is state");
+    assert_ne!(hashes[1], hashes[2], "v1 and v2 hash the same world differently");
 }
 
 /// The rule outlives the filters that brought it: with every filtered object removed, a

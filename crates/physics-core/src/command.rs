@@ -23,7 +23,21 @@ use crate::world::World;
 /// 3: every state-changing result says where it landed (`head_seq`, `time`: `outputs::Landed`).
 /// 4: get_camera_image without a view matrix frames the scene until set_camera is called, and
 /// reports the camera used (results of version-3 reads are re-checked under version 3's rule).
-pub const EVENT_VERSION: u32 = 4;
+/// 5: a simulation created under it records state hash v2 (`world::HashRules`: a Merkle tree
+/// over objects, so a change to one object costs the same at any world size); results are as
+/// version 4's.
+pub const EVENT_VERSION: u32 = 5;
+
+/// The event version from which a chain's root records state hash v2.
+pub const STATE_HASH_V2_SINCE: u32 = 5;
+
+/// The state hash rules of a chain whose root was recorded under event version `version`.
+pub fn hash_rules_of(version: u32) -> crate::world::HashRules {
+    match version >= STATE_HASH_V2_SINCE {
+        true => crate::world::HashRules::V2,
+        false => crate::world::HashRules::V1,
+    }
+}
 
 /// The oldest event version whose results are re-checked: from it on, every result is computed
 /// under the rules of the version that recorded it (version 4 changed only get_camera_image's,

@@ -2,17 +2,87 @@
 //!
 //! Not the solver caches (the snapshot hash covers those), not the simulation id, the gui flag
 //! or any seq — so a fork, a load or a restart of the same state hashes the same. The encoding
-//! is postcard of plain arrays of f32 (exact bits) in object-id order. Changing what is encoded
-//! means bumping `STATE_HASH_VERSION` and re-recording `replays/`.
+//! is postcard of plain arrays of f32 (exact bits) in object-id order.
+//!
+//! Two definitions exist, and a world keeps the one its chain began with ([`HashRules`]):
+//! - **v1** (simulations created before event version 5): one blake3 over the whole encoding,
+//!   so every change re-hashes every object;
+//! - **v2** (from event version 5): each object's encoding is a leaf of a Merkle tree over
+//!   object ids (`hash_tree`), kept between calls; the hash is blake3 over the world-wide
+//!   values (gravity, time, counters, viewer, filters, constraints) and the tree's root. A
+//!   change that touches one object ([`touched_by`]) costs the same in a world of 100 objects
+//!   as in one of 10,000.
+//!
+//! Changing what is encoded means a new version beside these, never an edit of them.
+
+use std::sync::{Mutex, MutexGuard};
 
 use serde::Serialize;
 
 use rapier3d::prelude::{RigidBody, RigidBodyHandle};
 
+use super::hash_tree::{Digest, Touched, Tree};
 use super::{DynamicsExtras, Object, ObjectKind, Robot, Viewer, World};
+use crate::command::Command;
 
-/// Version prefix of the canonical encoding.
+/// Version prefix of the v1 canonical encoding.
 pub const STATE_HASH_VERSION: &str = "physics-mcp/state/v1";
+/// Version prefix of the v2 encoding (the world-wide values and the objects' Merkle root).
+pub const STATE_HASH_V2: &str = "physics-mcp/state/v2";
+
+/// Which definition of the state hash a world's chain records (module doc). Kept with the
+/// world (snapshot version 6 means v2), inherited by forks and loads, so every recorded hash
+/// of every log keeps verifying.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HashRules {
+    /// One blake3 over the whole world.
+    V1,
+    /// The objects' Merkle tree, updated per touched object.
+    V2,
+}
+
+/// The v2 digests kept between calls (a cache: neither hashed nor snapshotted).
+#[derive(Default)]
+pub(super) struct Digests(Mutex<Tree>);
+
+impl Digests {
+    /// A copy for `World::duplicate` (the batch's working copy keeps the work done).
+    pub(super) fn duplicate(&self) -> Digests {
+        Digests(Mutex::new(self.lock().clone()))
+    }
+
+    /// Notes what an applied command changed.
+    pub(super) fn mark(&mut self, touched: Touched) {
+        self.0.get_mut().unwrap_or_else(|poisoned| poisoned.into_inner()).mark(touched);
+    }
+
+    /// The tree; after a panic mid-update (a bug) it is rebuilt in full rather than trusted.
+    fn lock(&self) -> MutexGuard<'_, Tree> {
+        self.0.lock().unwrap_or_else(|poisoned| {
+            self.0.clear_poison();
+            let mut tree = poisoned.into_inner();
+            tree.mark(Touched::All);
+            tree
+        })
+    }
+}
+
+/// Which objects `cmd` can change, `next_object_id` being the world's before it is applied
+/// (an added object gets that id). Only commands that change one object's own state are
+/// narrowed; anything else may move any object and re-hashes all of them.
+pub(super) fn touched_by(cmd: &Command, next_object_id: u32) -> Touched {
+    match cmd {
+        Command::AddBody { .. } => Touched::One(next_object_id),
+        Command::SetObjectPose { object_id, .. }
+        | Command::ApplyForce { object_id, .. }
+        | Command::ApplyTorque { object_id, .. }
+        | Command::SetObjectVelocity { object_id, .. }
+        | Command::ChangeDynamics { object_id, .. }
+        | Command::RemoveObject { object_id } => Touched::One(*object_id),
+        Command::SetCamera { .. } | Command::SetDebugVisualization { .. } | Command::SetTimestep { .. } => Touched::Nothing,
+        _ => Touched::All,
+    }
+}
 
 /// The dynamic state of one rapier body, as hashed (shared by primitives and robot links;
 /// postcard encodes a nested struct exactly as its fields inline, so primitives hash as before).
@@ -88,26 +158,103 @@ fn encode<T: Serialize + ?Sized>(view: &T) -> Vec<u8> {
     postcard::to_stdvec(view).expect("state-hash views are plain known-length data that postcard always encodes")
 }
 
+/// The world's state hash under its rules, v2 from the kept tree.
 pub(super) fn state_hash(w: &World) -> String {
+    match w.hash_rules {
+        HashRules::V1 => state_hash_v1(w),
+        HashRules::V2 => state_hash_v2(w, &mut w.digests.lock()),
+    }
+}
+
+/// The same hash computed without the kept tree: what the incremental one must equal.
+pub(super) fn state_hash_from_scratch(w: &World) -> String {
+    match w.hash_rules {
+        HashRules::V1 => state_hash_v1(w),
+        HashRules::V2 => state_hash_v2(w, &mut Tree::default()),
+    }
+}
+
+/// One object as v2 hashes it: its id, kind and the same views v1 encodes.
+#[derive(Serialize)]
+enum Leaf<'a> {
+    Primitive(BodyView<'a>),
+    Robot(RobotView<'a>),
+    Mjcf(RobotView<'a>, &'a super::mjcf::MjcfInfo, Option<PartView>),
+}
+
+/// The v2 leaf of object `id` (None: no such object, or its body is gone).
+fn object_leaf(w: &World, id: u32) -> Option<Digest> {
+    let obj = w.tables.objects.get(&id)?;
+    let leaf = match &obj.kind {
+        ObjectKind::Primitive { .. } => Leaf::Primitive(body_view(w, id, obj)?),
+        ObjectKind::Robot { robot } => Leaf::Robot(robot_view(w, id, obj, robot)),
+        ObjectKind::Mjcf { robot, mjcf } => {
+            let world = mjcf.world_body.and_then(|h| part_view(w, h, &mjcf.world_colliders, [0.0; 2]));
+            Leaf::Mjcf(robot_view(w, id, obj, robot), mjcf, world)
+        }
+    };
+    Some(*blake3::hash(&encode(&leaf)).as_bytes())
+}
+
+/// The world-wide values v2 hashes beside the objects' root.
+#[derive(Serialize)]
+struct HeaderV2<'a> {
+    version: &'static str,
+    gravity: [f32; 3],
+    timestep: f32,
+    time_s: f64,
+    steps: u64,
+    next_object_id: u32,
+    next_constraint_id: u32,
+    pending_wrench: &'a std::collections::BTreeSet<u32>,
+    viewer: &'a Viewer,
+    filters: &'a super::filters::Filters,
+    constraints: Vec<super::constraints::ConstraintView<'a>>,
+    objects: Digest,
+}
+
+fn state_hash_v2(w: &World, tree: &mut Tree) -> String {
+    let objects = tree.root(w.tables.objects.keys().copied(), |id| object_leaf(w, id));
+    let header = HeaderV2 {
+        version: STATE_HASH_V2,
+        gravity: w.physics.gravity.to_array(),
+        timestep: w.physics.integration_parameters.dt,
+        time_s: w.tables.time_s,
+        steps: w.tables.steps,
+        next_object_id: w.tables.next_object_id,
+        next_constraint_id: w.tables.next_constraint_id,
+        pending_wrench: &w.tables.pending_wrench,
+        viewer: &w.tables.viewer,
+        filters: &w.tables.filters,
+        constraints: super::constraints::hash_views(w),
+        objects,
+    };
+    blake3::hash(&encode(&header)).to_hex().to_string()
+}
+
+/// A primitive's view (None when its body or collider is gone).
+fn body_view<'a>(w: &World, id: u32, obj: &'a Object) -> Option<BodyView<'a>> {
+    let b = w.physics.bodies.get(obj.body)?;
+    let c = w.physics.colliders.get(obj.collider)?;
+    Some(BodyView {
+        id,
+        kind: &obj.kind,
+        color: obj.color,
+        mass_requested: obj.mass,
+        extras: &obj.extras,
+        dynamic: dynamic(b),
+        friction: c.friction(),
+        restitution: c.restitution(),
+    })
+}
+
+fn state_hash_v1(w: &World) -> String {
     let bodies = w
         .tables
         .objects
         .iter()
         .filter(|(_, obj)| matches!(obj.kind, ObjectKind::Primitive { .. }))
-        .filter_map(|(id, obj)| {
-            let b = w.physics.bodies.get(obj.body)?;
-            let c = w.physics.colliders.get(obj.collider)?;
-            Some(BodyView {
-                id: *id,
-                kind: &obj.kind,
-                color: obj.color,
-                mass_requested: obj.mass,
-                extras: &obj.extras,
-                dynamic: dynamic(b),
-                friction: c.friction(),
-                restitution: c.restitution(),
-            })
-        })
+        .filter_map(|(id, obj)| body_view(w, *id, obj))
         .collect();
     let view = StateView {
         version: STATE_HASH_VERSION,

@@ -10,6 +10,7 @@ mod bodies;
 pub mod constraints;
 pub mod filters;
 mod hash;
+mod hash_tree;
 pub mod ik;
 pub mod mjcf;
 pub mod mjcf_mesh;
@@ -31,7 +32,7 @@ use crate::command::{Command, Shape};
 use crate::outputs::{Created, Message, Outcome, Stepped, TimestepSet};
 use crate::value::r32s;
 
-pub use hash::STATE_HASH_VERSION;
+pub use hash::{HashRules, STATE_HASH_V2, STATE_HASH_VERSION};
 pub use robot::{Robot, RobotLink, DEFAULT_MOTOR_FORCE};
 
 /// The robot model a LoadUrdf command's blobs describe (the check and the fold share it);
@@ -361,6 +362,11 @@ pub struct World {
     /// A pure function of `physics` and `tables`, neither hashed nor snapshotted: a restored
     /// world builds the same index from the same state when first asked.
     scene: OnceLock<scene::Scene>,
+    /// Which state hash this world's chain records (`hash` module doc).
+    hash_rules: HashRules,
+    /// The v2 hash's Merkle tree over the objects, kept between calls: a cache of a pure
+    /// function of the state, neither hashed nor snapshotted.
+    digests: hash::Digests,
 }
 
 /// Hook called during long steps with the steps done so far; returning false stops early.
@@ -372,7 +378,8 @@ pub type StepControl<'a> = &'a mut (dyn FnMut(u64) -> bool + Send);
 pub type StepObserver<'a> = &'a mut (dyn FnMut(&World) + Send);
 
 impl World {
-    /// Builds the world a root `CreateSimulation` command describes.
+    /// Builds the world a root `CreateSimulation` command describes, under today's state hash
+    /// (v2); a root recorded before event version 5 is folded `with_hash_rules(HashRules::V1)`.
     pub fn create(cmd: &Command) -> Option<(World, Outcome)> {
         let Command::CreateSimulation {
             simulation_id,
@@ -395,6 +402,8 @@ impl World {
             physics,
             tables: Tables::default(),
             scene: OnceLock::new(),
+            hash_rules: HashRules::V2,
+            digests: Default::default(),
         };
         let out = Created {
             landed: None,
@@ -405,6 +414,18 @@ impl World {
             viewer_url: None,
         };
         Some((world, Outcome::Created(out)))
+    }
+
+    /// The same world under the state hash `rules` (a chain keeps the rules its root was
+    /// recorded under: `command::hash_rules_of`).
+    pub fn with_hash_rules(mut self, rules: HashRules) -> World {
+        self.hash_rules = rules;
+        self
+    }
+
+    /// The state hash rules this world records.
+    pub fn hash_rules(&self) -> HashRules {
+        self.hash_rules
     }
 
     /// The same state under another identity (a fork's root in replay).
@@ -516,6 +537,18 @@ impl World {
     pub fn apply_observed(&mut self, cmd: &Command, control: StepControl, observe: StepObserver) -> Outcome {
         // Any command may move, add or remove colliders: the scene index is rebuilt on demand.
         self.scene.take();
+        // What it may change among the objects, for the state hash's kept tree: marked before
+        // (an observer may ask for the hash mid-step) and again after (what changed after the
+        // observer asked is stale too).
+        let touched = hash::touched_by(cmd, self.tables.next_object_id);
+        self.digests.mark(touched.clone());
+        let out = self.apply_unmarked(cmd, control, observe);
+        self.digests.mark(touched);
+        out
+    }
+
+    /// `apply_observed` without the hash bookkeeping.
+    fn apply_unmarked(&mut self, cmd: &Command, control: StepControl, observe: StepObserver) -> Outcome {
         match cmd {
             Command::CreateSimulation { .. }
             | Command::ForkSimulation { .. }
@@ -663,7 +696,10 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if t.filters.is_empty() {
+        let encoded = if self.hash_rules == HashRules::V2 {
+            // Version 6 is version 5's encoding in a world whose chain records state hash v2.
+            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t), out)
+        } else if t.filters.is_empty() {
             let v3 = self.tables_v3_ref();
             postcard::to_extend(&(3u32, &self.physics, v3), out)
         } else if !t.filters.pybullet_test {
@@ -671,7 +707,7 @@ impl World {
             let v3 = self.tables_v3_ref();
             postcard::to_extend(&(4u32, &self.physics, v3, t.filters.v4()), out)
         } else {
-            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t), out)
+            postcard::to_extend(&(5u32, &self.physics, t), out)
         };
         encoded.unwrap_or_default()
     }
@@ -717,6 +753,8 @@ impl World {
             },
             tables: self.tables.clone(),
             scene: OnceLock::new(),
+            hash_rules: self.hash_rules,
+            digests: self.digests.duplicate(),
         }
     }
 
@@ -726,7 +764,7 @@ impl World {
         let bad = |e: postcard::Error| format!("snapshot does not decode: {e}");
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let (physics, tables) = match version {
-            SNAPSHOT_VERSION => {
+            5 | SNAPSHOT_VERSION => {
                 let (_, physics, tables): (u32, PhysicsWorld, Tables) =
                     postcard::from_bytes(bytes).map_err(bad)?;
                 (physics, tables)
@@ -765,6 +803,8 @@ impl World {
             physics,
             tables,
             scene: OnceLock::new(),
+            hash_rules: if version == SNAPSHOT_VERSION { HashRules::V2 } else { HashRules::V1 },
+            digests: Default::default(),
         })
     }
 
@@ -777,17 +817,27 @@ impl World {
         postcard::take_from_bytes::<u32>(bytes).is_ok_and(|(v, _)| (3..=SNAPSHOT_VERSION).contains(&v))
     }
 
-    /// blake3 (hex) over the canonical encoding of everything `apply` can change.
+    /// blake3 (hex) over the canonical encoding of everything `apply` can change, under this
+    /// world's rules (`hash` module doc; v2 re-hashes only the objects changed since last asked).
     pub fn state_hash(&self) -> String {
         hash::state_hash(self)
+    }
+
+    /// `state_hash` recomputed from nothing, ignoring the kept tree: what the incremental hash
+    /// must always equal (the property tests compare them after every event).
+    pub fn state_hash_from_scratch(&self) -> String {
+        hash::state_hash_from_scratch(self)
     }
 }
 
 /// Version of the snapshot encoding (2 added constraints to the tables, 3 the values as given,
 /// 4 the collision filters, written only for worlds that have any — others are written as 3;
 /// 5 PyBullet's filter test (`Filters::pybullet_test`), written only for worlds that use it —
-/// worlds with the first release's filters are written as 4; 1 to 4 still restore).
-pub const SNAPSHOT_VERSION: u32 = 5;
+/// worlds with the first release's filters are written as 4; 6 is 5's encoding in a world
+/// whose chain records state hash v2 (every world created from event version 5 on), so the
+/// rules travel with forks and loads; worlds of older chains are still written as 3, 4 or 5;
+/// 1 to 5 still restore, under state hash v1).
+pub const SNAPSHOT_VERSION: u32 = 6;
 
 impl From<bodies::BodyOutcome> for Outcome {
     fn from(o: bodies::BodyOutcome) -> Outcome {
