@@ -234,8 +234,14 @@ fn record_acknowledged(file: &std::fs::File, seq: u64) -> std::io::Result<()> {
     file.write_all_at(&seq.to_le_bytes(), 0)
 }
 
-/// Commits between background checkpoints when no snapshot triggers one sooner.
-const CHECKPOINT_EVERY_COMMITS: u32 = 512;
+/// How long a connection waits for a lock (rusqlite's default, restored after a truncation
+/// that must not wait).
+const DEFAULT_BUSY_MS: u64 = 5_000;
+
+/// Commits between background checkpoints when no snapshot triggers one sooner. Each commit of
+/// a small event writes about two 64 KB pages to the WAL, so this bounds the WAL to ~20 MB
+/// between checkpoints (plus the snapshots written meanwhile).
+const CHECKPOINT_EVERY_COMMITS: u32 = 128;
 
 /// The open log of one simulation.
 pub struct Log {
@@ -246,6 +252,11 @@ pub struct Log {
     pending: Vec<Event>,
     commits_since_checkpoint: u32,
     checkpointing: Arc<AtomicBool>,
+    /// Set by the background checkpointer when it has copied the WAL: the next commit then
+    /// truncates the WAL (`truncate_wal`), which a checkpoint running beside a steady stream of
+    /// commits never can — without it a long session's WAL grew without bound (1.3 GB for a
+    /// 9,900-object scene built call by call).
+    backfilled: Arc<AtomicBool>,
     /// The SELECT list of events for this file's schema (see `event_columns`).
     select_columns: String,
     /// The acknowledgement file (`-seq`), once the log is open under its final name.
@@ -260,8 +271,9 @@ pub struct Log {
 }
 
 /// Copies the WAL into the main file on its own connection (PASSIVE: never blocks the
-/// writer). Never creates a file: a log deleted meanwhile is simply skipped.
-fn checkpoint_in_background(path: PathBuf, busy: Arc<AtomicBool>) {
+/// writer), then sets `backfilled`. Never creates a file: a log deleted meanwhile is simply
+/// skipped.
+fn checkpoint_in_background(path: PathBuf, busy: Arc<AtomicBool>, backfilled: Arc<AtomicBool>) {
     if busy.swap(true, Ordering::AcqRel) {
         return;
     }
@@ -279,8 +291,9 @@ fn checkpoint_in_background(path: PathBuf, busy: Arc<AtomicBool>) {
         let flags = rusqlite::OpenFlags::SQLITE_OPEN_READ_WRITE | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX;
         if let Ok(conn) = Connection::open_with_flags(&path, flags) {
             crate::crash_point!("checkpoint");
-            if let Err(e) = conn.query_row("PRAGMA wal_checkpoint(PASSIVE)", [], |_| Ok(())) {
-                tracing::warn!("checkpoint of {} failed: {e}", path.display());
+            match conn.query_row("PRAGMA wal_checkpoint(PASSIVE)", [], |_| Ok(())) {
+                Ok(()) => backfilled.store(true, Ordering::Release),
+                Err(e) => tracing::warn!("checkpoint of {} failed: {e}", path.display()),
             }
         }
     });
@@ -432,6 +445,7 @@ impl Log {
             pending: Vec::new(),
             commits_since_checkpoint: 0,
             checkpointing: Arc::default(),
+            backfilled: Arc::default(),
             select_columns,
             acknowledged: None,
             replica: None,
@@ -538,6 +552,7 @@ impl Log {
             pending: Vec::new(),
             commits_since_checkpoint: 0,
             checkpointing: Arc::default(),
+            backfilled: Arc::default(),
             select_columns,
             acknowledged: None,
             replica: None,
@@ -705,11 +720,30 @@ impl Log {
         self.last_seq = last.seq;
         self.head_seq = head;
         self.commits_since_checkpoint += 1;
+        self.truncate_wal();
         if !snapshots.is_empty() || self.commits_since_checkpoint >= CHECKPOINT_EVERY_COMMITS {
             self.commits_since_checkpoint = 0;
-            checkpoint_in_background(self.path.clone(), self.checkpointing.clone());
+            checkpoint_in_background(self.path.clone(), self.checkpointing.clone(), self.backfilled.clone());
         }
         Ok(())
+    }
+
+    /// After a background checkpoint has copied the WAL, finishes it on the writer's own
+    /// connection: copies the few commits made meanwhile and truncates the WAL to nothing
+    /// (TRUNCATE; between commits, so no reader of this log holds it). Best effort: a busy or
+    /// failed truncation leaves the WAL as it was, and the next background checkpoint tries
+    /// again.
+    fn truncate_wal(&mut self) {
+        if self.checkpointing.load(Ordering::Acquire) || !self.backfilled.swap(false, Ordering::AcqRel) {
+            return;
+        }
+        // Never wait for another reader of the file (a replay, a copy): skip instead.
+        let waits = |ms| self.conn.busy_timeout(std::time::Duration::from_millis(ms));
+        let done = waits(0).and_then(|()| self.conn.query_row("PRAGMA wal_checkpoint(TRUNCATE)", [], |_| Ok(())));
+        if let Err(e) = done.and_then(|()| waits(DEFAULT_BUSY_MS)) {
+            let _ = waits(DEFAULT_BUSY_MS);
+            tracing::warn!("truncating the WAL of {} failed: {e}", self.path.display());
+        }
     }
 
     /// Moves the WAL's contents into the main file (so `file_bytes` measures the log itself).
