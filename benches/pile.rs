@@ -1,8 +1,8 @@
 //! The 1000-box pile of issue 2, shared by the benchmarks that need it (stepping, snapshots,
-//! MCP overhead, rays).
+//! MCP overhead, rays, threads), and the 64 URDF arms the thread tests and benchmarks step.
 #![allow(dead_code)]
 
-use physics_mcp::command::{Command, Shape};
+use physics_mcp::command::{Blob, Command, ControlMode, MotorSpec, Shape};
 use physics_mcp::world::World;
 use rand::{Rng, SeedableRng};
 use serde_json::json;
@@ -71,3 +71,47 @@ pub fn pile_world() -> World {
     w
 }
 
+fn yaw(a: f32) -> [f32; 4] {
+    let (s, c) = (a / 2.0).sin_cos();
+    [0.0, 0.0, s, c]
+}
+
+/// 64 free-floating two-link arms (multibodies) in 8 stacks of 8, each turned against the one
+/// below, falling onto the ground and each other; every other arm's shoulder is velocity-driven.
+pub fn arms_world() -> World {
+    let mut w = World::create(&root("arms")).unwrap().0;
+    w.apply(&raw_pile()[0], &mut |_| true);
+    let urdf = std::fs::read(std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/two_link_arm.urdf")).unwrap();
+    for s in 0..8 {
+        for k in 0..8 {
+            let n = s * 8 + k;
+            let out = w.apply(
+                &Command::LoadUrdf {
+                    file_path: "two_link_arm.urdf".into(),
+                    urdf: Blob::new(urdf.clone()),
+                    meshes: Default::default(),
+                    position: [(s % 4) as f32 * 1.2, (s / 4) as f32 * 1.2, 0.1 + 0.08 * k as f32],
+                    orientation: yaw(0.7 * k as f32),
+                    fixed_base: false,
+                    continuous_limits_from_file: true,
+                    revolute_prismatic_limits_from_file: true,
+                    parsed: Default::default(),
+                },
+                &mut |_| true,
+            ).to_value();
+            let id = out["object_id"].as_u64().unwrap() as u32;
+            if n % 2 == 0 {
+                let motor = MotorSpec {
+                    mode: ControlMode::VelocityControl,
+                    target_position: 0.0,
+                    target_velocity: if n % 4 == 0 { 2.0 } else { -2.0 },
+                    force: Some(5.0),
+                    position_gain: 0.1,
+                    velocity_gain: 1.0,
+                };
+                w.apply(&Command::SetJointMotor { object_id: id, joint_index: 0, motor }, &mut |_| true);
+            }
+        }
+    }
+    w
+}

@@ -4,8 +4,9 @@
 //!   1,001 add_box calls one by one vs the same calls in one `batch`;
 //! - run_sweep of 16 variants × 1,000 steps of a 100-box scene, in-process through
 //!   `Registry::sweep`: one worker vs one worker per core;
-//! - one step of the 1000-box pile (settled 100 steps, then 100 steps per round, in-process)
-//!   on 1 vs 2 threads (`--threads`), checking both end in the same state hash.
+//! - one step of the 1000-box pile and of the 64 URDF arms (settled 100 steps, then 100 steps
+//!   per round, in-process) on 1 vs 2 threads (`--threads`), 7 paired rounds, checking both end
+//!   in the same state hash.
 
 // A benchmark reads the clock and its files; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -178,33 +179,47 @@ fn bench_sweep_workers(c: &mut Criterion) {
     g.finish();
 }
 
-/// Milliseconds per step of 100 steps of the settled pile restored from `snapshot`, stepping
+/// Milliseconds per step of 100 steps of a settled scene restored from `snapshot`, stepping
 /// on `threads`, and the state hash it ends in.
-fn pile_steps(snapshot: &[u8], threads: usize) -> (f64, String) {
+fn steps_on(snapshot: &[u8], threads: usize) -> (f64, String) {
     physics_mcp::cli::step_on_threads(threads).expect("stepping threads");
-    let mut w = physics_mcp::world::World::restore("pile", false, snapshot).unwrap();
+    let mut w = physics_mcp::world::World::restore("scene", false, snapshot).unwrap();
     assert_eq!(w.num_threads(), threads);
     let t = Instant::now();
     w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
     (t.elapsed().as_secs_f64() * 1e3 / 100.0, w.state_hash())
 }
 
+/// 1 vs 2 threads on `world` settled 100 steps: paired rounds, the same final hash each time.
+fn threads_paired(name: &str, mut world: physics_mcp::world::World) -> Paired {
+    world.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    let snapshot = world.snapshot();
+    let mut paired = Paired::default();
+    for _ in 0..THREAD_ROUNDS {
+        let (a, ha) = steps_on(&snapshot, 1);
+        let (b, hb) = steps_on(&snapshot, 2);
+        assert_eq!(ha, hb, "{name}: 1 and 2 threads end in different states");
+        paired.push(a, b);
+    }
+    physics_mcp::cli::step_on_threads(1).expect("a stepping thread");
+    paired
+}
+
+/// Paired rounds of the thread comparisons.
+const THREAD_ROUNDS: usize = 7;
+
 fn bench_pile_threads(c: &mut Criterion) {
+    let paired = threads_paired("pile", pile::pile_world());
+    println!("REPORT pile step (1000 boxes, in-process, rounds of 100 steps): {}", paired.report("1 thread", "2 threads", 2));
+    let paired = threads_paired("arms", pile::arms_world());
+    println!("REPORT 64 URDF arms step (in-process, rounds of 100 steps): {}", paired.report("1 thread", "2 threads", 3));
     let mut w = pile::pile_world();
     w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
     let snapshot = w.snapshot();
-    let mut paired = Paired::default();
-    for _ in 0..ROUNDS {
-        let (a, ha) = pile_steps(&snapshot, 1);
-        let (b, hb) = pile_steps(&snapshot, 2);
-        assert_eq!(ha, hb, "1 and 2 threads end in different states");
-        paired.push(a, b);
-    }
-    println!("REPORT pile step (1000 boxes, in-process, rounds of 100 steps): {}", paired.report("1 thread", "2 threads", 2));
     let mut g = c.benchmark_group("pile_100_steps_threads");
     g.sample_size(10);
     for threads in [1, 2] {
-        g.bench_function(format!("threads_{threads}"), |b| b.iter(|| pile_steps(&snapshot, threads)));
+        g.bench_function(format!("threads_{threads}"), |b| b.iter(|| steps_on(&snapshot, threads)));
     }
     g.finish();
     physics_mcp::cli::step_on_threads(1).expect("a stepping thread");

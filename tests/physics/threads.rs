@@ -20,7 +20,7 @@ mod pile;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use physics_mcp::command::{Blob, Command, ConstraintSpec, ConstraintType, ControlMode, MotorSpec, Shape};
+use physics_mcp::command::{Command, ConstraintSpec, ConstraintType, Shape};
 use physics_mcp::world::World;
 
 /// Steps per chunk; a hash is taken after each.
@@ -36,7 +36,7 @@ struct Scene {
 fn scenes() -> Vec<Scene> {
     vec![
         Scene { name: "pile_1000_boxes", build: pile::pile_world, steps: 500 },
-        Scene { name: "urdf_arms_64", build: arms, steps: 400 },
+        Scene { name: "urdf_arms_64", build: pile::arms_world, steps: 400 },
         Scene { name: "constraints_64_pairs_and_chains", build: constraints, steps: 400 },
     ]
 }
@@ -61,51 +61,6 @@ fn ground(w: &mut World) {
             collides: true,
         },
     );
-}
-
-fn yaw(a: f32) -> [f32; 4] {
-    let (s, c) = (a / 2.0).sin_cos();
-    [0.0, 0.0, s, c]
-}
-
-/// 64 free-floating two-link arms (multibodies) in 8 stacks of 8, each turned against the one
-/// below, falling onto the ground and each other; every other arm's shoulder is velocity-driven.
-fn arms() -> World {
-    let mut w = World::create(&pile::root("arms")).unwrap().0;
-    ground(&mut w);
-    let urdf = std::fs::read(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/two_link_arm.urdf")).unwrap();
-    for s in 0..8 {
-        for k in 0..8 {
-            let n = s * 8 + k;
-            let out = apply(
-                &mut w,
-                Command::LoadUrdf {
-                    file_path: "two_link_arm.urdf".into(),
-                    urdf: Blob::new(urdf.clone()),
-                    meshes: Default::default(),
-                    position: [(s % 4) as f32 * 1.2, (s / 4) as f32 * 1.2, 0.1 + 0.08 * k as f32],
-                    orientation: yaw(0.7 * k as f32),
-                    fixed_base: false,
-                    continuous_limits_from_file: true,
-                    revolute_prismatic_limits_from_file: true,
-                    parsed: Default::default(),
-                },
-            );
-            let id = out["object_id"].as_u64().unwrap() as u32;
-            if n % 2 == 0 {
-                let motor = MotorSpec {
-                    mode: ControlMode::VelocityControl,
-                    target_position: 0.0,
-                    target_velocity: if n % 4 == 0 { 2.0 } else { -2.0 },
-                    force: Some(5.0),
-                    position_gain: 0.1,
-                    velocity_gain: 1.0,
-                };
-                apply(&mut w, Command::SetJointMotor { object_id: id, joint_index: 0, motor });
-            }
-        }
-    }
-    w
 }
 
 fn body(w: &mut World, half: [f32; 3], p: [f32; 3], mass: f32) -> u32 {
