@@ -1,9 +1,15 @@
-//! Issue 14 benchmarks (`cargo bench --bench mjcf`; `scripts/mjcf_bench.py` runs it beside
-//! MuJoCo's own figures for the same models): load_mjcf of Gymnasium's humanoid.xml (the
-//! world's work: parse the spliced text with rapier3d-mjcf, build the robot), and 1000 steps of
-//! ant.xml on its floor at MuJoCo's own timestep (0.01 s). `REPORT` lines carry the figures.
+//! MJCF benchmarks (`cargo bench --bench mjcf`; `scripts/mjcf_bench.py` runs it beside MuJoCo's
+//! own figures for the same models, issue 29): load_mjcf of Gymnasium's humanoid.xml (the
+//! world's work: parse the spliced text with rapier3d-mjcf, build the robot), and the per-step
+//! cost of every Gymnasium model in `tests/fixtures/mjcf` at the model's own `<option
+//! timestep>` (MuJoCo's 0.002 s when absent), single thread, from the file's pose (MuJoCo's
+//! qpos0), for the same number of steps MuJoCo is timed over. `REPORT` lines carry the figures:
+//! `REPORT mjcf <model> step at <dt> s: <median> ms/step (min <min>, <steps> steps, <runs> runs)`.
+//!
+//! `MJCF_BENCH_STEPS` (default 1000), `MJCF_BENCH_RUNS` (default 7) and `MJCF_BENCH_MODELS`
+//! (comma-separated file stems; default all) narrow a run, e.g. for a profiler.
 
-// A benchmark reads the clock and its files; the bans in clippy.toml are for the world.
+// A benchmark reads the clock, its files and its environment; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
 
 use std::time::{Duration, Instant};
@@ -11,6 +17,21 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, criterion_main, Criterion};
 use physics_mcp::command::{Blob, Command};
 use physics_mcp::world::World;
+
+/// Gymnasium's MuJoCo models (mesh_robot.xml is our own fixture, not one of them).
+const MODELS: [&str; 11] = [
+    "ant",
+    "half_cheetah",
+    "hopper",
+    "humanoid",
+    "humanoidstandup",
+    "inverted_double_pendulum",
+    "inverted_pendulum",
+    "pusher",
+    "reacher",
+    "swimmer",
+    "walker2d",
+];
 
 fn fixture(name: &str) -> Vec<u8> {
     std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/mjcf").join(name)).unwrap()
@@ -34,39 +55,71 @@ fn world_with(name: &str, bytes: &[u8]) -> World {
     w
 }
 
+/// The model's `<option timestep>`, MuJoCo's default 0.002 s when it names none.
+fn model_timestep(bytes: &[u8]) -> f64 {
+    let text = std::str::from_utf8(bytes).unwrap();
+    let doc = roxmltree::Document::parse(text).unwrap();
+    doc.descendants()
+        .find(|n| n.has_tag_name("option"))
+        .and_then(|n| n.attribute("timestep"))
+        .map_or(0.002, |t| t.trim().parse().unwrap())
+}
+
+fn env_or(name: &str, default: usize) -> usize {
+    std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }
 
+/// ms/step of `steps` steps of a freshly loaded model at its own timestep: (median, min) of `runs`.
+fn step_cost(name: &str, bytes: &[u8], dt: f64, steps: u64, runs: usize) -> (f64, f64) {
+    let mut per_step = Vec::new();
+    for _ in 0..runs {
+        let mut w = world_with(name, bytes);
+        w.apply(&Command::SetTimestep { timestep: dt as f32, timestep_given: Some(dt) }, &mut |_| true);
+        let t = Instant::now();
+        w.apply(&Command::StepSimulation { steps }, &mut |_| true);
+        per_step.push(t.elapsed().as_secs_f64() / steps as f64);
+    }
+    let min = per_step.iter().copied().fold(f64::INFINITY, f64::min);
+    (median(per_step) * 1e3, min * 1e3)
+}
+
 fn bench_mjcf(c: &mut Criterion) {
-    let humanoid = fixture("humanoid.xml");
-    let ant = fixture("ant.xml");
-    let mut g = c.benchmark_group("mjcf");
-    g.sample_size(20).measurement_time(Duration::from_secs(10));
-    let mut loads = Vec::new();
-    g.bench_function("load_humanoid", |b| {
-        b.iter(|| {
-            let t = Instant::now();
-            let w = world_with("humanoid.xml", &humanoid);
-            loads.push(t.elapsed().as_secs_f64());
-            w
-        })
-    });
-    let mut steps = Vec::new();
-    g.bench_function("ant_1000_steps_at_0.01", |b| {
-        b.iter(|| {
-            let mut w = world_with("ant.xml", &ant);
-            w.apply(&Command::SetTimestep { timestep: 0.01, timestep_given: Some(0.01) }, &mut |_| true);
-            let t = Instant::now();
-            w.apply(&Command::StepSimulation { steps: 1000 }, &mut |_| true);
-            steps.push(t.elapsed().as_secs_f64() / 1000.0);
-            w
-        })
-    });
-    g.finish();
-    println!("REPORT mjcf load humanoid.xml: {:.2} ms", median(loads) * 1e3);
-    println!("REPORT mjcf ant.xml step at 0.01 s: {:.4} ms/step", median(steps) * 1e3);
+    // MuJoCo steps on one thread; so do we here (the server's default, `--threads 1`).
+    physics_mcp::world::set_step_threads(1);
+    let steps = env_or("MJCF_BENCH_STEPS", 1000) as u64;
+    let runs = env_or("MJCF_BENCH_RUNS", 7);
+    let only: Option<Vec<String>> = std::env::var("MJCF_BENCH_MODELS").ok().map(|v| v.split(',').map(str::to_string).collect());
+    if only.is_none() {
+        let humanoid = fixture("humanoid.xml");
+        let mut g = c.benchmark_group("mjcf");
+        g.sample_size(20).measurement_time(Duration::from_secs(10));
+        let mut loads = Vec::new();
+        g.bench_function("load_humanoid", |b| {
+            b.iter(|| {
+                let t = Instant::now();
+                let w = world_with("humanoid.xml", &humanoid);
+                loads.push(t.elapsed().as_secs_f64());
+                w
+            })
+        });
+        g.finish();
+        println!("REPORT mjcf load humanoid.xml: {:.2} ms", median(loads) * 1e3);
+    }
+    for model in MODELS {
+        if only.as_ref().is_some_and(|o| !o.iter().any(|m| m == model)) {
+            continue;
+        }
+        let file = format!("{model}.xml");
+        let bytes = fixture(&file);
+        let dt = model_timestep(&bytes);
+        let (med, min) = step_cost(&file, &bytes, dt, steps, runs);
+        println!("REPORT mjcf {model} step at {dt} s: {med:.4} ms/step (min {min:.4}, {steps} steps, {runs} runs)");
+    }
 }
 
 criterion_group!(benches, bench_mjcf);
