@@ -8,6 +8,9 @@
 //!
 //! `MJCF_BENCH_STEPS` (default 1000), `MJCF_BENCH_RUNS` (default 7) and `MJCF_BENCH_MODELS`
 //! (comma-separated file stems; default all) narrow a run, e.g. for a profiler.
+//! `MJCF_BENCH_DRIVE=torque` (or `velocity`) first gives every joint a motor — torque control
+//! of 0 N·m, as Gymnasium's actuators are torque motors, or velocity control toward 0 with
+//! 1 N·m — so our per-step motor work is in the figure; the default drives nothing.
 
 // A benchmark reads the clock, its files and its environment; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -15,7 +18,7 @@
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use physics_mcp::command::{Blob, Command};
+use physics_mcp::command::{Blob, Command, ControlMode, MotorSpec};
 use physics_mcp::world::World;
 
 /// Gymnasium's MuJoCo models (mesh_robot.xml is our own fixture, not one of them).
@@ -80,12 +83,25 @@ fn step_cost(name: &str, bytes: &[u8], dt: f64, steps: u64, runs: usize) -> (f64
     for _ in 0..runs {
         let mut w = world_with(name, bytes);
         w.apply(&Command::SetTimestep { timestep: dt as f32, timestep_given: Some(dt) }, &mut |_| true);
+        drive(&mut w);
         let t = Instant::now();
         w.apply(&Command::StepSimulation { steps }, &mut |_| true);
         per_step.push(t.elapsed().as_secs_f64() / steps as f64);
     }
     let min = per_step.iter().copied().fold(f64::INFINITY, f64::min);
     (median(per_step) * 1e3, min * 1e3)
+}
+
+/// Gives every joint of object 0 the motor `MJCF_BENCH_DRIVE` names (none by default).
+fn drive(w: &mut World) {
+    let (mode, force) = match std::env::var("MJCF_BENCH_DRIVE").as_deref() {
+        Ok("torque") => (ControlMode::TorqueControl, 0.0),
+        Ok("velocity") => (ControlMode::VelocityControl, 1.0),
+        _ => return,
+    };
+    let spec = MotorSpec { mode, target_position: 0.0, target_velocity: 0.0, force: Some(force), position_gain: 0.1, velocity_gain: 1.0 };
+    let motors = (0..w.link_count(0) as u32).map(|j| (j, spec.clone())).collect();
+    w.apply(&Command::SetJointMotors { object_id: 0, motors }, &mut |_| true);
 }
 
 fn bench_mjcf(c: &mut Criterion) {
@@ -118,7 +134,11 @@ fn bench_mjcf(c: &mut Criterion) {
         let bytes = fixture(&file);
         let dt = model_timestep(&bytes);
         let (med, min) = step_cost(&file, &bytes, dt, steps, runs);
-        println!("REPORT mjcf {model} step at {dt} s: {med:.4} ms/step (min {min:.4}, {steps} steps, {runs} runs)");
+        let drive = match std::env::var("MJCF_BENCH_DRIVE").as_deref() {
+            Ok(d @ ("torque" | "velocity")) => format!(", {d} motors"),
+            _ => String::new(),
+        };
+        println!("REPORT mjcf {model} step at {dt} s: {med:.4} ms/step (min {min:.4}, {steps} steps, {runs} runs{drive})");
     }
 }
 
