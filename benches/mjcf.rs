@@ -51,6 +51,7 @@ fn world_with(name: &str, bytes: &[u8]) -> World {
         orientation: [0.0, 0.0, 0.0, 1.0],
         fixed_base: false,
         keyframe: None,
+        parent_filter: true,
         parsed: Default::default(),
     };
     let out = w.apply(&load, &mut |_| true);

@@ -125,6 +125,7 @@ pub fn load_mjcf_command(reader: &mut Reader, p: &params::LoadMjcf) -> Result<Co
         orientation,
         fixed_base,
         keyframe,
+        parent_filter: true,
         parsed: Default::default(),
     })
 }

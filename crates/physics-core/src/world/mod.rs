@@ -560,7 +560,7 @@ impl World {
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
             }
-            Command::LoadMjcf { file_path, mjcf, meshes, position, orientation, fixed_base, keyframe, parsed } => {
+            Command::LoadMjcf { file_path, mjcf, meshes, position, orientation, fixed_base, keyframe, parent_filter, parsed } => {
                 let prepared = match parsed.get() {
                     Some(p) => Ok(mjcf::Prepared::clone(p)),
                     None => mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()),
@@ -571,7 +571,7 @@ impl World {
                             Vector::from_array(*position),
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
-                        self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, *fixed_base, keyframe.as_deref()).into()
+                        self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter), keyframe.as_deref()).into()
                     }
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
