@@ -52,6 +52,7 @@ fn world_with(name: &str, bytes: &[u8]) -> World {
         fixed_base: false,
         keyframe: None,
         parent_filter: true,
+        use_model_options: false,
         parsed: Default::default(),
     };
     let out = w.apply(&load, &mut |_| true);

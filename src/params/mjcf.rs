@@ -21,6 +21,8 @@ pub struct LoadMjcf {
     pub use_fixed_base: Option<Bool>,
     /// `<key>` whose qpos to start at (default qpos0).
     pub keyframe: Option<Text>,
+    /// Apply the model's `<option>` timestep and gravity to the simulation (default false).
+    pub use_model_options: Option<Bool>,
 }
 
 /// get_link_state parameters.

@@ -74,6 +74,7 @@ fn loaded(model: &str, bytes: &[u8], dt: f64) -> World {
         fixed_base: false,
         keyframe: None,
         parent_filter: true,
+        use_model_options: false,
         parsed: Default::default(),
     };
     let out = w.apply(&load, &mut |_| true);
@@ -171,3 +172,45 @@ fn every_gymnasium_model_rests_on_its_floor_without_penetrating_or_gaining_energ
     assert!(failures.is_empty(), "{}\n{}", failures.join("\n"), report.join("\n"));
 }
 
+
+/// load_mjcf's `use_model_options`: pusher's `<option timestep="0.01" gravity="0 0 0">` becomes
+/// the simulation's, as set_timestep would set it, and `ignored` says it is applied; without it
+/// (and in events recorded before either flag existed, which decode with both false and
+/// re-encode byte for byte) the simulation keeps its own.
+#[test]
+fn use_model_options_imposes_the_models_timestep_and_gravity_and_old_events_fold_as_before() {
+    let bytes = fixture("pusher");
+    let load = |use_model_options: bool| Command::LoadMjcf {
+        file_path: "pusher.xml".into(),
+        mjcf: Blob::new(bytes.clone()),
+        meshes: Default::default(),
+        position: [0.0; 3],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        fixed_base: false,
+        keyframe: None,
+        parent_filter: true,
+        use_model_options,
+        parsed: Default::default(),
+    };
+    let root = Command::CreateSimulation { simulation_id: "o".into(), gravity: [0.0, 0.0, -G], gui: false, name: None };
+    let ignored = |out: &physics_mcp::outputs::Outcome| out.to_value()["ignored"][0].as_str().unwrap().to_string();
+
+    let (mut w, _) = World::create(&root).unwrap();
+    let out = w.apply(&load(true), &mut |_| true);
+    assert_eq!((w.timestep(), w.timestep_given(), w.gravity()), (0.01, 0.01, [0.0, 0.0, 0.0]));
+    assert!(ignored(&out).ends_with("applied to the simulation (use_model_options)"), "{}", ignored(&out));
+    w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    assert!((w.current_time() - 1.0).abs() < 1e-12, "100 steps of 0.01 s: {}", w.current_time());
+
+    let (mut plain, _) = World::create(&root).unwrap();
+    let out = plain.apply(&load(false), &mut |_| true);
+    assert_eq!((plain.timestep(), plain.gravity()), (1.0 / 240.0, [0.0, 0.0, -G]));
+    assert!(ignored(&out).ends_with("the simulation's own timestep and gravity apply"), "{}", ignored(&out));
+
+    // An event as recorded before the flags: both decode as false and are left out again.
+    let mut old = serde_json::to_value(load(false)).unwrap();
+    old.as_object_mut().unwrap().remove("parent_filter");
+    let decoded: Command = serde_json::from_value(old.clone()).unwrap();
+    assert!(matches!(decoded, Command::LoadMjcf { parent_filter: false, use_model_options: false, .. }), "{old}");
+    assert_eq!(serde_json::to_value(&decoded).unwrap(), old, "re-encodes byte for byte");
+}

@@ -6,7 +6,8 @@
 //! The world is what the loader gives, with the settings physics-mcp uses where they change the
 //! cost: multibody joints (reduced coordinates), gravity −9.81 along z, the model's own
 //! `<option timestep>` (MuJoCo's 0.002 s when absent), rapier's default integration parameters
-//! (4 solver iterations = 4 substeps per step), one thread. Differences from physics-mcp, none
+//! (4 solver iterations = 4 substeps per step), one thread, no joint motors and no joint
+//! springs (physics-mcp simulates neither: `stiffness` is in `ignored`). Differences from physics-mcp, none
 //! of which is where the time goes (docs/benchmarks.md "MJCF"): the floor is the crate's
 //! half-space instead of our thin box, contacts use the crate's symmetric contype/conaffinity
 //! rule, jointless top-level bodies are not merged into the world.
@@ -54,7 +55,7 @@ fn world(model: &str) -> (PhysicsWorld, f32) {
         &mut w.colliders,
         &mut w.multibody_joints,
         &mut w.impulse_joints,
-        MjcfMultibodyOptions::empty(),
+        MjcfMultibodyOptions::SKIP_JOINT_MOTORS | MjcfMultibodyOptions::SKIP_JOINT_SPRINGS,
     );
     (w, dt)
 }

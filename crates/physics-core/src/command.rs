@@ -566,6 +566,14 @@ pub enum Command {
         /// match. Omitted when false, so such events re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         parent_filter: bool,
+        /// The model's `<option timestep>` and `gravity` become the simulation's (opt-in,
+        /// load_mjcf's `use_model_options`): MuJoCo's own step and gravity for the model, as
+        /// set_timestep and a gravity of that value would set them. Its solver options
+        /// (`iterations`, `integrator`, …) have no equivalent in the engine and stay listed in
+        /// `ignored`. Omitted when false, so events recorded before it re-encode byte for byte
+        /// and fold as they did.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        use_model_options: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,

@@ -248,6 +248,13 @@ pub fn parse_model(xml: &str) -> Result<Model, Refusal> {
     })
 }
 
+impl Prepared {
+    /// The model's `<option>` timestep (s) and gravity (m/s²), as written.
+    pub fn options(&self) -> super::mjcf_options::ModelOptions {
+        super::mjcf_options::ModelOptions { timestep: self.model.option.timestep, gravity: self.model.option.gravity }
+    }
+}
+
 /// Parses, checks and converts MJCF text (includes already spliced; meshes by `<mesh file>`).
 pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
     let mut ignored = scan(xml)?;
