@@ -11,6 +11,8 @@
 //! `MJCF_BENCH_DRIVE=torque` (or `velocity`) first gives every joint a motor — torque control
 //! of 0 N·m, as Gymnasium's actuators are torque motors, or velocity control toward 0 with
 //! 1 N·m — so our per-step motor work is in the figure; the default drives nothing.
+//! `MJCF_BENCH_USE_MODEL_OPTIONS=1` loads with `use_model_options` (the model's gravity too,
+//! e.g. pusher's 0; the timestep is the model's either way).
 
 // A benchmark reads the clock, its files and its environment; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -52,7 +54,7 @@ fn world_with(name: &str, bytes: &[u8]) -> World {
         fixed_base: false,
         keyframe: None,
         parent_filter: true,
-        use_model_options: false,
+        use_model_options: std::env::var("MJCF_BENCH_USE_MODEL_OPTIONS").is_ok_and(|v| v == "1"),
         parsed: Default::default(),
     };
     let out = w.apply(&load, &mut |_| true);
