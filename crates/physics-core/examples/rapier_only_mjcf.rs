@@ -7,10 +7,12 @@
 //! cost: multibody joints (reduced coordinates), gravity −9.81 along z, the model's own
 //! `<option timestep>` (MuJoCo's 0.002 s when absent), rapier's default integration parameters
 //! (4 solver iterations = 4 substeps per step), one thread, no joint motors and no joint
-//! springs (physics-mcp simulates neither: `stiffness` is in `ignored`). Differences from physics-mcp, none
-//! of which is where the time goes (docs/benchmarks.md "MJCF"): the floor is the crate's
-//! half-space instead of our thin box, contacts use the crate's symmetric contype/conaffinity
-//! rule, jointless top-level bodies are not merged into the world.
+//! springs (physics-mcp simulates neither: `stiffness` is in `ignored`). What differs from
+//! physics-mcp changes which contacts are made, not the multibody work: the floor is the crate's half-space instead of
+//! our thin box, contacts follow the crate's symmetric contype/conaffinity rule, and jointless
+//! top-level bodies are not merged into the world. ant, pusher, walker2d and inverted_pendulum
+//! cost more here than in physics-mcp (not looked into further), while half_cheetah, hopper, humanoid,
+//! reacher and swimmer cost the same (docs/benchmarks.md "MJCF models").
 //!
 //! ```sh
 //! cargo run --release -p physics-core --example rapier_only_mjcf -- [steps] [runs] [model …]
