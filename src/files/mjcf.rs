@@ -109,6 +109,7 @@ pub fn load_mjcf_command(reader: &mut Reader, p: &params::LoadMjcf) -> Result<Co
     let orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
     let fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
     let keyframe = p.keyframe.as_ref().map(|k| k.0.clone());
+    let use_model_options = p.use_model_options.as_ref().is_some_and(|b| b.0);
     let path = reader.sandbox().existing(&user)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| reader.sandbox().workspace.clone());
     let mut budget = MAX_URDF_BYTES;
@@ -125,6 +126,8 @@ pub fn load_mjcf_command(reader: &mut Reader, p: &params::LoadMjcf) -> Result<Co
         orientation,
         fixed_base,
         keyframe,
+        parent_filter: true,
+        use_model_options,
         parsed: Default::default(),
     })
 }

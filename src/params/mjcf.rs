@@ -11,16 +11,18 @@ use super::lenient::*;
 pub struct LoadMjcf {
     /// Sim id.
     pub sim_id: Text,
-    /// Workspace MJCF file (`<include>`s read beside it).
+    /// Workspace MJCF file.
     pub file_path: Text,
     /// Model frame position (default 0).
     pub position: Option<Vec3>,
     /// Model frame (default identity).
     pub orientation: Option<Quat>,
-    /// Fix a free root to the world (default false).
+    /// Fix a free root (default false).
     pub use_fixed_base: Option<Bool>,
-    /// `<key>` whose qpos to start at (default qpos0).
+    /// `<key>` to start from (default qpos0).
     pub keyframe: Option<Text>,
+    /// Impose `<option>` timestep, gravity.
+    pub use_model_options: Option<Bool>,
 }
 
 /// get_link_state parameters.

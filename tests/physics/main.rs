@@ -9,6 +9,7 @@ mod agent_calls;
 mod ik;
 mod link_state;
 mod mjcf;
+mod mjcf_rest;
 mod physical_facts;
 mod robots;
 mod sensing;

@@ -572,6 +572,22 @@ pub enum Command {
         /// The `<key name>` whose qpos the joints start at (None: qpos0).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         keyframe: Option<String>,
+        /// MuJoCo's parent filter across a body's joints: a body with several joints (a chain
+        /// of massless spacer links) touches neither its parent body, as in MuJoCo, and not
+        /// only its spacer. Set by every load_mjcf since; events recorded before the field
+        /// existed decode as false and fold to the robot they always did (a multi-joint body —
+        /// a humanoid's thigh — colliding with its parent, the pelvis), so their hashes still
+        /// match. Omitted when false, so such events re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        parent_filter: bool,
+        /// The model's `<option timestep>` and `gravity` become the simulation's (opt-in,
+        /// load_mjcf's `use_model_options`): MuJoCo's own step and gravity for the model, as
+        /// set_timestep and a gravity of that value would set them. Its solver options
+        /// (`iterations`, `integrator`, …) have no equivalent in the engine and stay listed in
+        /// `ignored`. Omitted when false, so events recorded before it re-encode byte for byte
+        /// and fold as they did.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        use_model_options: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,

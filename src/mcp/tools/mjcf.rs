@@ -30,8 +30,8 @@ pub(super) fn decide_reset(p: ResetJoint) -> Result<Command, Refusal> {
 
 #[tool_router(router = mjcf_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Load an MJCF model as one robot (link -1: worldbody or free root; a joint per hinge/slide,
-    /// in file order); `ignored`: what is not simulated.
+    /// Load an MJCF model as one robot (link -1: worldbody or free root; a joint per
+    /// hinge/slide); `ignored`: what is not simulated.
     #[tool(input_schema = schema_for_type::<params::LoadMjcf>())]
     async fn load_mjcf(&self, args: JsonObject) -> Result<Json<MjcfLoaded>, String> {
         self.change_reading("load_mjcf", args, |p: params::LoadMjcf, reader| crate::files::mjcf::load_mjcf_command(reader, &p))

@@ -55,7 +55,9 @@ pub struct MjcfInfo {
     pub world_body: Option<RigidBodyHandle>,
     /// That body's colliders.
     pub world_colliders: Vec<ColliderHandle>,
-    /// Body pairs whose contacts `<contact><exclude>` turns off (merged bodies by their link).
+    /// Body pairs whose contacts are off (merged bodies by their link): `<contact><exclude>`,
+    /// then (loads with `parent_filter`) each multi-joint body and its parent body, which MuJoCo
+    /// never lets touch and no joint of ours parts (`parent_pairs_across_spacers`).
     pub excluded: Vec<(RigidBodyHandle, RigidBodyHandle)>,
 }
 
@@ -246,6 +248,13 @@ pub fn parse_model(xml: &str) -> Result<Model, Refusal> {
     })
 }
 
+impl Prepared {
+    /// The model's `<option>` timestep (s) and gravity (m/s²), as written.
+    pub fn options(&self) -> super::mjcf_options::ModelOptions {
+        super::mjcf_options::ModelOptions { timestep: self.model.option.timestep, gravity: self.model.option.gravity }
+    }
+}
+
 /// Parses, checks and converts MJCF text (includes already spliced; meshes by `<mesh file>`).
 pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str>) -> Result<Prepared, Refusal> {
     let mut ignored = scan(xml)?;
@@ -427,7 +436,7 @@ impl World {
         file_path: &str,
         (blob, meshes): (&Blob, &BTreeMap<String, Blob>),
         pose: Pose,
-        fixed_base: bool,
+        (fixed_base, parent_filter): (bool, bool),
         keyframe: Option<&str>,
     ) -> MjcfLoaded {
         let Prepared { model, robot, ignored, keyframe_qpos } = prepared;
@@ -543,6 +552,13 @@ impl World {
         for e in &model.contact.excludes {
             if let (Some(a), Some(b)) = (body_of(&e.body1), body_of(&e.body2)) {
                 if a != b {
+                    excluded.push((a, b));
+                }
+            }
+        }
+        if parent_filter {
+            for (a, b) in parent_pairs_across_spacers(&model, &mbodies, &owner, &dof_joints, &mjoints) {
+                if let (Some(&a), Some(&b)) = (handle_of.get(&a), handle_of.get(&b)) {
                     excluded.push((a, b));
                 }
             }
@@ -723,6 +739,34 @@ impl World {
             at += w;
         }
     }
+}
+
+/// MuJoCo's parent filter where a joint cannot carry it: pairs (kept crate bodies) of a body
+/// and its parent body, neither the worldbody (MuJoCo keeps contacts with the world), that no
+/// joint joins directly — a body with several joints hangs from its parent through the crate's
+/// massless spacers, so the joint's own `contacts_enabled = false` only parts it from a spacer.
+fn parent_pairs_across_spacers(
+    model: &Model,
+    mbodies: &[rapier3d_mjcf::MjcfBody],
+    owner: &[usize],
+    dof_joints: &[usize],
+    mjoints: &[rapier3d_mjcf::MjcfJoint],
+) -> Vec<(usize, usize)> {
+    let kept = |mjcf_id: usize| (0..mbodies.len()).find(|k| !mbodies[*k].is_intermediate && mbodies[*k].mjcf_body_id == mjcf_id);
+    let joined = |a: usize, b: usize| dof_joints.iter().any(|j| mjoints[*j].link2 == a && owner[mjoints[*j].link1] == b);
+    let mut pairs = Vec::new();
+    for (i, b) in mbodies.iter().enumerate().skip(1) {
+        if b.is_intermediate {
+            continue;
+        }
+        let Some(parent) = model.bodies[b.mjcf_body_id].parent.filter(|p| *p != 0) else { continue };
+        let Some(p) = kept(parent) else { continue };
+        let (a, p) = (owner[i], owner[p]);
+        if a != p && a != 0 && p != 0 && !joined(a, p) && !pairs.contains(&(a, p)) {
+            pairs.push((a, p));
+        }
+    }
+    pairs
 }
 
 fn find_joint<'a>(model: &'a Model, body: usize, name: Option<&str>) -> Option<&'a rapier3d_mjcf::mjcf_rs::body::Joint> {

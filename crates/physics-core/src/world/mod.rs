@@ -14,6 +14,7 @@ mod hash_tree;
 pub mod ik;
 pub mod mjcf;
 pub mod mjcf_mesh;
+pub mod mjcf_options;
 mod robot;
 pub mod scene;
 mod threads;
@@ -593,7 +594,18 @@ impl World {
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
             }
-            Command::LoadMjcf { file_path, mjcf, meshes, position, orientation, fixed_base, keyframe, parsed } => {
+            Command::LoadMjcf {
+                file_path,
+                mjcf,
+                meshes,
+                position,
+                orientation,
+                fixed_base,
+                keyframe,
+                parent_filter,
+                use_model_options,
+                parsed,
+            } => {
                 let prepared = match parsed.get() {
                     Some(p) => Ok(mjcf::Prepared::clone(p)),
                     None => mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()),
@@ -604,7 +616,12 @@ impl World {
                             Vector::from_array(*position),
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
-                        self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, *fixed_base, keyframe.as_deref()).into()
+                        let options = prepared.options();
+                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter), keyframe.as_deref());
+                        if *use_model_options {
+                            self.use_model_options(&mut loaded, options);
+                        }
+                        loaded.into()
                     }
                     Err(why) => Outcome::Message(Message::new(why)),
                 }

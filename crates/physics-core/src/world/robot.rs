@@ -532,23 +532,19 @@ impl World {
     /// force. Contacts or limits acting on the same coordinate in that step are included.
     pub(super) fn record_motor_torques(&mut self, watches: Vec<MotorWatch>) {
         let dt = self.timestep();
+        // The generalized impulse depends only on the multibody (every watch of one multibody
+        // saw the same velocities before the step), so it is computed once per multibody and
+        // read at each motor's coordinate: the same arithmetic as one solve per motor, so the
+        // same torques bit for bit, without a dense L·U product per motor per step (12% of a
+        // humanoid's step with every joint velocity-driven; docs/benchmarks.md "MJCF").
+        let mut last: Option<(RigidBodyHandle, Option<rapier3d::na::DVector<f32>>)> = None;
         for w in watches {
-            let tau = (|| {
-                let mbs = &self.physics.multibody_joints;
-                let lid = mbs.rigid_body_link(w.body)?;
-                let mb = mbs.get_multibody(lid.multibody)?;
-                let n = mb.ndofs();
-                if w.before.len() != n || w.dof >= n {
-                    return None;
-                }
-                let v = mb.generalized_velocity();
-                let a = mb.generalized_acceleration();
-                let x = rapier3d::na::DVector::<f32>::from_fn(n, |i, _| (v[i] - w.before[i]) / dt - a[i]);
-                let lu = mb.inv_augmented_mass();
-                let mut y = lu.l() * (lu.u() * x);
-                lu.p().inv_permute_rows(&mut y);
-                Some(y[w.dof])
-            })();
+            let reuse = last.as_ref().is_some_and(|(b, _)| self.same_multibody(*b, w.body));
+            if !reuse {
+                last = Some((w.body, self.generalized_impulse(&w, dt)));
+            }
+            let y = last.as_ref().and_then(|(_, y)| y.as_ref());
+            let tau = y.and_then(|y| (w.dof < y.len()).then(|| y[w.dof]));
             let tau = tau.unwrap_or(0.0).clamp(-w.force, w.force);
             if let Some(robot) = self.robot_mut(w.object) {
                 if let Some(l) = robot.links.get_mut(w.link) {
@@ -556,6 +552,35 @@ impl World {
                 }
             }
         }
+    }
+
+    /// Whether two bodies are links of the same multibody.
+    fn same_multibody(&self, a: RigidBodyHandle, b: RigidBodyHandle) -> bool {
+        let mbs = &self.physics.multibody_joints;
+        match (mbs.rigid_body_link(a), mbs.rigid_body_link(b)) {
+            (Some(x), Some(y)) => x.multibody == y.multibody,
+            _ => false,
+        }
+    }
+
+    /// M·(Δq̇/dt − q̈_free) of the multibody `w`'s motor is in, over the step just taken
+    /// (`record_motor_torques`); None when its coordinates changed shape (each motor's own
+    /// coordinate is checked by the caller).
+    fn generalized_impulse(&self, w: &MotorWatch, dt: f32) -> Option<rapier3d::na::DVector<f32>> {
+        let mbs = &self.physics.multibody_joints;
+        let lid = mbs.rigid_body_link(w.body)?;
+        let mb = mbs.get_multibody(lid.multibody)?;
+        let n = mb.ndofs();
+        if w.before.len() != n {
+            return None;
+        }
+        let v = mb.generalized_velocity();
+        let a = mb.generalized_acceleration();
+        let x = rapier3d::na::DVector::<f32>::from_fn(n, |i, _| (v[i] - w.before[i]) / dt - a[i]);
+        let lu = mb.inv_augmented_mass();
+        let mut y = lu.l() * (lu.u() * x);
+        lu.p().inv_permute_rows(&mut y);
+        Some(y)
     }
 
     /// get_joint_info.
