@@ -386,6 +386,14 @@ impl World {
         })
     }
 
+    /// An object's base velocities as the engine holds them (linear, angular; f32): for a
+    /// watcher that runs after every step (run_sweep's peak speed) and must not pay
+    /// `object_state`'s decimal rounding of every value each time.
+    pub fn raw_velocities(&self, id: u32) -> Option<([f32; 3], [f32; 3])> {
+        let b = self.body(id)?;
+        Some((b.linvel().to_array(), b.angvel().to_array()))
+    }
+
     /// get_dynamics_info: the values in force.
     pub fn dynamics_info(&self, id: u32, link_index: i32) -> Option<DynamicsInfo> {
         let obj = self.tables.objects.get(&id)?;
