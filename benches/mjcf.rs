@@ -23,20 +23,9 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use physics_mcp::command::{Blob, Command, ControlMode, MotorSpec};
 use physics_mcp::world::World;
 
-/// Gymnasium's MuJoCo models (mesh_robot.xml is our own fixture, not one of them).
-const MODELS: [&str; 11] = [
-    "ant",
-    "half_cheetah",
-    "hopper",
-    "humanoid",
-    "humanoidstandup",
-    "inverted_double_pendulum",
-    "inverted_pendulum",
-    "pusher",
-    "reacher",
-    "swimmer",
-    "walker2d",
-];
+#[path = "../tests/common/gymnasium.rs"]
+mod gymnasium;
+use gymnasium::MODELS;
 
 fn fixture(name: &str) -> Vec<u8> {
     std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/mjcf").join(name)).unwrap()

@@ -31,20 +31,7 @@ use std::path::Path;
 use physics_mcp::command::{Blob, Command};
 use physics_mcp::world::World;
 
-/// Gymnasium's MuJoCo models (mesh_robot.xml is ours, not one of them).
-const MODELS: [&str; 11] = [
-    "ant",
-    "half_cheetah",
-    "hopper",
-    "humanoid",
-    "humanoidstandup",
-    "inverted_double_pendulum",
-    "inverted_pendulum",
-    "pusher",
-    "reacher",
-    "swimmer",
-    "walker2d",
-];
+use crate::common::gymnasium::MODELS;
 
 const G: f32 = 9.81;
 const SIMULATED_S: f64 = 10.0;
