@@ -1,4 +1,4 @@
-//! Issue 29 benchmark (`cargo bench --bench change_cost`): what one change that touches one body
+//! A change's cost at any world size (`cargo bench --bench change_cost`): what one change that touches one body
 //! costs in a world of 100 objects and in one of 9,900 — add_box, set_object_pose,
 //! apply_force — over MCP/HTTP (the release server, one kept-alive rmcp client), as the mean
 //! per call over whole snapshot intervals, so each call's share of the snapshots is in it.
@@ -109,7 +109,6 @@ async fn disk(client: &common::Client, data: &std::path::Path, n: usize) -> (u64
     }
     let path = data.join(format!("{sim}.sqlite"));
     let conn = rusqlite::Connection::open_with_flags(&path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY).unwrap();
-    conn.execute_batch("PRAGMA wal_checkpoint(PASSIVE)").ok();
     let (count, bytes): (i64, i64) =
         conn.query_row("SELECT COUNT(*), COALESCE(SUM(LENGTH(bytes)), 0) FROM snapshots", [], |r| Ok((r.get(0)?, r.get(1)?))).unwrap();
     let files: u64 = std::fs::read_dir(data)

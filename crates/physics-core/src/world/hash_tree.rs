@@ -1,6 +1,6 @@
 //! The objects' part of state hash v2: a Merkle tree over object ids, kept between calls, so a
 //! change that touches one object re-hashes that object and the 8 nodes above it instead of
-//! every object in the world (issue: adding the 10,000th box cost 25× the 100th).
+//! every object in the world (under v1, adding the 1,000th box cost 2.5× the 100th).
 //!
 //! The tree is a radix tree of fan-out 16 over the 32-bit id: a leaf is the blake3 of one
 //! object's canonical encoding (`hash::object_leaf`); the node at level `L` (1..=8) and prefix
