@@ -4,9 +4,11 @@
 //!   1,001 add_box calls one by one vs the same calls in one `batch`;
 //! - run_sweep of 16 variants × 1,000 steps of a 100-box scene, in-process through
 //!   `Registry::sweep`: one worker vs one worker per core;
-//! - one step of the 1000-box pile and of the 64 URDF arms (settled 100 steps, then 100 steps
-//!   per round, in-process) on 1 vs 2 threads (`--threads`), 7 paired rounds, checking both end
-//!   in the same state hash.
+//! - one step of the 1000-box pile and of the 64 URDF arms (settled 100 steps, in-process) on 1
+//!   vs 2 threads (`--threads`), 7 paired rounds of 100 steps each, checking both end in the same
+//!   state hash: once as a live simulation steps (two twins, each restored once and stepped on
+//!   through the rounds: what step_simulation on a server's simulation costs), and once as the
+//!   first 100 steps after a restore (what a step right after load, fork, undo or a restart costs).
 
 // A benchmark reads the clock and its files; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -16,6 +18,7 @@ mod common;
 #[path = "pile.rs"]
 mod pile;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -25,6 +28,7 @@ use physics_mcp::limits::Limits;
 use physics_mcp::sim::{lock_sim, Registry};
 use physics_mcp::sim::sweep::{Control, Observe, Request};
 use physics_mcp::value::Args;
+use rapier3d::rayon::ThreadPoolBuilder;
 use pile::raw_pile;
 use serde_json::{json, Value};
 
@@ -190,14 +194,13 @@ fn steps_on(snapshot: &[u8], threads: usize) -> (f64, String) {
     (t.elapsed().as_secs_f64() * 1e3 / 100.0, w.state_hash())
 }
 
-/// 1 vs 2 threads on `world` settled 100 steps: paired rounds, the same final hash each time.
-fn threads_paired(name: &str, mut world: physics_mcp::world::World) -> Paired {
-    world.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
-    let snapshot = world.snapshot();
+/// `world` settled 100 steps, then its snapshot's first 100 steps after a restore on 1 vs 2
+/// threads: paired rounds, the same final hash each time.
+fn after_restore_paired(name: &str, snapshot: &[u8]) -> Paired {
     let mut paired = Paired::default();
     for _ in 0..THREAD_ROUNDS {
-        let (a, ha) = steps_on(&snapshot, 1);
-        let (b, hb) = steps_on(&snapshot, 2);
+        let (a, ha) = steps_on(snapshot, 1);
+        let (b, hb) = steps_on(snapshot, 2);
         assert_eq!(ha, hb, "{name}: 1 and 2 threads end in different states");
         paired.push(a, b);
     }
@@ -205,14 +208,47 @@ fn threads_paired(name: &str, mut world: physics_mcp::world::World) -> Paired {
     paired
 }
 
+/// Twins restored once from `snapshot`, one stepping on its own pool of 1 thread and one on 2,
+/// stepped on through the same 100 steps each round (which goes first alternates, so neither
+/// always finds the caches the other left): the same state hash after every round.
+fn live_paired(name: &str, snapshot: &[u8]) -> Paired {
+    let mut twins = [1, 2].map(|threads| {
+        let pool = ThreadPoolBuilder::new().num_threads(threads).build().expect("a stepping pool");
+        let mut w = physics_mcp::world::World::restore("scene", false, snapshot).unwrap();
+        w.set_thread_pool(Some(Arc::new(pool)));
+        assert_eq!(w.num_threads(), threads);
+        w
+    });
+    let mut paired = Paired::default();
+    for round in 0..THREAD_ROUNDS {
+        let mut ms = [0.0; 2];
+        for i in if round % 2 == 0 { [0, 1] } else { [1, 0] } {
+            let t = Instant::now();
+            twins[i].apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+            ms[i] = t.elapsed().as_secs_f64() * 1e3 / 100.0;
+        }
+        assert_eq!(twins[0].state_hash(), twins[1].state_hash(), "{name}: 1 and 2 threads differ after round {round}");
+        paired.push(ms[0], ms[1]);
+    }
+    paired
+}
+
+/// Both thread comparisons of `world` settled 100 steps, as REPORT lines.
+fn report_threads(what: &str, mut world: physics_mcp::world::World, decimals: usize) {
+    world.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    let snapshot = world.snapshot();
+    let live = live_paired(what, &snapshot);
+    println!("REPORT {what} step, live simulation (in-process, rounds of 100 steps): {}", live.report("1 thread", "2 threads", decimals));
+    let restored = after_restore_paired(what, &snapshot);
+    println!("REPORT {what} step, first 100 steps after a restore (in-process): {}", restored.report("1 thread", "2 threads", decimals));
+}
+
 /// Paired rounds of the thread comparisons.
 const THREAD_ROUNDS: usize = 7;
 
 fn bench_pile_threads(c: &mut Criterion) {
-    let paired = threads_paired("pile", pile::pile_world());
-    println!("REPORT pile step (1000 boxes, in-process, rounds of 100 steps): {}", paired.report("1 thread", "2 threads", 2));
-    let paired = threads_paired("arms", pile::arms_world());
-    println!("REPORT 64 URDF arms step (in-process, rounds of 100 steps): {}", paired.report("1 thread", "2 threads", 3));
+    report_threads("pile (1000 boxes)", pile::pile_world(), 2);
+    report_threads("64 URDF arms", pile::arms_world(), 3);
     let mut w = pile::pile_world();
     w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
     let snapshot = w.snapshot();

@@ -5,6 +5,9 @@
 //!     cargo bench --bench threads_profile --no-run
 //!     perf record -F 999 -o /tmp/perf.data target/release/deps/threads_profile-* 2 pile
 //!     perf report -i /tmp/perf.data --sort comm,sym
+//!
+//! Two more arguments set the steps and the chunk each is timed in: `2 pile 20 1` prints the
+//! first 20 steps after the restore one by one.
 
 // A benchmark reads the clock and its arguments; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -24,8 +27,17 @@ fn main() {
     w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
     physics_mcp::cli::step_on_threads(threads).expect("stepping threads");
     let mut w = physics_mcp::world::World::restore("scene", false, &w.snapshot()).unwrap();
+    // Optional: steps (default 1,000) and a chunk size, to see the cost after the restore step by
+    // step (e.g. `2 pile 20 1`).
+    let steps: u64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1000);
+    let chunk: u64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(steps).clamp(1, steps);
     let t = std::time::Instant::now();
-    w.apply(&Command::StepSimulation { steps: 1000 }, &mut |_| true);
-    let ms_per_step = t.elapsed().as_secs_f64() * 1e3 / 1000.0;
-    println!("{threads} threads: {ms_per_step:.3} ms/step, hash {}", w.state_hash());
+    let mut chunks = Vec::new();
+    for _ in 0..steps / chunk {
+        let c = std::time::Instant::now();
+        w.apply(&Command::StepSimulation { steps: chunk }, &mut |_| true);
+        chunks.push(format!("{:.3}", c.elapsed().as_secs_f64() * 1e3 / chunk as f64));
+    }
+    let ms_per_step = t.elapsed().as_secs_f64() * 1e3 / (steps / chunk * chunk) as f64;
+    println!("{threads} threads: {ms_per_step:.3} ms/step (chunks: {}), hash {}", chunks.join(" "), w.state_hash());
 }
