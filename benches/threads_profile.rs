@@ -6,6 +6,7 @@
 //!     perf record -F 999 -o /tmp/perf.data target/release/deps/threads_profile-* 2 pile
 //!     perf report -i /tmp/perf.data --sort comm,sym
 //!
+//! A number instead of `pile` or `arms` steps the pile's first N boxes (with its ground).
 //! Two more arguments set the steps and the chunk each is timed in: `2 pile 20 1` prints the
 //! first 20 steps after the restore one by one.
 
@@ -22,6 +23,13 @@ fn main() {
     let threads: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(2);
     let mut w = match args.get(1).map(String::as_str) {
         Some("arms") => pile::arms_world(),
+        Some(n) if n.parse::<usize>().is_ok() => {
+            let (mut w, _) = physics_mcp::world::World::create(&pile::root("small")).unwrap();
+            for c in pile::pile_commands().into_iter().take(1 + n.parse::<usize>().unwrap()) {
+                w.apply(&c, &mut |_| true);
+            }
+            w
+        }
         _ => pile::pile_world(),
     };
     w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
