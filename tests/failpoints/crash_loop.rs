@@ -125,7 +125,9 @@ async fn restart_and_check(dir: &std::path::Path, sims: &[String], acks: &Acks, 
 }
 
 /// Runs clients against `server` until it dies (crash point) or `kill_after` passes (kill -9).
-async fn traffic(server: &mut Server, sims: &[String], acks: &Acks, seed: u64, kill_after: Option<Duration>) -> bool {
+/// Returns whether the server died by itself, and how many calls were acknowledged meanwhile.
+async fn traffic(server: &mut Server, sims: &[String], acks: &Acks, seed: u64, kill_after: Option<Duration>) -> (bool, usize) {
+    let acked_before = acks.lock().unwrap().len();
     let mut tasks = Vec::new();
     for (i, sim) in sims.iter().enumerate() {
         tasks.push(tokio::spawn(writer(server.url.clone(), sim.clone(), seed ^ (i as u64 + 1), acks.clone(), i == 0)));
@@ -146,7 +148,7 @@ async fn traffic(server: &mut Server, sims: &[String], acks: &Acks, seed: u64, k
     for t in tasks {
         let _ = tokio::time::timeout(Duration::from_secs(30), t).await;
     }
-    crashed
+    (crashed, acks.lock().unwrap().len() - acked_before)
 }
 
 fn server_kill(server: &mut Server) -> bool {
@@ -200,8 +202,12 @@ async fn acknowledged_calls_survive_kill_9_anywhere() {
             let nth = rng.gen_range(0..4);
             let spec = format!("{point}={nth}*off->return");
             let mut server = Server::start_with_env(dir.path(), &[], &[("FAILPOINTS", &spec)]);
-            let crashed = traffic(&mut server, &sims, &acks, seed.wrapping_add(1000 + round), None).await;
-            assert!(crashed, "{what}: the crash point never fired");
+            let (crashed, acked) = traffic(&mut server, &sims, &acks, seed.wrapping_add(1000 + round), None).await;
+            if !crashed {
+                // What the server said, to tell a stalled server from clients that gave up.
+                let said = server.stderr.lock().map(|l| l.iter().rev().take(40).rev().cloned().collect::<Vec<_>>().join("\n")).unwrap_or_default();
+                panic!("{what}: the crash point never fired ({acked} calls acknowledged meanwhile); the server's last words:\n{said}");
+            }
             *phase_kills.entry(point).or_insert(0) += 1;
             kills += 1;
         }
