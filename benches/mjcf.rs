@@ -1,5 +1,5 @@
 //! MJCF benchmarks (`cargo bench --bench mjcf`; `scripts/mjcf_bench.py` runs it beside MuJoCo's
-//! own figures for the same models, issue 29): load_mjcf of Gymnasium's humanoid.xml (the
+//! own figures for the same models): load_mjcf of Gymnasium's humanoid.xml (the
 //! world's work: parse the spliced text with rapier3d-mjcf, build the robot), and the per-step
 //! cost of every Gymnasium model in `tests/fixtures/mjcf` at the model's own `<option
 //! timestep>` (MuJoCo's 0.002 s when absent), single thread, from the file's pose (MuJoCo's
@@ -25,11 +25,7 @@ use physics_mcp::world::World;
 
 #[path = "../tests/common/gymnasium.rs"]
 mod gymnasium;
-use gymnasium::MODELS;
-
-fn fixture(name: &str) -> Vec<u8> {
-    std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/mjcf").join(name)).unwrap()
-}
+use gymnasium::{fixture, model_timestep, MODELS};
 
 fn world_with(name: &str, bytes: &[u8]) -> World {
     let root = Command::CreateSimulation { simulation_id: "mjcf".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
@@ -49,16 +45,6 @@ fn world_with(name: &str, bytes: &[u8]) -> World {
     let out = w.apply(&load, &mut |_| true);
     assert!(matches!(out, physics_mcp::outputs::Outcome::MjcfLoaded(_)), "{name} loads: {:?}", out.to_value());
     w
-}
-
-/// The model's `<option timestep>`, MuJoCo's default 0.002 s when it names none.
-fn model_timestep(bytes: &[u8]) -> f64 {
-    let text = std::str::from_utf8(bytes).unwrap();
-    let doc = roxmltree::Document::parse(text).unwrap();
-    doc.descendants()
-        .find(|n| n.has_tag_name("option"))
-        .and_then(|n| n.attribute("timestep"))
-        .map_or(0.002, |t| t.trim().parse().unwrap())
 }
 
 fn env_or(name: &str, default: usize) -> usize {
@@ -104,7 +90,7 @@ fn bench_mjcf(c: &mut Criterion) {
     let runs = env_or("MJCF_BENCH_RUNS", 7);
     let only: Option<Vec<String>> = std::env::var("MJCF_BENCH_MODELS").ok().map(|v| v.split(',').map(str::to_string).collect());
     if only.is_none() {
-        let humanoid = fixture("humanoid.xml");
+        let humanoid = fixture("humanoid");
         let mut g = c.benchmark_group("mjcf");
         g.sample_size(20).measurement_time(Duration::from_secs(10));
         let mut loads = Vec::new();
@@ -124,7 +110,7 @@ fn bench_mjcf(c: &mut Criterion) {
             continue;
         }
         let file = format!("{model}.xml");
-        let bytes = fixture(&file);
+        let bytes = fixture(model);
         let dt = model_timestep(&bytes);
         let (med, min) = step_cost(&file, &bytes, dt, steps, runs);
         let drive = match std::env::var("MJCF_BENCH_DRIVE").as_deref() {

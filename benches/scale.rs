@@ -1,4 +1,4 @@
-//! Issue 13 benchmarks (`cargo bench --bench scale`), each pair measured side by side in one
+//! Scale benchmarks (`cargo bench --bench scale`), each pair measured side by side in one
 //! run and reported as a ratio:
 //! - the 1000-box pile built through MCP over HTTP (the real release binary, one rmcp client):
 //!   1,001 add_box calls one by one vs the same calls in one `batch`;

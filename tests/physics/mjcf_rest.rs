@@ -1,4 +1,4 @@
-//! No speed bought with bad physics (issue 29): every Gymnasium model in tests/fixtures/mjcf,
+//! No speed bought with bad physics: every Gymnasium model in tests/fixtures/mjcf,
 //! loaded as load_mjcf loads it (its free base free, where it has one) in a world with gravity
 //! −9.81 m/s² along z, is stepped for 10 s of simulated time at its own `<option timestep>`
 //! (MuJoCo's 0.002 s when it names none) with nothing driving it. It comes to rest on its floor
@@ -26,12 +26,10 @@
 //! The world is driven through `World::apply` as the server does (load_mjcf, set_timestep,
 //! step_simulation); an observer reads the narrow phase after every step. No clock is read.
 
-use std::path::Path;
-
 use physics_mcp::command::{Blob, Command};
 use physics_mcp::world::World;
 
-use crate::common::gymnasium::MODELS;
+use crate::common::gymnasium::{fixture, model_timestep, MODELS};
 
 const G: f32 = 9.81;
 const SIMULATED_S: f64 = 10.0;
@@ -39,20 +37,9 @@ const MAX_PENETRATION_M: f32 = 0.005;
 /// When the model is resting: after its first second (module doc).
 const SETTLE_S: f64 = 1.0;
 
-fn fixture(model: &str) -> Vec<u8> {
-    std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/mjcf").join(format!("{model}.xml"))).unwrap()
-}
-
-/// The model's `<option timestep>`, MuJoCo's default 0.002 s when it names none.
-fn model_timestep(bytes: &[u8]) -> f64 {
-    let doc = roxmltree::Document::parse(std::str::from_utf8(bytes).unwrap()).unwrap();
-    doc.descendants().find(|n| n.has_tag_name("option")).and_then(|n| n.attribute("timestep")).map_or(0.002, |t| t.trim().parse().unwrap())
-}
-
-fn loaded(model: &str, bytes: &[u8], dt: f64) -> World {
-    let root = Command::CreateSimulation { simulation_id: model.into(), gravity: [0.0, 0.0, -G], gui: false, name: None };
-    let (mut w, _) = World::create(&root).unwrap();
-    let load = Command::LoadMjcf {
+/// load_mjcf of `model` at the origin as the server records it today (parent filter on).
+fn load_command(model: &str, bytes: &[u8], use_model_options: bool) -> Command {
+    Command::LoadMjcf {
         file_path: format!("{model}.xml"),
         mjcf: Blob::new(bytes.to_vec()),
         meshes: Default::default(),
@@ -61,10 +48,19 @@ fn loaded(model: &str, bytes: &[u8], dt: f64) -> World {
         fixed_base: false,
         keyframe: None,
         parent_filter: true,
-        use_model_options: false,
+        use_model_options,
         parsed: Default::default(),
-    };
-    let out = w.apply(&load, &mut |_| true);
+    }
+}
+
+/// A fresh simulation (gravity −G along z) for `model`.
+fn root(model: &str) -> Command {
+    Command::CreateSimulation { simulation_id: model.into(), gravity: [0.0, 0.0, -G], gui: false, name: None }
+}
+
+fn loaded(model: &str, bytes: &[u8], dt: f64) -> World {
+    let (mut w, _) = World::create(&root(model)).unwrap();
+    let out = w.apply(&load_command(model, bytes, false), &mut |_| true);
     assert!(matches!(out, physics_mcp::outputs::Outcome::MjcfLoaded(_)), "{model} loads: {:?}", out.to_value());
     w.apply(&Command::SetTimestep { timestep: dt as f32, timestep_given: Some(dt) }, &mut |_| true);
     w
@@ -167,19 +163,8 @@ fn every_gymnasium_model_rests_on_its_floor_without_penetrating_or_gaining_energ
 #[test]
 fn use_model_options_imposes_the_models_timestep_and_gravity_and_old_events_fold_as_before() {
     let bytes = fixture("pusher");
-    let load = |use_model_options: bool| Command::LoadMjcf {
-        file_path: "pusher.xml".into(),
-        mjcf: Blob::new(bytes.clone()),
-        meshes: Default::default(),
-        position: [0.0; 3],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        fixed_base: false,
-        keyframe: None,
-        parent_filter: true,
-        use_model_options,
-        parsed: Default::default(),
-    };
-    let root = Command::CreateSimulation { simulation_id: "o".into(), gravity: [0.0, 0.0, -G], gui: false, name: None };
+    let load = |use_model_options: bool| load_command("pusher", &bytes, use_model_options);
+    let root = root("o");
     let ignored = |out: &physics_mcp::outputs::Outcome| out.to_value()["ignored"][0].as_str().unwrap().to_string();
 
     let (mut w, _) = World::create(&root).unwrap();

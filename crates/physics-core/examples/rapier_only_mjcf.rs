@@ -1,4 +1,4 @@
-//! Issue 29's rapier-only reproduction: Gymnasium's MJCF models stepped by rapier3d alone,
+//! A rapier-only reproduction: Gymnasium's MJCF models stepped by rapier3d alone,
 //! loaded by rapier3d-mjcf's own loader, with no physics-mcp code (no World, no event log, no
 //! motors, hooks or observers of ours) — so its ms/step, next to `cargo bench --bench mjcf`'s,
 //! shows what the engine costs by itself, and its callgrind profile shows where.
@@ -29,20 +29,12 @@ use std::time::Instant;
 use rapier3d::prelude::*;
 use rapier3d_mjcf::{MjcfLoaderOptions, MjcfMultibodyOptions, MjcfRobot};
 
-/// Gymnasium's MuJoCo models, as in the physics-mcp benchmark.
-const MODELS: [&str; 11] = [
-    "ant",
-    "half_cheetah",
-    "hopper",
-    "humanoid",
-    "humanoidstandup",
-    "inverted_double_pendulum",
-    "inverted_pendulum",
-    "pusher",
-    "reacher",
-    "swimmer",
-    "walker2d",
-];
+/// Gymnasium's MuJoCo models: the list the physics-mcp benchmark and rest test use (a list of
+/// fixture names, no physics-mcp code).
+#[path = "../../../tests/common/gymnasium.rs"]
+#[allow(dead_code)]
+mod gymnasium;
+use gymnasium::MODELS;
 
 /// A fresh rapier world holding the model, and the model's timestep.
 fn world(model: &str) -> (PhysicsWorld, f32) {

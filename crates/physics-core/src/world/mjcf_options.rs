@@ -30,10 +30,7 @@ impl World {
     pub(super) fn use_model_options(&mut self, loaded: &mut MjcfLoaded, o: ModelOptions) {
         let dt = o.timestep as f32;
         if o.timestep.is_finite() && dt > 0.0 && dt.is_finite() {
-            let (now, steps) = (self.current_time(), self.tables.steps);
-            let g = &mut self.tables.as_given;
-            (g.timestep_s, g.time_at_timestep_s, g.steps_at_timestep) = (o.timestep, now, steps);
-            self.physics.integration_parameters.dt = dt;
+            self.set_timestep(dt, o.timestep);
         }
         let gravity = o.gravity.map(|x| x as f32);
         if gravity.iter().all(|x| x.is_finite()) {
@@ -43,13 +40,15 @@ impl World {
             "<option timestep=\"{}\" gravity=\"{} {} {}\">: applied to the simulation (use_model_options)",
             o.timestep, o.gravity[0], o.gravity[1], o.gravity[2]
         );
-        if let Some(first) = loaded.ignored.first_mut().filter(|n| n.starts_with("<option timestep=")) {
-            *first = note.clone();
-        }
-        if let Some(ObjectKind::Mjcf { mjcf, .. }) = self.tables.objects.get_mut(&loaded.object_id).map(|o| &mut o.kind) {
-            if let Some(first) = mjcf.ignored.first_mut().filter(|n| n.starts_with("<option timestep=")) {
-                *first = note;
+        // The reply's `ignored` and the one get_simulation_info reports later say the same.
+        let replace = |ignored: &mut Vec<String>| {
+            if let Some(first) = ignored.first_mut().filter(|n| n.starts_with("<option timestep=")) {
+                first.clone_from(&note);
             }
+        };
+        replace(&mut loaded.ignored);
+        if let Some(ObjectKind::Mjcf { mjcf, .. }) = self.tables.objects.get_mut(&loaded.object_id).map(|o| &mut o.kind) {
+            replace(&mut mjcf.ignored);
         }
     }
 }

@@ -568,10 +568,7 @@ impl World {
             }
             Command::SetTimestep { timestep, timestep_given } => {
                 let given = timestep_given.unwrap_or_else(|| crate::value::r32(*timestep));
-                let (now, steps) = (self.current_time(), self.tables.steps);
-                let g = &mut self.tables.as_given;
-                (g.timestep_s, g.time_at_timestep_s, g.steps_at_timestep) = (given, now, steps);
-                self.physics.integration_parameters.dt = *timestep;
+                self.set_timestep(*timestep, given);
                 Outcome::TimestepSet(TimestepSet {
                     landed: None,
                     message: format!("Timestep set to {given} s"),
@@ -668,6 +665,16 @@ impl World {
             }
             other => self.apply_body_command(other).into(),
         }
+    }
+
+    /// The engine steps `dt` from now on, reported as `given` (the value as the caller wrote it):
+    /// the current time so far is kept, later steps add `given` each (set_timestep, and
+    /// load_mjcf's `use_model_options`).
+    pub(super) fn set_timestep(&mut self, dt: f32, given: f64) {
+        let (now, steps) = (self.current_time(), self.tables.steps);
+        let g = &mut self.tables.as_given;
+        (g.timestep_s, g.time_at_timestep_s, g.steps_at_timestep) = (given, now, steps);
+        self.physics.integration_parameters.dt = dt;
     }
 
     /// Advances `n` steps, clearing one-step forces after the first. Returns the steps taken.
