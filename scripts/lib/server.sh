@@ -28,7 +28,9 @@ start_server() {
   server_pid=$!
   url=""
   for _ in $(seq 1 600); do
-    url=$(sed -n 's/^physics-mcp listening on \(http[^ ]*\).*/\1/p' "$scratch/server.log" | head -n1)
+    # Only a whole line counts: the address ends in /mcp (a line read while being written
+    # would give a URL without its host).
+    url=$(sed -n 's|^physics-mcp listening on \(http://[^ /]*/mcp\)$|\1|p' "$scratch/server.log" | head -n1)
     [[ -n "$url" ]] && break
     kill -0 "$server_pid" 2>/dev/null || { cat "$scratch/server.log" >&2; echo "$who: the server did not start" >&2; exit 1; }
     sleep 0.1

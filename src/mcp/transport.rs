@@ -215,7 +215,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let app = mcp
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
-    eprintln!("physics-mcp listening on http://{local}/mcp");
+    announce_address(local);
     // Graceful: no new connection, open ones finish their replies — for at most
     // `shutdown::GRACE` after the signal (a client may hold a stream open for ever), then the
     // flush.
@@ -255,4 +255,13 @@ pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
     };
     finish(reg).await;
     Ok(())
+}
+
+/// Prints the line clients wait for — `physics-mcp listening on http://HOST:PORT/mcp` — in
+/// one write. `eprintln!` writes unbuffered stderr piece by piece, so a script polling the log
+/// could read `…listening on http://` before the address arrived and connect to nowhere.
+fn announce_address(local: std::net::SocketAddr) {
+    use std::io::Write;
+    let line = format!("physics-mcp listening on http://{local}/mcp\n");
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
 }
