@@ -229,6 +229,7 @@ async fn deep_huge_and_extreme_models_are_refused_and_models_at_the_bounds_work(
     write("chain.urdf", format!(r#"<robot name="c"><link name="l0"/>{chain}</robot>"#));
     write("negative_cylinder.xml", r#"<mujoco><worldbody><body><geom type="cylinder" size="-1 0.5"/></body></worldbody></mujoco>"#.into());
     write("far_body.xml", r#"<mujoco><worldbody><body pos="0 0 1e400"><joint type="hinge" range="-1 1" limited="true"/><geom size="0.1"/></body></worldbody></mujoco>"#.into());
+    write("far_joint.xml", FAR_JOINT.into());
     write("long_cylinder.urdf", r#"<robot name="r"><link name="a"/><link name="b"><collision><geometry><cylinder radius="0.1" length="1e26"/></geometry></collision></link><joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#.into());
     write("entities.xml", r#"<?xml version="1.0"?><!DOCTYPE mujoco [<!ENTITY a "<body><geom size='0.1'/></body>">]><mujoco><worldbody>&a;</worldbody></mujoco>"#.into());
     let c = server.client().await;
@@ -239,12 +240,13 @@ async fn deep_huge_and_extreme_models_are_refused_and_models_at_the_bounds_work(
         ("load_urdf", "chain.urdf", "600 joints; a model may have at most 512"),
         ("load_mjcf", "negative_cylinder.xml", "size [-1.0, 0.5]"),
         ("load_mjcf", "far_body.xml", "has pos"),
+        ("load_mjcf", "far_joint.xml", "joint hinge has pos [0.0, 1e308, 0.0]"),
         ("load_urdf", "long_cylinder.urdf", "cylinder length of 1000000"),
         ("load_mjcf", "entities.xml", "declarations (entities)"),
     ];
     for (tool, file, says) in refused {
         let why = c.try_call(tool, json!({"sim_id": sim, "file_path": file})).await.expect_err(file);
-        assert!(why.contains("file_path") || why.contains("geom") || why.contains("body") || why.contains("link"), "{file}: {why}");
+        assert!(["file_path", "geom", "body", "link", "joint"].iter().any(|p| why.contains(p)), "{file}: {why}");
         assert!(why.contains(says), "{file}: {why}");
         assert!(!why.contains("Internal error"), "{file}: {why}");
     }
@@ -257,4 +259,36 @@ async fn deep_huge_and_extreme_models_are_refused_and_models_at_the_bounds_work(
     assert_eq!(verified["ok"], true, "{verified}");
     c.call("fork_simulation", json!({"sim_id": sim})).await;
     assert!(server.stderr.lock().unwrap().iter().all(|l| !l.contains("panicked")), "the server panicked");
+}
+
+/// A hinge anchored 1e308 m away (a limited one: rapier's joint-limit solve panicked on it at
+/// every step).
+const FAR_JOINT: &str = r#"<mujoco><worldbody><body pos="0 0 1"><joint name="hinge" type="hinge" pos="0 1e308 0" range="-1 1" limited="true"/><geom size="0.1"/></body></worldbody></mujoco>"#;
+
+/// The joint-anchor bound holds at the edge (a call, a batch, a saved file's objects) but not
+/// in the fold: a log that loaded such a model before the bound still folds to it.
+#[test]
+fn a_joint_anchor_beyond_the_bound_is_refused_at_the_edge_and_an_old_log_holding_one_folds() {
+    use physics_mcp::command::{Blob, Command};
+    let load = Command::LoadMjcf {
+        file_path: "far_joint.xml".into(),
+        mjcf: Blob::new(FAR_JOINT.as_bytes().to_vec()),
+        meshes: Default::default(),
+        position: [0.0; 3],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        fixed_base: false,
+        keyframe: None,
+        parent_filter: true,
+        use_model_options: false,
+        parsed: Default::default(),
+    };
+    for why in [load.within_extent().unwrap_err(), load.clone().ready().unwrap_err()] {
+        assert!(why.contains("joint hinge has pos [0.0, 1e308, 0.0], not finite numbers within 100000 m"), "{why}");
+    }
+    let create = Command::CreateSimulation { simulation_id: "old".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let (mut world, _) = physics_mcp::world::World::create(&create).unwrap();
+    let limits = physics_mcp::limits::Limits::default();
+    load.validate(&world, &limits).expect("the fold's check accepts what an old log recorded");
+    let out = world.apply(&load, &mut |_| true);
+    assert!(matches!(out, physics_mcp::outputs::Outcome::MjcfLoaded(_)), "{:?}", out.to_value());
 }

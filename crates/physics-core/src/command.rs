@@ -781,7 +781,6 @@ impl Command {
 
     /// `ready`, parsing each distinct model once within `models` (one request's).
     pub fn ready_in(mut self, models: &mut ParsedModels) -> Result<Command, Refusal> {
-        self.within_extent()?;
         let rules = self.urdf_rules();
         match &mut self {
             Command::LoadUrdf { urdf, meshes, parsed, .. } => {
@@ -810,6 +809,8 @@ impl Command {
             }
             _ => {}
         }
+        // After the parse: a model's joint anchors are checked on the model parsed here.
+        self.within_extent()?;
         Ok(self)
     }
 
@@ -817,7 +818,8 @@ impl Command {
     /// panics on every later step (a 1.8e19 m box beside a mesh); velocities within
     /// [`crate::limits::MAX_SPEED`] (far beyond it a body freezes). Checked at the edge only —
     /// `ready`, and every command re-made from a saved file's readable fields — not in
-    /// `validate`, so logs recorded before the bound fold as they always did.
+    /// `validate`, so logs recorded before the bound fold as they always did. An MJCF model's
+    /// joint anchors too (parsed here unless parsed ahead).
     pub fn within_extent(&self) -> Result<(), Refusal> {
         let bound = crate::limits::MAX_EXTENT_M as f32;
         let near = |name: &str, v: &[f32]| match v.iter().all(|x| x.abs() <= bound) {
@@ -829,8 +831,13 @@ impl Command {
                 near("position", position)?;
                 near("dimensions", &shape.dimensions())
             }
-            Command::SetObjectPose { position, .. } | Command::LoadUrdf { position, .. } | Command::LoadMjcf { position, .. } => {
-                near("position", position)
+            Command::SetObjectPose { position, .. } | Command::LoadUrdf { position, .. } => near("position", position),
+            Command::LoadMjcf { position, mjcf, meshes, keyframe, parsed, .. } => {
+                near("position", position)?;
+                match parsed.get() {
+                    Some(model) => model.joints_within_extent(),
+                    None => crate::world::mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref())?.joints_within_extent(),
+                }
             }
             Command::SetObjectVelocity { linear_velocity, angular_velocity, .. } => {
                 let speed = crate::limits::MAX_SPEED as f32;

@@ -253,6 +253,22 @@ impl Prepared {
     pub fn options(&self) -> super::mjcf_options::ModelOptions {
         super::mjcf_options::ModelOptions { timestep: self.model.option.timestep, gravity: self.model.option.gravity }
     }
+
+    /// Joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
+    /// at 1e308 m loads, then panics rapier's joint-limit solve on every step. Checked at the
+    /// edge only (`Command::within_extent`), not in [`prepare`], which every fold runs: logs that
+    /// loaded such a model before the bound fold as they always did.
+    pub fn joints_within_extent(&self) -> Result<(), Refusal> {
+        let bound = crate::limits::MAX_EXTENT_M;
+        for (id, entry) in self.model.bodies_iter() {
+            if let Some(j) = entry.body.joints.iter().find(|j| !j.pos.iter().all(|x| x.abs() <= bound)) {
+                let body = entry.body.name.clone().unwrap_or_else(|| format!("#{id}"));
+                let joint = j.name.clone().unwrap_or_else(|| format!("of body {body}"));
+                return Err(format!("joint {joint} has pos {:?}, not finite numbers within {bound} m", j.pos));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Parses, checks and converts MJCF text (includes already spliced; meshes by `<mesh file>`).
@@ -777,9 +793,6 @@ fn find_joint<'a>(model: &'a Model, body: usize, name: Option<&str>) -> Option<&
     }
 }
 
-/// Refuses a body whose position, or a geom whose position or size, is not a finite number
-/// within [`crate::limits::MAX_EXTENT_M`] (a size must also be > 0): the engine panics on such
-/// values at load (a negative cylinder) or at every later step (a body at 1e400).
 /// How many of a geom's `size` numbers its shape uses (none when sized from a mesh).
 fn used_sizes(g: &rapier3d_mjcf::mjcf_rs::body::Geom) -> usize {
     if g.mesh.is_some() {
@@ -794,6 +807,9 @@ fn used_sizes(g: &rapier3d_mjcf::mjcf_rs::body::Geom) -> usize {
     }
 }
 
+/// Refuses a body whose position, or a geom whose position or size, is not a finite number
+/// within [`crate::limits::MAX_EXTENT_M`] (a size must also be > 0): the engine panics on such
+/// values at load (a negative cylinder) or at every later step (a body at 1e400).
 fn bounded_body(body: &rapier3d_mjcf::mjcf_rs::body::Body, name: &str) -> Result<(), Refusal> {
     let bound = crate::limits::MAX_EXTENT_M;
     let within = |x: f64| x.abs() <= bound;
