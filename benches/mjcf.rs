@@ -20,28 +20,19 @@
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use physics_mcp::command::{Blob, Command, ControlMode, MotorSpec};
+use physics_mcp::command::{Command, ControlMode, MotorSpec};
 use physics_mcp::world::World;
 
 #[path = "../tests/common/gymnasium.rs"]
 mod gymnasium;
 use gymnasium::{fixture, model_timestep, MODELS};
+#[path = "../tests/common/mjcf_command.rs"]
+mod mjcf_command;
 
 fn world_with(name: &str, bytes: &[u8]) -> World {
     let root = Command::CreateSimulation { simulation_id: "mjcf".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
     let (mut w, _) = World::create(&root).unwrap();
-    let load = Command::LoadMjcf {
-        file_path: name.into(),
-        mjcf: Blob::new(bytes.to_vec()),
-        meshes: Default::default(),
-        position: [0.0; 3],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        fixed_base: false,
-        keyframe: None,
-        parent_filter: true,
-        use_model_options: std::env::var("MJCF_BENCH_USE_MODEL_OPTIONS").is_ok_and(|v| v == "1"),
-        parsed: Default::default(),
-    };
+    let load = mjcf_command::load_mjcf(name, bytes, std::env::var("MJCF_BENCH_USE_MODEL_OPTIONS").is_ok_and(|v| v == "1"));
     let out = w.apply(&load, &mut |_| true);
     assert!(matches!(out, physics_mcp::outputs::Outcome::MjcfLoaded(_)), "{name} loads: {:?}", out.to_value());
     w

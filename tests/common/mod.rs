@@ -397,6 +397,7 @@ pub fn empty_world(id: &str) -> physics_mcp::world::World {
 /// Hardening helpers: seeds, fingerprints, list_simulations parts.
 pub mod hard;
 pub mod gymnasium;
+pub mod mjcf_command;
 
 /// `physics-mcp replay` of simulation `id`'s log in `data`, every recorded hash checked:
 /// panics with its output unless it replays.

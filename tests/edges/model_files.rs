@@ -269,19 +269,8 @@ const FAR_JOINT: &str = r#"<mujoco><worldbody><body pos="0 0 1"><joint name="hin
 /// in the fold: a log that loaded such a model before the bound still folds to it.
 #[test]
 fn a_joint_anchor_beyond_the_bound_is_refused_at_the_edge_and_an_old_log_holding_one_folds() {
-    use physics_mcp::command::{Blob, Command};
-    let load = Command::LoadMjcf {
-        file_path: "far_joint.xml".into(),
-        mjcf: Blob::new(FAR_JOINT.as_bytes().to_vec()),
-        meshes: Default::default(),
-        position: [0.0; 3],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        fixed_base: false,
-        keyframe: None,
-        parent_filter: true,
-        use_model_options: false,
-        parsed: Default::default(),
-    };
+    use physics_mcp::command::Command;
+    let load = common::mjcf_command::load_mjcf("far_joint.xml", FAR_JOINT.as_bytes(), false);
     for why in [load.within_extent().unwrap_err(), load.clone().ready().unwrap_err()] {
         assert!(why.contains("joint hinge has pos [0.0, 1e308, 0.0], not finite numbers within 100000 m"), "{why}");
     }

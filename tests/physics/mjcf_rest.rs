@@ -26,7 +26,7 @@
 //! The world is driven through `World::apply` as the server does (load_mjcf, set_timestep,
 //! step_simulation); an observer reads the narrow phase after every step. No clock is read.
 
-use physics_mcp::command::{Blob, Command};
+use physics_mcp::command::Command;
 use physics_mcp::world::World;
 
 use crate::common::gymnasium::{fixture, model_timestep, MODELS};
@@ -37,20 +37,9 @@ const MAX_PENETRATION_M: f32 = 0.005;
 /// When the model is resting: after its first second (module doc).
 const SETTLE_S: f64 = 1.0;
 
-/// load_mjcf of `model` at the origin as the server records it today (parent filter on).
+/// load_mjcf of `model` as the server records it today.
 fn load_command(model: &str, bytes: &[u8], use_model_options: bool) -> Command {
-    Command::LoadMjcf {
-        file_path: format!("{model}.xml"),
-        mjcf: Blob::new(bytes.to_vec()),
-        meshes: Default::default(),
-        position: [0.0; 3],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        fixed_base: false,
-        keyframe: None,
-        parent_filter: true,
-        use_model_options,
-        parsed: Default::default(),
-    }
+    crate::common::mjcf_command::load_mjcf(&format!("{model}.xml"), bytes, use_model_options)
 }
 
 /// A fresh simulation (gravity −G along z) for `model`.
