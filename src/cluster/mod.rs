@@ -88,18 +88,25 @@ impl Drop for Cluster {
     }
 }
 
-/// Creates a bucket-like thing, or opens it when another node created it first.
-async fn create_or_get<T, E1, E2, C, G>(create: C, get: G) -> Result<T, String>
+/// Creates a bucket-like thing, or opens it when another node created it first, retried
+/// `patiently`: a cluster that has just formed may not place replicas yet ("no suitable peers
+/// for placement, peer offline" — seen in CI for the object store, the one bucket that was not
+/// retried), and a bucket another node has just made may not answer yet.
+async fn create_or_get<T, E1, E2, CF, GF>(create: impl Fn() -> CF, get: impl Fn() -> GF) -> Result<T, String>
 where
-    C: Future<Output = Result<T, E1>>,
-    G: FnOnce() -> std::pin::Pin<Box<dyn Future<Output = Result<T, E2>> + Send>>,
+    CF: Future<Output = Result<T, E1>>,
+    GF: Future<Output = Result<T, E2>>,
     E1: std::fmt::Display,
     E2: std::fmt::Display,
 {
-    match create.await {
-        Ok(t) => Ok(t),
-        Err(first) => get().await.map_err(|e| format!("{first}; then {e}")),
-    }
+    let (create, get) = (&create, &get);
+    patiently(move || async move {
+        match create().await {
+            Ok(t) => Ok(t),
+            Err(first) => get().await.map_err(|e| format!("{first}; then {e}")),
+        }
+    })
+    .await
 }
 
 impl Cluster {
@@ -187,16 +194,16 @@ impl Cluster {
                 bucket(&format!("{}_sims", cfg.namespace), Duration::ZERO, cfg.replicas),
             )
             .await?;
-            let js2 = js.clone();
             let objects_name = format!("{}_objects", cfg.namespace);
-            let got_name = objects_name.clone();
             let objects = create_or_get(
-                js.create_object_store(object_store::Config {
-                    bucket: objects_name.clone(),
-                    num_replicas: cfg.replicas,
-                    ..Default::default()
-                }),
-                move || Box::pin(async move { js2.get_object_store(got_name).await }),
+                || {
+                    js.create_object_store(object_store::Config {
+                        bucket: objects_name.clone(),
+                        num_replicas: cfg.replicas,
+                        ..Default::default()
+                    })
+                },
+                || js.get_object_store(&objects_name),
             )
             .await
             .map_err(|e| anyhow::anyhow!("object store {objects_name}: {e}"))?;
@@ -268,16 +275,9 @@ impl Cluster {
 /// Creates a key-value bucket, or opens it when another node created it first.
 async fn open_bucket(js: &jetstream::Context, config: kv::Config) -> anyhow::Result<kv::Store> {
     let name = config.bucket.clone();
-    let js2 = js.clone();
-    let n = name.clone();
-    patiently(|| {
-        let (js2, n) = (js2.clone(), n.clone());
-        create_or_get(js.create_key_value(config.clone()), move || {
-            Box::pin(async move { js2.get_key_value(n).await })
-        })
-    })
-    .await
-    .map_err(|e| anyhow::anyhow!("bucket {name}: {e}"))
+    create_or_get(|| js.create_key_value(config.clone()), || js.get_key_value(name.clone()))
+        .await
+        .map_err(|e| anyhow::anyhow!("bucket {name}: {e}"))
 }
 
 /// The cluster's value of setting `key`: this node's `mine` if it is the first to say, else
