@@ -146,10 +146,11 @@ impl Registry {
                     sim = Some(Sim::create_unpublished(&partial, tool, root, args, self.config().sync)?.0);
                 }
                 Some(sim) => {
-                    // Made from the file, not from a client's call: held to the edge's bounds here.
-                    cmd.within_extent().map_err(|why| format!("The file's objects cannot be re-created: {why}"))?;
-                    sim.change(tool, &Args::new(), Ok(cmd), self.limits(), &mut |_| true)
-                        .map_err(|why| format!("The file's objects cannot be re-created: {why}"))?;
+                    // Made from the file, not from a client's call: held to the edge's bounds
+                    // here, its model parsed once (the change reuses it).
+                    let refused = |why: String| format!("The file's objects cannot be re-created: {why}");
+                    let cmd = cmd.ready().map_err(refused)?;
+                    sim.change(tool, &Args::new(), Ok(cmd), self.limits(), &mut |_| true).map_err(refused)?;
                 }
             }
             Ok(())

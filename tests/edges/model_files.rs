@@ -269,13 +269,11 @@ const FAR_JOINT: &str = r#"<mujoco><worldbody><body pos="0 0 1"><joint name="hin
 /// in the fold: a log that loaded such a model before the bound still folds to it.
 #[test]
 fn a_joint_anchor_beyond_the_bound_is_refused_at_the_edge_and_an_old_log_holding_one_folds() {
-    use physics_mcp::command::Command;
     let load = common::mjcf_command::load_mjcf("far_joint.xml", FAR_JOINT.as_bytes(), false);
     for why in [load.within_extent().unwrap_err(), load.clone().ready().unwrap_err()] {
         assert!(why.contains("joint hinge has pos [0.0, 1e308, 0.0], not finite numbers within 100000 m"), "{why}");
     }
-    let create = Command::CreateSimulation { simulation_id: "old".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
-    let (mut world, _) = physics_mcp::world::World::create(&create).unwrap();
+    let mut world = common::empty_world("old");
     let limits = physics_mcp::limits::Limits::default();
     load.validate(&world, &limits).expect("the fold's check accepts what an old log recorded");
     let out = world.apply(&load, &mut |_| true);

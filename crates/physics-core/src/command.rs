@@ -816,10 +816,10 @@ impl Command {
 
     /// Sizes and positions within [`crate::limits::MAX_EXTENT_M`]: beyond it the engine
     /// panics on every later step (a 1.8e19 m box beside a mesh); velocities within
-    /// [`crate::limits::MAX_SPEED`] (far beyond it a body freezes). Checked at the edge only —
-    /// `ready`, and every command re-made from a saved file's readable fields — not in
-    /// `validate`, so logs recorded before the bound fold as they always did. An MJCF model's
-    /// joint anchors too (parsed here unless parsed ahead).
+    /// [`crate::limits::MAX_SPEED`] (far beyond it a body freezes); an MJCF model's joint
+    /// anchors too (parsed here unless parsed ahead). Checked at the edge only — `ready`, which
+    /// a client's call and every command re-made from a saved file's readable fields go
+    /// through — not in `validate`, so logs recorded before the bound fold as they always did.
     pub fn within_extent(&self) -> Result<(), Refusal> {
         let bound = crate::limits::MAX_EXTENT_M as f32;
         let near = |name: &str, v: &[f32]| match v.iter().all(|x| x.abs() <= bound) {
