@@ -59,6 +59,12 @@ fn staged(target: &Path, bytes: &[u8], sandbox: Option<&Sandbox>) -> Result<temp
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
+    // A user file's folders are made now that the call was accepted (`Sandbox::writable`
+    // checked them inside the workspace; the temporary file's real folder is checked again
+    // below). The command line's outputs go to folders that exist.
+    if sandbox.is_some() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("could not create the folder for {}: {e}", target.display()))?;
+    }
     let mut builder = tempfile::Builder::new();
     builder.prefix(".physics-mcp-");
     #[cfg(unix)]

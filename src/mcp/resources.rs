@@ -221,7 +221,11 @@ impl PhysicsServer {
         let sim = self.sim(id).await.map_err(not_found)?;
         let (max_px, budget) = (self.reg.limits().max_image_px, self.reg.limits().max_reply_bytes);
         let at = uri.clone();
-        let read = tokio::task::spawn_blocking(move || contents(&lock_sim(&sim), part, &at, max_px, budget))
+        let turn = self.turn(id, "resources/read").await.map_err(|why| ErrorData::internal_error(why, Some(json!({"uri": uri}))))?;
+        let read = tokio::task::spawn_blocking(move || {
+            let _turn = turn;
+            contents(&lock_sim(&sim), part, &at, max_px, budget)
+        })
             .await
             .map_err(|_| ErrorData::internal_error("Internal error: the resource could not be read", None))?;
         // Live state: never fresh for longer than this reply.

@@ -10,6 +10,7 @@ pub mod apply;
 pub mod budget;
 pub mod cluster;
 pub mod reads;
+pub mod queue;
 pub mod sampled_step;
 pub mod save_load;
 pub mod sweep;
@@ -618,6 +619,11 @@ pub struct Registry {
     takeovers: Mutex<()>,
     /// This node's sweepers, once started (a cluster node's sweeps then run across the cluster).
     sweeps: std::sync::OnceLock<Arc<sweep_worker::NodeSweeps>>,
+    /// Calls waiting for busy simulations, bounded per simulation (`queue.rs`).
+    queues: queue::Queues,
+    /// What was last seen of each simulation, for listing one that is busy without waiting
+    /// for it (a long step must not hold up list_simulations or a viewer link).
+    listings: Mutex<BTreeMap<String, Listing>>,
     _lock: std::fs::File,
 }
 
@@ -685,6 +691,8 @@ impl Registry {
             cluster,
             takeovers: Mutex::new(()),
             sweeps: std::sync::OnceLock::new(),
+            queues: queue::Queues::default(),
+            listings: Mutex::new(BTreeMap::new()),
             _lock: lock,
         })
     }
@@ -713,6 +721,45 @@ impl Registry {
     /// The limits in force.
     pub fn limits(&self) -> &Limits {
         &self.config.limits
+    }
+
+    /// Notes what `sim` now is, for listing it while a later call holds it.
+    pub(crate) fn listed(&self, sim: &Sim) {
+        self.listings.lock().unwrap_or_else(|p| p.into_inner()).insert(sim.id().to_string(), Listing::of(sim));
+    }
+
+    /// Whether simulation `id` was made with `gui` (from its listing when it is busy).
+    pub fn gui_of(&self, id: &str) -> bool {
+        self.listing(id).is_some_and(|l| l.gui)
+    }
+
+    /// What is known of simulation `id` without waiting for it: the simulation itself when it
+    /// is free, else what was last seen of it, else (it was never seen free) whatever the call
+    /// holding it leaves.
+    fn listing(&self, id: &str) -> Option<Listing> {
+        let sim = self.lookup(id)?;
+        Some(self.listing_of(id, &sim))
+    }
+
+    fn listing_of(&self, id: &str, sim: &SharedSim) -> Listing {
+        if let Ok(guard) = sim.try_lock() {
+            let l = Listing::of(&guard);
+            drop(guard);
+            self.listings.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), l.clone());
+            return l;
+        }
+        if let Some(l) = self.listings.lock().unwrap_or_else(|p| p.into_inner()).get(id) {
+            return l.clone();
+        }
+        let l = Listing::of(&lock_sim(sim));
+        self.listings.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), l.clone());
+        l
+    }
+
+    /// The queues of calls waiting for busy simulations: a call takes its simulation's turn
+    /// here before it locks it (`queue.rs`).
+    pub fn queues(&self) -> &queue::Queues {
+        &self.queues
     }
 
     /// The table, for a map operation (see the lock order on [`Registry`]).
@@ -829,31 +876,26 @@ impl Registry {
             guard.log.path().to_path_buf()
         };
         remove_log_files(&path);
+        self.queues.forget(id);
+        self.listings.lock().unwrap_or_else(|p| p.into_inner()).remove(id);
         self.forget_in_cluster(id)?;
         Ok(Message::new(format!("Simulation {id} destroyed")))
     }
 
     /// list_simulations.
     pub fn list(&self) -> SimulationList {
-        let sims = self.all();
+        let sims: Vec<(String, SharedSim)> = self.table().sims.iter().map(|(id, s)| (id.clone(), s.clone())).collect();
         let mut damaged: Vec<DamagedSimulation> = self
             .damaged
             .iter()
             .map(|(id, why)| DamagedSimulation { simulation_id: id.clone(), reason: why.clone() })
             .collect();
         let mut simulations = Vec::new();
-        for s in &sims {
-            let s = lock_sim(s);
-            if let Some(why) = s.damaged() {
-                damaged.push(DamagedSimulation { simulation_id: s.id().to_string(), reason: why.to_string() });
-                continue;
+        for (id, s) in &sims {
+            match self.listing_of(id, s) {
+                Listing { damaged: Some(why), .. } => damaged.push(DamagedSimulation { simulation_id: id.clone(), reason: why }),
+                Listing { summary, .. } => simulations.push(summary),
             }
-            simulations.push(SimulationSummary {
-                simulation_id: s.id().to_string(),
-                name: s.world().name().map(str::to_string),
-                objects: s.world().object_count(),
-                simulation_time: s.world().current_time(),
-            });
         }
         let here: Vec<String> = simulations.iter().map(|s| s.simulation_id.clone()).collect();
         for (id, entry) in self.listed_elsewhere(&here) {
@@ -896,6 +938,30 @@ impl Registry {
     }
 }
 
+/// What list_simulations (and a viewer link) shows of a simulation.
+#[derive(Clone)]
+struct Listing {
+    summary: SimulationSummary,
+    gui: bool,
+    /// Why it is damaged, when it is.
+    damaged: Option<String>,
+}
+
+impl Listing {
+    fn of(s: &Sim) -> Listing {
+        Listing {
+            summary: SimulationSummary {
+                simulation_id: s.id().to_string(),
+                name: s.world().name().map(str::to_string),
+                objects: s.world().object_count(),
+                simulation_time: s.world().current_time(),
+            },
+            gui: s.world().gui(),
+            damaged: s.damaged().map(str::to_string),
+        }
+    }
+}
+
 /// The simulations of a registry and the slots reserved for ones being made.
 struct Table {
     sims: BTreeMap<String, SharedSim>,
@@ -914,6 +980,7 @@ pub(crate) struct Slot<'a> {
 impl Slot<'_> {
     /// Lists `sim` in the slot reserved for it.
     pub(crate) fn fill(mut self, sim: Sim) {
+        self.reg.listed(&sim);
         let shared = Arc::new(Mutex::new(sim));
         let id = lock_sim(&shared).id().to_string();
         let mut t = self.reg.table();

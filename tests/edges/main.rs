@@ -9,6 +9,7 @@ mod architecture;
 mod file_fuzz;
 mod interleavings;
 mod bounded_requests;
+mod isolation;
 mod model_files;
 mod output_files;
 mod shutdown;

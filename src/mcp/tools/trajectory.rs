@@ -111,7 +111,7 @@ impl PhysicsServer {
         mut control: impl FnMut(u64) -> bool + Send + 'static,
     ) -> Result<Json<crate::outputs::Stepped>, String> {
         let out = self
-            .with_sim(args, move |sim, a, limits| {
+            .with_sim("step_simulation", args, move |sim, a, limits| {
                 let parsed = params::parse::<Step>("step_simulation", a).and_then(|p| {
                     let steps = match super::simulations::decide_step(&p)? {
                         crate::command::Command::StepSimulation { steps } => steps,
@@ -158,19 +158,32 @@ impl PhysicsServer {
         let id = value::string(&args, "sim_id")?;
         let sim = self.sim(&id).await?;
         let budget = self.reg.limits().max_reply_bytes;
-        tokio::task::spawn_blocking(move || {
+        let failed = || "Internal error: the call failed and changed nothing".to_string();
+        // The chain is lent in the call's turn on the simulation; the re-simulation holds no
+        // turn; the read is recorded in a second turn, which it waits for without the
+        // --max-waiting bound (its work is done: it only has an answer to record).
+        let turn = self.turn(&id, tool).await?;
+        let held = sim.clone();
+        let (lent, args) = tokio::task::spawn_blocking(move || {
+            let _turn = turn;
             let parsed = parse(&args);
-            let lent = {
-                let mut s = lock_sim(&sim);
-                s.ensure_live()?;
-                let lent = parsed.and_then(|((from, to), p)| Ok((fold::lend(s.log(), s.id(), from, to)?, p)));
-                match lent {
-                    Ok(l) => l,
-                    Err(why) => return Err(s.refuse(tool, &args, why)),
-                }
-            };
-            let (lent, p) = lent;
-            let out = f(p, &lent);
+            let mut s = lock_sim(&held);
+            if let Err(why) = s.ensure_live() {
+                return (Err(why), args);
+            }
+            let lent = parsed.and_then(|((from, to), p)| Ok((fold::lend(s.log(), s.id(), from, to)?, p)));
+            match lent {
+                Ok(l) => (Ok(l), args),
+                Err(why) => (Err(s.refuse(tool, &args, why)), args),
+            }
+        })
+        .await
+        .map_err(|_| failed())?;
+        let (lent, p) = lent?;
+        let out = tokio::task::spawn_blocking(move || f(p, &lent)).await.map_err(|_| failed())?;
+        let turn = self.reg.queues().turn(&id, tool, usize::MAX).await?;
+        tokio::task::spawn_blocking(move || {
+            let _turn = turn;
             let mut s = lock_sim(&sim);
             match out {
                 Ok((v, extra)) => s.read_replying(tool, &args, budget, |_| Ok(v), |t, _| measure(t, &extra)).map(|v| (v, extra)),
@@ -178,7 +191,7 @@ impl PhysicsServer {
             }
         })
         .await
-        .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?
+        .map_err(|_| failed())?
     }
 }
 
