@@ -25,7 +25,7 @@ scratch=$(mktemp -d "${TMPDIR:-/tmp}/physics-mcp-wheel.XXXXXX")
 trap 'rm -rf "$scratch"' EXIT
 python3 -m zipfile -e "$wheel" "$scratch"
 bin="$scratch/physics_mcp-$version.data/scripts/physics-mcp"
-[[ -x "$bin" ]] || { echo "wheel: $wheel holds no executable physics-mcp" >&2; exit 1; }
+[[ -f "$bin" ]] || { echo "wheel: $wheel holds no physics-mcp in its scripts" >&2; exit 1; }
 
 newest=$(objdump -T "$bin" | grep -o 'GLIBC_[0-9.]*' | sed 's/GLIBC_//' | sort -uV | tail -n1)
 if [[ "$(printf '%s\n%s\n' "$newest" "$GLIBC_MAX" | sort -V | tail -n1)" != "$GLIBC_MAX" ]]; then
