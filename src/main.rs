@@ -27,11 +27,14 @@ struct Cli {
 #[derive(clap::Args)]
 struct Common {
     /// Directory holding one SQLite log per simulation (exclusively locked while running).
-    #[arg(long, default_value = "./physics-mcp-data")]
-    data: PathBuf,
-    /// Directory that URDF, save and load paths are confined to.
-    #[arg(long, default_value = "./physics-mcp-workspace")]
-    workspace: PathBuf,
+    /// Default: ./physics-mcp-data, or $XDG_DATA_HOME/physics-mcp/data (~/.local/share/…) when
+    /// the working directory is /, the home directory or not writable.
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Directory that URDF, save and load paths are confined to. Default:
+    /// ./physics-mcp-workspace, or beside the data directory's default as for --data.
+    #[arg(long)]
+    workspace: Option<PathBuf>,
     /// Durability: `normal` survives a killed process; `full` also fsyncs for power loss.
     #[arg(long, value_enum, default_value_t = SyncMode::Normal)]
     sync: SyncMode,
@@ -357,10 +360,16 @@ fn print_history(file: &Path) -> anyhow::Result<()> {
 }
 
 fn open_registry(c: Common, cluster: Option<Arc<physics_mcp::cluster::Cluster>>) -> anyhow::Result<Arc<Registry>> {
+    let dirs = physics_mcp::log::default_dirs::choose(c.data, c.workspace)?;
+    if let Some(note) = &dirs.note {
+        // The first log line, in one write (a client's log shows it whole).
+        use std::io::Write;
+        let _ = std::io::stderr().lock().write_all(format!("{note}\n").as_bytes());
+    }
     Ok(Arc::new(Registry::open_with(
         Config {
-            data_dir: c.data,
-            workspace: c.workspace,
+            data_dir: dirs.data,
+            workspace: dirs.workspace,
             limits: c.limits.into(),
             sync: c.sync,
         },
