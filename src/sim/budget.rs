@@ -224,39 +224,6 @@ fn summary(tool: &str, structured: &Value, bytes: usize) -> String {
     )
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use serde_json::json;
-
-    #[test]
-    fn a_long_list_is_cut_to_fit_with_counts() {
-        let names: Vec<Value> = (0..4000).map(|i| json!({"name": format!("body_with_a_long_name_{i:05}"), "link_index": i})).collect();
-        let full = json!({"object_id": 3, "bodies": names, "ignored": ["a", "b"]});
-        let out = shorten("load_mjcf", full, 64 * 1024).unwrap();
-        assert!(reply_bytes("load_mjcf", out.clone()) <= 64 * 1024);
-        assert_eq!(out["truncated"], true);
-        let kept = out["bodies"].as_array().unwrap().len();
-        assert_eq!(out["omitted"]["bodies"].as_u64().unwrap() as usize, 4000 - kept);
-        assert_eq!(out["ignored"], json!(["a", "b"]));
-        assert_eq!(out["object_id"], 3);
-    }
-
-    #[test]
-    fn a_reply_that_fits_is_untouched() {
-        let small = json!({"object_id": 1, "bodies": [1, 2, 3]});
-        assert_eq!(shorten("load_mjcf", small.clone(), 1 << 20).unwrap(), small);
-    }
-
-    #[test]
-    fn images_are_measured_as_sent() {
-        let png = vec![7u8; 1000];
-        let sent = reply("get_camera_image", json!({"width": 2}), &[Image { bytes: &png, mime: "image/png" }]);
-        assert_eq!(reply_bytes_with("get_camera_image", json!({"width": 2}), &[Image { bytes: &png, mime: "image/png" }]), bytes_of(&sent));
-        assert!(bytes_of(&sent) > 1000 * 4 / 3);
-    }
-}
-
 // ---- What a request costs, estimated before it runs (docs/guarantees.md "Isolation") ----
 
 /// What a batch's reply carries besides its results: the JSON-RPC envelope, `head_seq`,
@@ -351,4 +318,37 @@ pub fn sweep_forks(world: &crate::world::World, variants: usize, workers: usize,
         max >> 20,
         if keep { format!("keep at most {fit} variants per sweep, or set keep=false") } else { "sweep a smaller world".to_string() }
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn a_long_list_is_cut_to_fit_with_counts() {
+        let names: Vec<Value> = (0..4000).map(|i| json!({"name": format!("body_with_a_long_name_{i:05}"), "link_index": i})).collect();
+        let full = json!({"object_id": 3, "bodies": names, "ignored": ["a", "b"]});
+        let out = shorten("load_mjcf", full, 64 * 1024).unwrap();
+        assert!(reply_bytes("load_mjcf", out.clone()) <= 64 * 1024);
+        assert_eq!(out["truncated"], true);
+        let kept = out["bodies"].as_array().unwrap().len();
+        assert_eq!(out["omitted"]["bodies"].as_u64().unwrap() as usize, 4000 - kept);
+        assert_eq!(out["ignored"], json!(["a", "b"]));
+        assert_eq!(out["object_id"], 3);
+    }
+
+    #[test]
+    fn a_reply_that_fits_is_untouched() {
+        let small = json!({"object_id": 1, "bodies": [1, 2, 3]});
+        assert_eq!(shorten("load_mjcf", small.clone(), 1 << 20).unwrap(), small);
+    }
+
+    #[test]
+    fn images_are_measured_as_sent() {
+        let png = vec![7u8; 1000];
+        let sent = reply("get_camera_image", json!({"width": 2}), &[Image { bytes: &png, mime: "image/png" }]);
+        assert_eq!(reply_bytes_with("get_camera_image", json!({"width": 2}), &[Image { bytes: &png, mime: "image/png" }]), bytes_of(&sent));
+        assert!(bytes_of(&sent) > 1000 * 4 / 3);
+    }
 }

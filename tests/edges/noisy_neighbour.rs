@@ -134,7 +134,7 @@ async fn noisy_neighbour() {
                 let t = Instant::now();
                 good.state(&mine, 1).await;
                 timed("get_object_state".into(), t);
-                if i % 5 == 0 {
+                if i.is_multiple_of(5) {
                     let t = Instant::now();
                     good.call("list_simulations", json!({})).await;
                     timed("list_simulations".into(), t);
@@ -143,7 +143,7 @@ async fn noisy_neighbour() {
                     assert!(r.status().is_success(), "the good client's viewer answered {}", r.status());
                     timed("viewer poses".into(), t);
                 }
-                if i % 20 == 0 {
+                if i.is_multiple_of(20) {
                     let t = Instant::now();
                     let s = good.new_sim(json!({})).await;
                     good.call("destroy_simulation", json!({"sim_id": s})).await;
