@@ -564,7 +564,7 @@ impl ServerHandler for PhysicsServer {
                 routing::Routed::Lost(why) => return Err(ErrorData::internal_error(why, Some(json!({"uri": request.uri})))),
             }
         }
-        self.read_sim_resource(request.uri).await.map(Into::into)
+        self.read_sim_resource(request.uri, _cx.ct.clone()).await.map(Into::into)
     }
 
     async fn list_prompts(
