@@ -10,6 +10,7 @@ mod file_fuzz;
 mod interleavings;
 mod bounded_requests;
 mod isolation;
+mod isolation_sessions;
 mod isolation_viewer;
 mod model_files;
 mod output_files;
