@@ -757,8 +757,8 @@ mod tests {
         out
     }
 
-    #[test]
-    fn resimulated_samples_equal_single_steps_and_hashes_hold() {
+    /// A registry in a temporary directory holding one empty simulation `id`.
+    fn one_simulation(id: &str) -> (tempfile::TempDir, Registry) {
         let dir = tempfile::tempdir().unwrap();
         let reg = Registry::open(Config {
             data_dir: dir.path().join("data"),
@@ -767,7 +767,13 @@ mod tests {
             sync: SyncMode::Normal,
         })
         .unwrap();
-        reg.create(Command::CreateSimulation { simulation_id: "s".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }, &Args::new()).unwrap();
+        reg.create(Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }, &Args::new()).unwrap();
+        (dir, reg)
+    }
+
+    #[test]
+    fn resimulated_samples_equal_single_steps_and_hashes_hold() {
+        let (_dir, reg) = one_simulation("s");
         let cmds = vec![
             body(-0.5, 0.0),
             body(2.0, 1.0),
@@ -818,15 +824,7 @@ mod tests {
 
     #[test]
     fn a_re_simulation_is_priced_before_it_runs_and_stopped_when_asked() {
-        let dir = tempfile::tempdir().unwrap();
-        let reg = Registry::open(Config {
-            data_dir: dir.path().join("data"),
-            workspace: dir.path().join("ws"),
-            limits: Limits::default(),
-            sync: SyncMode::Normal,
-        })
-        .unwrap();
-        reg.create(Command::CreateSimulation { simulation_id: "p".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }, &Args::new()).unwrap();
+        let (_dir, reg) = one_simulation("p");
         let s = reg.get("p").unwrap();
         let mut sim = lock_sim(&s);
         let root = sim.log().head_seq();
