@@ -105,15 +105,22 @@ enum Cmd {
         /// Address to bind (loopback by default; port 0 picks a free port).
         #[arg(long, default_value = "127.0.0.1:8000")]
         bind: SocketAddr,
-        /// Require `Authorization: Bearer <TOKEN>` on every request.
-        #[arg(long)]
+        /// Require `Authorization: Bearer <TOKEN>` on every request (visible in `ps`: prefer
+        /// --token-file or PHYSICS_MCP_TOKEN).
+        #[arg(long, conflicts_with = "token_file")]
         token: Option<String>,
+        /// Require the bearer token written on this file's first line.
+        #[arg(long, value_name = "PATH")]
+        token_file: Option<PathBuf>,
         /// Allow this browser Origin besides loopback ones (repeatable).
         #[arg(long)]
         allow_origin: Vec<String>,
-        /// Live MCP sessions at most; a new session past it is refused (503) until one ends.
+        /// Live MCP sessions at most; past it a new one ends the least recently used idle one.
         #[arg(long, default_value_t = physics_mcp::mcp::session_limit::DEFAULT_MAX_SESSIONS, value_parser = clap::value_parser!(usize))]
         max_sessions: usize,
+        /// Live MCP sessions of one client (bearer token, else address) at most.
+        #[arg(long, default_value_t = physics_mcp::mcp::session_limit::DEFAULT_MAX_SESSIONS_PER_CLIENT, value_parser = clap::value_parser!(usize))]
+        max_sessions_per_client: usize,
         #[command(flatten)]
         common: Common,
         #[command(flatten)]
@@ -206,9 +213,13 @@ enum Cmd {
         /// Its arguments as a JSON object.
         #[arg(default_value = "{}")]
         args: String,
-        /// Bearer token, when the server was started with --token.
-        #[arg(long)]
+        /// Bearer token, when the server requires one (visible in `ps`: prefer --token-file
+        /// or PHYSICS_MCP_TOKEN).
+        #[arg(long, conflicts_with = "token_file")]
         token: Option<String>,
+        /// Send the bearer token written on this file's first line.
+        #[arg(long, value_name = "PATH")]
+        token_file: Option<PathBuf>,
     },
     /// Name the first event where two logs diverge (exit 1 if they do).
     Diff {
@@ -459,14 +470,17 @@ fn main() {
                     Cmd::Serve {
                         bind,
                         token,
+                        token_file,
                         allow_origin,
                         max_sessions,
+                        max_sessions_per_client,
                         common,
                         ..
                     } => {
+                        let token = physics_mcp::secret::token(token, token_file.as_deref()).map_err(anyhow::Error::msg)?;
                         let reg = open_registry(common, cluster)?;
                         physics_mcp::mcp::PhysicsServer::start_sweepers(&reg)?;
-                        serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions }).await
+                        serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions, max_sessions_per_client }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common, None)?).await,
                     Cmd::Replay { file, render: Some(out), interval, size, force, .. } => {
@@ -499,7 +513,8 @@ fn main() {
                     Cmd::History { file } => print_history(&file),
                     // Run before this runtime starts (run_portable).
                     Cmd::Export { .. } | Cmd::Import { .. } => Ok(()),
-                    Cmd::Call { url, tool, args, token } => {
+                    Cmd::Call { url, tool, args, token, token_file } => {
+                        let token = physics_mcp::secret::token(token, token_file.as_deref()).map_err(anyhow::Error::msg)?;
                         let called = physics_mcp::client::call(&url, &tool, &args, token.as_deref()).await?;
                         println!("{}", called.output);
                         if called.is_error {

@@ -82,6 +82,9 @@ pub struct PhysicsServer {
     viewer_base: Option<Arc<str>>,
     /// This session's number (its `resources/subscribe` subscriptions are kept under it).
     session: u64,
+    /// Drops the session's subscriptions when its last server clone goes, i.e. when rmcp
+    /// drops the session's service because the session ended (DELETE, expiry, eviction).
+    _session_end: Arc<subscriptions::SessionEnd>,
     /// This session's logging level (`logging/setLevel`).
     log: logging::SessionLog,
     /// Whether this server runs calls other nodes forwarded (it never forwards them again).
@@ -94,11 +97,14 @@ impl PhysicsServer {
     /// sessions of one process so each hears when simulations come and go.
     pub fn new(reg: Arc<Registry>, sessions: Sessions) -> Self {
         static NEXT_SESSION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+        let session = NEXT_SESSION.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let _session_end = Arc::new(subscriptions::SessionEnd::new(session, sessions.subscriptions().clone()));
         Self {
             reg,
             sessions,
             viewer_base: None,
-            session: NEXT_SESSION.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            session,
+            _session_end,
             log: logging::SessionLog::default(),
             forwarded: false,
             tool_router: Self::tools(),
@@ -498,10 +504,13 @@ impl ServerHandler for PhysicsServer {
 
     /// resources/subscribe (sessions before 2026-07-28): updates of a `sim://` URI. Any URI
     /// is accepted — one naming no simulation (yet) just never changes, as the protocol's
-    /// conformance suite expects of an unknown URI.
+    /// conformance suite expects of an unknown URI — within the session's bounds
+    /// (`subscriptions::MAX_PER_SESSION`, `MAX_URI_BYTES`).
     async fn subscribe(&self, request: SubscribeRequestParams, cx: RequestContext<RoleServer>) -> Result<(), ErrorData> {
-        self.sessions.subscriptions().subscribe(self.session, cx.peer, request.uri);
-        Ok(())
+        self.sessions
+            .subscriptions()
+            .subscribe(self.session, cx.peer, request.uri)
+            .map_err(|why| ErrorData::invalid_params(why, None))
     }
 
     /// resources/unsubscribe: no more updates of that URI for this session (unknown URIs
@@ -519,7 +528,7 @@ impl ServerHandler for PhysicsServer {
     /// Holds one listen stream open until the client cancels it, delivering its updates.
     async fn listen(&self, cx: SubscriptionContext) -> Result<(), ErrorData> {
         let subs = self.sessions.subscriptions();
-        let n = subs.listen(cx.sink().clone());
+        let n = subs.listen(self.session, cx.sink().clone()).map_err(|why| ErrorData::invalid_params(why, None))?;
         cx.cancelled().await;
         subs.stop_listening(n);
         Ok(())
@@ -564,7 +573,7 @@ impl ServerHandler for PhysicsServer {
                 routing::Routed::Lost(why) => return Err(ErrorData::internal_error(why, Some(json!({"uri": request.uri})))),
             }
         }
-        self.read_sim_resource(request.uri).await.map(Into::into)
+        self.read_sim_resource(request.uri, _cx.ct.clone()).await.map(Into::into)
     }
 
     async fn list_prompts(

@@ -189,7 +189,9 @@ impl PhysicsServer {
     }
 
     /// resources/read, on the blocking pool (it waits for a call in flight on the simulation).
-    pub(super) async fn read_sim_resource(&self, uri: String) -> Result<ReadResourceResult, ErrorData> {
+    /// A viewer read stops waiting and re-simulating once `stop` is cancelled (the client
+    /// cancelled the read or its session ended).
+    pub(super) async fn read_sim_resource(&self, uri: String, stop: tokio_util::sync::CancellationToken) -> Result<ReadResourceResult, ErrorData> {
         if uri == viewer::app::APP_URI {
             let html = ResourceContents::text(viewer::app::app_html(), &uri).with_mime_type(viewer::app::APP_MIME);
             return Ok(ReadResourceResult::new(vec![html.with_meta(viewer::app::resource_meta())]));
@@ -197,9 +199,15 @@ impl PhysicsServer {
         if let Some((id, kind, query)) = viewer_read(&uri) {
             let (reg, budget) = (self.reg.clone(), self.reg.limits().max_reply_bytes);
             let (id, kind, query) = (id.to_string(), kind.to_string(), query.to_string());
-            let answered = tokio::task::spawn_blocking(move || viewer::ask::answer_text(&reg, &id, &kind, &query))
+            let answered = match viewer::ask::Asking::enter(&id) {
+                Ok(asking) => tokio::task::spawn_blocking(move || {
+                    let _asking = asking;
+                    viewer::ask::answer_text(&reg, &id, &kind, &query, &stop)
+                })
                 .await
-                .map_err(|_| ErrorData::internal_error("Internal error: the viewer could not answer", None))?;
+                .map_err(|_| ErrorData::internal_error("Internal error: the viewer could not answer", None))?,
+                Err(busy) => Err(busy),
+            };
             let text = match answered {
                 Ok(text) => text,
                 // "Ask again" (a call holds the simulation): JSON null, which the app asks again on.

@@ -1,8 +1,9 @@
 //! Serving the MCP server: streamable HTTP at `/mcp` (axum) and stdio.
 //!
 //! HTTP binds loopback by default, validates `Host` and `Origin` against DNS rebinding (only
-//! loopback unless `--allow-origin` adds more) and, with `--token`, requires
-//! `Authorization: Bearer <token>` on every request.
+//! loopback unless `--allow-origin` adds more) and, with a token (`--token-file`,
+//! `PHYSICS_MCP_TOKEN` or `--token`), requires `Authorization: Bearer <token>` on every
+//! request; serving another address without one prints a warning.
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -17,7 +18,7 @@ use rmcp::ServiceExt;
 use subtle::ConstantTimeEq;
 use tokio_util::sync::CancellationToken;
 
-use super::session_limit::{limit_sessions, BoundedSessions};
+use super::session_limit::{limit_sessions, tell_clients_apart, BoundedSessions};
 use super::{PhysicsServer, Sessions};
 use crate::sim::Registry;
 
@@ -30,8 +31,12 @@ pub struct HttpOptions {
     pub token: Option<String>,
     /// Extra browser origins allowed besides loopback ones.
     pub allow_origin: Vec<String>,
-    /// Live MCP sessions at most (`--max-sessions`); a new one past it is refused.
+    /// Live MCP sessions at most (`--max-sessions`); past it a new one ends the least
+    /// recently used idle one, and is refused only when none is idle.
     pub max_sessions: usize,
+    /// Live MCP sessions of one client (bearer token, else address) at most
+    /// (`--max-sessions-per-client`), with the same rule among its own.
+    pub max_sessions_per_client: usize,
 }
 
 async fn require_token(State(token): State<Option<Arc<str>>>, req: Request, next: Next) -> Response {
@@ -154,11 +159,11 @@ fn sse_retry() -> Option<std::time::Duration> {
 /// MCP sessions (in memory), at most `max` live: priming events as `sse_retry` says, and an
 /// idle session lives for `SESSION_IDLE` instead of rmcp's 5 minutes — an agent often thinks
 /// longer than that between calls, and an expired session makes its client start over.
-fn session_manager(max: usize) -> Arc<BoundedSessions> {
+fn session_manager(max: usize, per_client: usize) -> Arc<BoundedSessions> {
     let mut manager = LocalSessionManager::default();
     manager.session_config.sse_retry = sse_retry();
     manager.session_config.keep_alive = Some(SESSION_IDLE);
-    Arc::new(BoundedSessions::new(manager, max))
+    Arc::new(BoundedSessions::new(manager, max, per_client.max(1)))
 }
 
 /// How long an idle MCP session is kept.
@@ -168,6 +173,9 @@ const SESSION_IDLE: std::time::Duration = std::time::Duration::from_secs(8 * 360
 pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result<()> {
     let listener = tokio::net::TcpListener::bind(opts.bind).await?;
     let local = listener.local_addr()?;
+    if opts.token.is_none() && !local.ip().is_loopback() {
+        warn_without_token(local);
+    }
     // A reply is several small writes (headers, SSE events, the final chunk): without
     // TCP_NODELAY, Nagle's algorithm can hold them back for a delayed ACK (~40 ms per call,
     // seen with Python's http.client).
@@ -195,7 +203,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let server_reg = reg.clone();
     let sessions = Sessions::of(&reg);
     let viewer_base: Arc<str> = Arc::from(format!("http://{local}"));
-    let manager = session_manager(opts.max_sessions);
+    let manager = session_manager(opts.max_sessions, opts.max_sessions_per_client);
     if let Some(cluster) = reg.cluster() {
         let template = PhysicsServer::new(reg.clone(), sessions.clone()).with_viewer(viewer_base.clone());
         super::forwarded::start(template, cluster.clone());
@@ -211,7 +219,8 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let mcp = axum::Router::new()
         .nest_service("/mcp", service)
         .layer(middleware::from_fn(session_end_no_content))
-        .layer(middleware::from_fn(limit_sessions));
+        .layer(middleware::from_fn(limit_sessions))
+        .layer(middleware::from_fn(tell_clients_apart));
     let app = mcp
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
@@ -219,6 +228,8 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     // Graceful: no new connection, open ones finish their replies — for at most
     // `shutdown::GRACE` after the signal (a client may hold a stream open for ever), then the
     // flush.
+    // Each request knows its peer's address (`tell_clients_apart`).
+    let app = app.into_make_service_with_connect_info::<SocketAddr>();
     let serving = axum::serve(listener, app).with_graceful_shutdown(shutdown_signal(ct.clone()));
     tokio::select! {
         served = serving => served?,
@@ -255,6 +266,16 @@ pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
     };
     finish(reg).await;
     Ok(())
+}
+
+/// Serving beyond loopback with no token lets anyone who reaches the address drive every
+/// simulation: said once, on stderr, before the address line.
+fn warn_without_token(local: SocketAddr) {
+    use std::io::Write;
+    let line = format!(
+        "physics-mcp: warning: serving on {local}, which is not a loopback address, without a token: anyone who can reach it can call every tool; give one with --token-file PATH or PHYSICS_MCP_TOKEN\n"
+    );
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
 }
 
 /// Prints the line clients wait for — `physics-mcp listening on http://HOST:PORT/mcp` — in

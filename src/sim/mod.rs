@@ -876,6 +876,7 @@ impl Registry {
             guard.log.path().to_path_buf()
         };
         remove_log_files(&path);
+        crate::seeing::viewer::forget(id);
         self.queues.forget(id);
         self.listings.lock().unwrap_or_else(|p| p.into_inner()).remove(id);
         self.forget_in_cluster(id)?;

@@ -13,6 +13,8 @@ mod bounded_requests;
 mod default_dirs;
 mod isolation;
 mod noisy_neighbour;
+mod isolation_sessions;
+mod isolation_viewer;
 mod model_files;
 mod output_files;
 mod shutdown;

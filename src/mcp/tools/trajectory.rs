@@ -7,6 +7,7 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 use serde::Serialize;
+use tokio_util::sync::CancellationToken;
 
 use crate::params::lenient::{Int, ObjectId};
 use crate::params::{self, GetTrajectory, Step};
@@ -136,21 +137,25 @@ impl PhysicsServer {
         &self,
         tool: &'static str,
         args: Args,
+        stop: CancellationToken,
         parse: impl FnOnce(&Args) -> Result<(Asked, P), Refusal> + Send + 'static,
         f: impl FnOnce(P, &Lent) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         let measure = move |t: &T, _: &()| crate::sim::budget::reply_bytes(tool, serde_json::to_value(t).unwrap_or_default());
-        self.look_back_with(tool, args, parse, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
+        self.look_back_with(tool, args, stop, parse, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
     }
 
     /// `look_back` whose `f` also returns a payload `E` that goes to the client but not into
     /// the log (render_animation's GIF bytes): the log records the result `T` only, once
     /// `measure` (the reply's bytes as it will be sent) has found it within the budget. The
     /// arguments are parsed by `parse` on the blocking pool (an output path is resolved there).
+    /// The re-simulation is held to `--max-work` (priced before it runs) and stopped when
+    /// `stop` is cancelled (the client cancelled the request or its session ended).
     pub(crate) async fn look_back_with<P: Send + 'static, T: Serialize + Send + 'static, E: Send + 'static>(
         &self,
         tool: &'static str,
         args: Args,
+        stop: CancellationToken,
         parse: impl FnOnce(&Args) -> Result<(Asked, P), Refusal> + Send + 'static,
         f: impl FnOnce(P, &Lent) -> Result<(T, E), Refusal> + Send + 'static,
         measure: impl FnOnce(&T, &E) -> usize + Send + 'static,
@@ -180,7 +185,8 @@ impl PhysicsServer {
         .await
         .map_err(|_| failed())?;
         let (lent, p) = lent?;
-        let out = tokio::task::spawn_blocking(move || f(p, &lent)).await.map_err(|_| failed())?;
+        let bounds = fold::Bounds { stop: Some(stop), max_work: Some(self.reg.limits().max_work) };
+        let out = tokio::task::spawn_blocking(move || fold::bounded(bounds, || f(p, &lent))).await.map_err(|_| failed())?;
         let turn = self.reg.queues().turn(&id, tool, usize::MAX).await?;
         tokio::task::spawn_blocking(move || {
             let _turn = turn;
@@ -199,9 +205,9 @@ impl PhysicsServer {
 impl PhysicsServer {
     /// Poses sampled over a past interval, re-simulated from the log (columnar).
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
-    async fn get_trajectory(&self, args: JsonObject) -> Result<Json<Trajectory>, String> {
+    async fn get_trajectory(&self, args: JsonObject, ct: CancellationToken) -> Result<Json<Trajectory>, String> {
         let sandbox = self.reg.sandbox().clone();
-        self.look_back("get_trajectory", args, trajectory_args, move |asking, lent| sample_and_deliver(asking, lent, &sandbox)).await
+        self.look_back("get_trajectory", args, ct, trajectory_args, move |asking, lent| sample_and_deliver(asking, lent, &sandbox)).await
     }
 }
 

@@ -467,6 +467,13 @@ impl World {
         self.tables.objects.len()
     }
 
+    /// The id the next object will get: ids are given in order and never reused, so an id at
+    /// or past it never named an object of this world's chain (the viewer refuses such an
+    /// inspection without re-simulating the chain).
+    pub fn next_object_id(&self) -> u32 {
+        self.tables.next_object_id
+    }
+
     /// Current timestep in seconds.
     pub fn timestep(&self) -> f32 {
         self.physics.integration_parameters.dt
