@@ -193,6 +193,27 @@ async fn noisy_neighbour() {
         }));
     }
     {
+        let (bad, busy, http, url) = (bad.clone(), busy.clone(), http.clone(), url.clone());
+        attacks.push(Box::new(move || {
+            Box::pin(async move {
+                let stepping = {
+                    let (bad, busy) = (bad.clone(), busy.clone());
+                    tokio::spawn(async move { bad.try_call("step_simulation", json!({"sim_id": busy, "steps": 40_000})).await })
+                };
+                tokio::time::sleep(Duration::from_millis(300)).await;
+                // A past moment of a busy simulation: a few are answered when it is free, the
+                // rest told "ask again" (202) at once, none holding a thread meanwhile.
+                let calls = (0..60).map(|_| {
+                    let (http, ask) = (http.clone(), url.replace("/mcp", &format!("/viewer/{busy}/poses?seq=1")));
+                    async move { http.get(&ask).send().await.map_or(true, |r| r.status().as_u16() != 200) }
+                });
+                let seen = attack("60 viewer asks of a busy simulation", calls.collect()).await;
+                let _ = stepping.await;
+                seen
+            })
+        }));
+    }
+    {
         let (bad, sim) = (bad.clone(), five_hundred.clone());
         attacks.push(Box::new(move || {
             Box::pin(async move {
@@ -292,9 +313,15 @@ async fn noisy_neighbour() {
         }));
     }
     attacks.shuffle(&mut rng);
-    // Last: the sessions it opens push out idle ones, the adversary's own among them.
+    // Last: the sessions it opens push out idle ones, the adversary's own among them. The
+    // adversary is another client (its own bearer token; this server has none, so any passes):
+    // on one loopback address with no token every client is one (docs/tools.md
+    // `--max-sessions-per-client`), and one client's flood may end its own idle sessions.
     {
-        let (http, url) = (http.clone(), url.clone());
+        let mut auth = reqwest::header::HeaderMap::new();
+        auth.insert(reqwest::header::AUTHORIZATION, "Bearer the-adversary".parse().unwrap());
+        let http = reqwest::Client::builder().default_headers(auth).build().unwrap();
+        let url = url.clone();
         attacks.push(Box::new(move || {
             Box::pin(async move {
                 let calls = (0..1_000).map(|_| {
