@@ -123,9 +123,9 @@ pub struct Sim {
     /// Snapshot writes slower than [`stall_ms`] since the MCP layer last took them, as
     /// sentences for logging sessions (an operator wants to know the disk is slow).
     pub(crate) stalls: Vec<String>,
-    /// The cluster this simulation belongs to (cluster mode): its index entry is refreshed
-    /// after each change.
-    pub(crate) cluster: Option<Arc<crate::cluster::Cluster>>,
+    /// Its place in a cluster (cluster mode): the ownership it is served under (checked by
+    /// every call, `fenced`) and its index entry's writes.
+    pub(crate) cluster: Option<cluster::Seat>,
 }
 
 /// A snapshot (serialise, hash, commit) slower than this many milliseconds is a stall worth a
@@ -262,6 +262,7 @@ impl Sim {
     /// Refuses every call on a destroyed simulation with the standard sentence, before
     /// anything is computed or logged.
     pub(crate) fn ensure_live(&self) -> Result<(), Refusal> {
+        self.fenced()?;
         if self.destroyed {
             Err(sim_not_found(self.id()))
         } else if let Some(why) = &self.damaged {
@@ -614,8 +615,6 @@ pub struct Registry {
     mac_key: [u8; 32],
     /// The cluster this node is part of (`serve --cluster`); None: embedded mode.
     cluster: Option<Arc<crate::cluster::Cluster>>,
-    /// Held while a simulation is taken over, so two calls do not both rebuild it.
-    takeovers: Mutex<()>,
     /// This node's sweepers, once started (a cluster node's sweeps then run across the cluster).
     sweeps: std::sync::OnceLock<Arc<sweep_worker::NodeSweeps>>,
     _lock: std::fs::File,
@@ -683,7 +682,6 @@ impl Registry {
             sandbox,
             mac_key,
             cluster,
-            takeovers: Mutex::new(()),
             sweeps: std::sync::OnceLock::new(),
             _lock: lock,
         })
@@ -815,10 +813,10 @@ impl Registry {
         if let Some(why) = self.damaged.get(id) {
             return Err(sim_damaged(id, why));
         }
-        if self.cluster.is_some() {
-            self.get(id)?;
+        if let Some(cluster) = &self.cluster {
+            self.destroy_in_cluster(cluster, id)?;
+            return Ok(Message::new(format!("Simulation {id} destroyed")));
         }
-        let _no_takeovers = self.no_takeovers();
         let sim = self.table().sims.remove(id).ok_or_else(|| sim_not_found(id))?;
         // Wait for any call in flight; then, still under the lock, mark it destroyed and close
         // its log before deleting the files, so a request that took the handle earlier finds
@@ -829,7 +827,6 @@ impl Registry {
             guard.log.path().to_path_buf()
         };
         remove_log_files(&path);
-        self.forget_in_cluster(id)?;
         Ok(Message::new(format!("Simulation {id} destroyed")))
     }
 
