@@ -194,13 +194,20 @@ impl Cluster {
             if last == 0 {
                 return Ok((Vec::new(), 0));
             }
-            let (stream, subject) = self.subject(id);
-            let js = self.js.clone();
-            if let Some(records) = self.run_for(READ_WHOLE_WAIT, async move { read_subject(&js, &stream, &subject, last).await })?? {
+            if let Some(records) = self.records_up_to(id, last)? {
                 return Ok((records, last));
             }
         }
         Err(format!("simulation {id}'s log kept changing while it was read"))
+    }
+
+    /// The payloads of `id`'s subject up to stream sequence `last` (as its end was seen a
+    /// moment ago); None when the subject no longer reaches `last` — it was purged while it was
+    /// read (a destroy). Never waits for messages that are gone.
+    pub fn records_up_to(&self, id: &str, last: u64) -> Result<Option<Vec<Vec<u8>>>, String> {
+        let (stream, subject) = self.subject(id);
+        let js = self.js.clone();
+        self.run_for(READ_WHOLE_WAIT, async move { read_subject(&js, &stream, &subject, last).await })?
     }
 
     /// Writes a simulation's log from its subject into a new SQLite file at `path`; returns
