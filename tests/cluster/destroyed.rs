@@ -15,7 +15,7 @@ use crate::nats::{Leases, NatsCluster, NAMESPACE};
 use crate::nodes::{attempt, listed_ids, shared_workspace, signal, Node, Outcome};
 
 /// Commits the exported simulation holds (each a message its subject's reader waits for).
-const COMMITS: usize = 1500;
+const COMMITS: usize = 3000;
 /// The most an export may take here before it is judged hung.
 const EXPORT_LIMIT: Duration = Duration::from_secs(90);
 
@@ -28,8 +28,21 @@ async fn an_export_of_a_simulation_destroyed_while_it_reads_ends() {
     let a = Node::start(root.path(), "a", &nats, &workspace, &[]);
     let c = a.client().await;
     let sim = c.new_sim(json!({})).await;
-    for _ in 0..COMMITS {
-        c.call("step_simulation", json!({"sim_id": sim, "steps": 1})).await;
+    // Many commits (one message each), made by a few clients at once.
+    let writers: Vec<_> = (0..3)
+        .map(|_| {
+            let sim = sim.clone();
+            let node = a.server().url.clone();
+            tokio::spawn(async move {
+                let c = crate::common::Client::connect(&node).await;
+                for _ in 0..COMMITS / 3 {
+                    c.call("step_simulation", json!({"sim_id": sim, "steps": 1})).await;
+                }
+            })
+        })
+        .collect();
+    for w in writers {
+        w.await.unwrap();
     }
     let out = root.path().join("out.sqlite");
     let mut export = Command::new(crate::common::bin())
@@ -38,16 +51,25 @@ async fn an_export_of_a_simulation_destroyed_while_it_reads_ends() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("run export");
-    // Frozen as soon as its reader is on the subject (its consumer shows on a server), the
-    // simulation destroyed meanwhile, then thawed: the rest of what it set out to read is gone.
+    // Run in slices of a few milliseconds (SIGCONT, SIGSTOP) until it has begun reading the
+    // subject (its bytes read, /proc/PID/io, past what connecting takes) — then, frozen, the
+    // simulation is destroyed, and it is thawed: the rest of what it set out to read is gone.
+    let subject_bytes = nats.busiest_stream_bytes();
     let started = Instant::now();
-    while !nats.monitor("/jsz?consumers=true").contains(&sim) {
-        assert!(started.elapsed() < Duration::from_secs(60), "the export never began reading");
-        if export.try_wait().unwrap().is_some() {
-            panic!("the export ended before its reader could be caught on the subject: make the log longer");
-        }
-    }
     signal(export.id(), "STOP");
+    loop {
+        if bytes_read(export.id()) > (subject_bytes / 40).max(64 * 1024) {
+            break;
+        }
+        assert!(started.elapsed() < Duration::from_secs(120), "the export never began reading");
+        if let Some(status) = export.try_wait().unwrap() {
+            let out = export.wait_with_output().unwrap();
+            panic!("the export ended ({status}) before it could be caught reading: {}", String::from_utf8_lossy(&out.stderr));
+        }
+        signal(export.id(), "CONT");
+        std::thread::sleep(Duration::from_millis(2));
+        signal(export.id(), "STOP");
+    }
     match attempt(&c, "destroy_simulation", json!({"sim_id": sim}), Duration::from_secs(60)).await {
         Outcome::Ok(_) => {}
         o => panic!("destroy: {o:?}"),
@@ -72,6 +94,40 @@ async fn an_export_of_a_simulation_destroyed_while_it_reads_ends() {
     }
 }
 
+/// The reader every takeover, export and sweep materialisation uses, given the end a subject
+/// had a moment ago, when the subject was purged since (a destroy between the two): it ends,
+/// saying the subject no longer reaches that end (it waited forever for the purged messages).
+#[tokio::test(flavor = "multi_thread")]
+#[ignore = "needs nats-server: cargo test --test cluster -- --ignored"]
+async fn a_subject_read_to_an_end_a_destroy_purged_ends() {
+    let nats = NatsCluster::start();
+    let root = tempfile::tempdir().unwrap();
+    let workspace = shared_workspace(root.path());
+    let a = Node::start(root.path(), "a", &nats, &workspace, &[]);
+    let c = a.client().await;
+    let sim = c.new_sim(json!({})).await;
+    for _ in 0..20 {
+        c.step(&sim, 1).await;
+    }
+    let mut config = physics_mcp::cluster::ClusterConfig::new(&nats.urls(), "reader");
+    config.serves = false;
+    let reader = tokio::task::spawn_blocking(|| physics_mcp::cluster::Cluster::connect(config).expect("connect")).await.unwrap();
+    let last = {
+        let (reader, sim) = (reader.clone(), sim.clone());
+        tokio::task::spawn_blocking(move || reader.last_sequence(&sim)).await.unwrap().unwrap()
+    };
+    assert!(last > 0);
+    c.call("destroy_simulation", json!({"sim_id": sim})).await;
+    let read = {
+        let sim = sim.clone();
+        tokio::task::spawn_blocking(move || reader.records_up_to(&sim, last))
+    };
+    match tokio::time::timeout(Duration::from_secs(120), read).await {
+        Ok(got) => assert!(matches!(got.unwrap(), Ok(None)), "a read to an end that was purged should say it is gone"),
+        Err(_) => panic!("a read of {sim}'s subject up to seq {last}, purged since, still waits after 120 s"),
+    }
+}
+
 #[tokio::test(flavor = "multi_thread")]
 #[ignore = "needs nats-server: cargo test --test cluster -- --ignored"]
 async fn a_destroyed_simulation_leaves_no_index_entry_record_or_envelope() {
@@ -87,7 +143,8 @@ async fn a_destroyed_simulation_leaves_no_index_entry_record_or_envelope() {
     let mut gone = Vec::new();
     for _ in 0..40 {
         let sim = ca.new_sim(json!({})).await;
-        let change = ca.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]}));
+        // Its outcome does not matter (the destroy may come first); its index write does.
+        let change = ca.try_call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]}));
         let (_, destroyed) = tokio::join!(change, async {
             tokio::time::sleep(Duration::from_millis(1)).await;
             attempt(&ca, "destroy_simulation", json!({"sim_id": sim}), Duration::from_secs(60)).await
@@ -128,6 +185,12 @@ async fn a_destroyed_simulation_leaves_no_index_entry_record_or_envelope() {
         Outcome::Ok(v) => assert_eq!(v["ok"], json!(true), "{v}"),
         o => panic!("the fork after its parent's destruction and its owner's death: {o:?}"),
     }
+}
+
+/// Bytes process `pid` has read so far (files and sockets: `rchar` of /proc/PID/io).
+fn bytes_read(pid: u32) -> u64 {
+    let io = std::fs::read_to_string(format!("/proc/{pid}/io")).unwrap_or_default();
+    io.lines().find_map(|l| l.strip_prefix("rchar: ")).and_then(|v| v.trim().parse().ok()).unwrap_or(0)
 }
 
 /// The names of the commit envelopes (`env/…`) in the namespace's object store.

@@ -186,10 +186,14 @@ impl NatsCluster {
         self.members.iter().position(|m| m.name == leader).unwrap_or_else(|| panic!("stream leader {leader} is not one of ours"))
     }
 
-    /// What every running server's monitoring says at `path` (e.g. `/jsz?consumers=true`),
-    /// joined: a test looks for a name in it.
-    pub fn monitor(&self, path: &str) -> String {
-        self.live().filter_map(|m| http_get(m.monitor_port, path)).map(|(_, body)| body).collect::<Vec<_>>().join("\n")
+    /// The bytes held by the stream that holds the most messages (one busy simulation's).
+    pub fn busiest_stream_bytes(&self) -> u64 {
+        let m = self.live().next().expect("a running nats server");
+        let (_, body) = http_get(m.monitor_port, "/jsz?streams=true").expect("/jsz?streams=true");
+        let v: Value = serde_json::from_str(&body).expect("/jsz JSON");
+        let streams = v["account_details"].as_array().into_iter().flatten().flat_map(|a| a["stream_detail"].as_array().into_iter().flatten());
+        let busiest = streams.max_by_key(|s| s["state"]["messages"].as_u64().unwrap_or(0)).expect("no JetStream stream");
+        busiest["state"]["bytes"].as_u64().unwrap_or(0)
     }
 
     /// The index of the server the client connection named `name` is on, if any.
@@ -199,11 +203,6 @@ impl NatsCluster {
             let v: Value = serde_json::from_str(&body).unwrap_or_default();
             v["connections"].as_array().into_iter().flatten().any(|c| c["name"].as_str() == Some(name))
         })
-    }
-
-    /// Whether server `i` is running.
-    pub fn is_up(&self, i: usize) -> bool {
-        self.members[i].child.is_some()
     }
 
     /// Spawns server `i` with its fixed ports and store; its output goes to its log file
