@@ -29,7 +29,7 @@ async fn a_batch_over_a_message_is_forwarded_to_its_owner() {
     let ca = a.client().await;
     let sim = ca.new_sim(json!({})).await;
     let calls: Vec<Value> = (0..CALLS)
-        .map(|i| json!({"tool": "add_box", "arguments": {"dimensions": [0.05, 0.05, 0.05], "position": [(i % 100) as f64 * 0.2, (i / 100) as f64 * 0.2, 1.0]}}))
+        .map(|i| json!({"tool": "add_box", "arguments": {"dimensions": [0.05, 0.05, 0.05], "position": [(i % 100) as f64 * 0.2, (i / 100) as f64 * 0.2, 1.0], "orientation": [0.0, 0.0, 0.0, 1.0], "mass": 1.0}}))
         .collect();
     let request = json!({"sim_id": sim, "calls": calls});
     assert!(request.to_string().len() > 1 << 20, "the batch is meant to be over 1 MiB");
@@ -39,9 +39,9 @@ async fn a_batch_over_a_message_is_forwarded_to_its_owner() {
         other => panic!("the batch sent to node b for node a's simulation: {other:?}"),
     };
     assert_eq!(done["results"].as_array().map(Vec::len), Some(CALLS));
-    let info = ca.call("get_simulation_info", json!({"sim_id": sim})).await;
-    assert_eq!(info["state_hash"], done["state_hash"], "the owner has the batch");
-    assert_eq!(info["objects"].as_array().map(Vec::len), Some(CALLS));
+    let history = ca.call("get_history", json!({"sim_id": sim, "limit": 1})).await;
+    assert_eq!(history["head_seq"], done["head_seq"], "the owner has the batch: {history}");
+    ca.call("get_object_state", json!({"sim_id": sim, "object_id": CALLS - 1})).await;
 }
 
 #[tokio::test(flavor = "multi_thread")]
