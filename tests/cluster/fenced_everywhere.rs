@@ -23,17 +23,35 @@ const BOXES: usize = 600;
 /// Where B moves object 1 while A is frozen.
 const MOVED_TO: [f64; 3] = [40.0, 40.0, 3.0];
 
-/// A world whose verify_simulation takes a while: a ground, `BOXES` boxes in one batch, steps.
+/// A world whose verify_simulation takes a while: `BOXES` boxes drifting in zero gravity (so
+/// none falls asleep and every refolded step costs), stepped.
 async fn heavy_world(c: &Client) -> String {
-    let sim = c.new_sim(json!({})).await;
-    c.ground(&sim).await;
+    let sim = c.new_sim(json!({"gravity": [0, 0, 0]})).await;
     let calls: Vec<Value> = (0..BOXES)
-        .map(|i| json!({"tool": "add_box", "arguments": {"dimensions": [0.1, 0.1, 0.1], "position": [(i % 25) as f64 * 0.3 - 3.6, (i / 25) as f64 * 0.3 - 3.6, 0.2], "mass": 1.0}}))
+        .flat_map(|i| {
+            let (x, y) = ((i % 25) as f64 * 0.3 - 3.6, (i / 25) as f64 * 0.3 - 3.6);
+            [
+                json!({"tool": "add_box", "arguments": {"dimensions": [0.1, 0.1, 0.1], "position": [x, y, 1.0], "mass": 1.0}}),
+                json!({"tool": "set_object_velocity", "arguments": {"object_id": i, "linear_velocity": [-y * 0.05, x * 0.05, 0.01]}}),
+            ]
+        })
         .collect();
     c.call("batch", json!({"sim_id": sim, "calls": calls})).await;
-    c.step(&sim, 120).await;
+    // Stepped until verifying it takes a few seconds on this machine (nothing is judged by
+    // how long: it only has to outlast the queueing and the freeze below).
+    for _ in 0..30 {
+        c.step(&sim, 200).await;
+        let started = Instant::now();
+        c.call("verify_simulation", json!({"sim_id": sim})).await;
+        if started.elapsed() > VERIFY_AT_LEAST {
+            break;
+        }
+    }
     sim
 }
+
+/// How long verifying the heavy world should take, at least.
+const VERIFY_AT_LEAST: Duration = Duration::from_secs(4);
 
 /// Thaws a frozen process when dropped, so a failing test does not leave its node stopped.
 struct ThawOnDrop(u32);
@@ -47,18 +65,33 @@ impl Drop for ThawOnDrop {
 /// Queues `tool` behind a verify_simulation on A, freezes A, has B change object 1 (B takes
 /// the simulation over), thaws A; returns the queued call's outcome and B's client.
 async fn queued_behind_a_freeze(a: &Node, b: &Node, sim: &str, tool: &'static str, args: Value) -> (Outcome, Client) {
-    let verifying = {
-        let c = a.client().await;
-        let args = json!({"sim_id": sim});
-        tokio::spawn(async move { attempt(&c, "verify_simulation", args, CALL_LIMIT).await })
+    // The verification must still hold A's lock when the call is queued and A frozen; if it
+    // ended sooner (a fast machine), the world is stepped further and it is tried again.
+    let (verifying, queued) = loop {
+        let verifying = {
+            let c = a.client().await;
+            let args = json!({"sim_id": sim});
+            tokio::spawn(async move { attempt(&c, "verify_simulation", args, CALL_LIMIT).await })
+        };
+        tokio::time::sleep(Duration::from_millis(1200)).await;
+        if verifying.is_finished() {
+            a.client().await.step(sim, 300).await;
+            continue;
+        }
+        let queued = {
+            let c = a.client().await;
+            let args = args.clone();
+            tokio::spawn(async move { attempt(&c, tool, args, CALL_LIMIT).await })
+        };
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        if queued.is_finished() {
+            panic!("{tool} was not queued behind verify_simulation: {:?}", queued.await.unwrap());
+        }
+        if !verifying.is_finished() {
+            break (verifying, queued);
+        }
+        panic!("verify_simulation ended as {tool} was queued: the world is too small to hold A's lock");
     };
-    tokio::time::sleep(Duration::from_millis(300)).await;
-    let queued = {
-        let c = a.client().await;
-        tokio::spawn(async move { attempt(&c, tool, args, CALL_LIMIT).await })
-    };
-    tokio::time::sleep(Duration::from_millis(200)).await;
-    assert!(!verifying.is_finished() && !queued.is_finished(), "verify_simulation ended before A was frozen: the scene is too small to hold A's lock");
     signal(a.pid(), "STOP");
     let frozen_at = Instant::now();
     let _thaw = ThawOnDrop(a.pid());
@@ -193,5 +226,37 @@ async fn a_kept_sweep_whose_node_froze_names_only_forks_that_exist() {
         }
         assert!(settling.elapsed() < Duration::from_secs(30), "after the sweep the cluster lists {listed:?}, the reply named {want:?}");
         tokio::time::sleep(Duration::from_millis(300)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread")]
+#[ignore = "needs nats-server: cargo test --test cluster -- --ignored"]
+async fn a_sweep_survives_its_node_reconnecting_to_another_nats_server() {
+    let mut nats = NatsCluster::start();
+    let root = tempfile::tempdir().unwrap();
+    let workspace = shared_workspace(root.path());
+    let nodes: Vec<Node> = ["a", "b", "c"].iter().map(|n| Node::start(root.path(), n, &nats, &workspace, &LEASE)).collect();
+    let ca = nodes[0].client().await;
+    let sim = ca.new_sim(json!({})).await;
+    ca.ground(&sim).await;
+    for k in 0..40 {
+        ca.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [(k % 8) as f64 * 0.3, (k / 8) as f64 * 0.3, 0.5 + 0.1 * k as f64]})).await;
+    }
+    let variants: Vec<Value> = (0..12).map(|k| json!([{"tool": "set_object_pose", "arguments": {"object_id": 1 + k, "position": [0.0, 0.0, 3.0]}}])).collect();
+    let args = json!({"sim_id": sim, "variants": variants, "steps": 300});
+    let expected = ca.call("run_sweep", args.clone()).await;
+    // Again, with node A's NATS server killed mid-sweep: A reconnects to another server, and for
+    // a moment nobody listens for the sweep's results — which decides nothing.
+    let server = nats.server_of_connection("physics-mcp a").expect("node a's NATS connection");
+    let call = tokio::spawn(async move { attempt(&ca, "run_sweep", args, Duration::from_secs(180)).await });
+    tokio::time::sleep(Duration::from_millis(600)).await;
+    tokio::task::block_in_place(|| {
+        nats.kill9(server);
+        std::thread::sleep(Duration::from_secs(2));
+        nats.restart(server);
+    });
+    match call.await.unwrap() {
+        Outcome::Ok(got) => assert_eq!(got, expected, "the sweep through a reconnect differs"),
+        other => panic!("the sweep through node a's reconnect: {other:?}"),
     }
 }
