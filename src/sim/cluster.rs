@@ -79,7 +79,7 @@ impl Sim {
     /// Destroys this simulation in its cluster's log of record: the fenced `destroyed`
     /// marker, appended under the lock after the lease check; refused ([`moved`]) when another
     /// node wrote since. Returns what the removal needs. Embedded, nothing.
-    pub(crate) fn seal(&mut self) -> Result<Option<(Arc<Cluster>, Option<tokio::task::JoinHandle<()>>)>, Refusal> {
+    pub(crate) fn seal(&mut self) -> Result<Option<Sealed>, Refusal> {
         self.fenced()?;
         let id = self.id().to_string();
         if self.cluster.is_none() {
@@ -92,6 +92,10 @@ impl Sim {
         }
     }
 }
+
+/// What removing a sealed (destroyed) simulation from its cluster needs: the cluster, and the
+/// index write still under way (awaited first, so none lands after the removal).
+pub(crate) type Sealed = (Arc<Cluster>, Option<tokio::task::JoinHandle<()>>);
 
 /// The words an "owned elsewhere" refusal holds (routing retries a call refused so in the
 /// instant a dead owner's lease lapses: replicas expire it one by one).
