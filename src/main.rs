@@ -95,6 +95,7 @@ fn default_node_name() -> String {
 fn connect_tool(urls: &str, namespace: &str) -> anyhow::Result<Arc<physics_mcp::cluster::Cluster>> {
     let mut config = physics_mcp::cluster::ClusterConfig::new(urls, &format!("cli-{}", std::process::id()));
     config.namespace = namespace.into();
+    config.serves = false;
     physics_mcp::cluster::Cluster::connect(config)
 }
 

@@ -28,6 +28,9 @@ pub trait Replica: Send {
     /// fork's copied chain is recorded flagged), the new `head` and the snapshots taken with
     /// it. Refused ([`StoreError::Fenced`]) when another owner wrote since.
     fn append(&mut self, events: &[(&Event, bool)], head: u64, snapshots: &[Snap]) -> Result<(), StoreError>;
+    /// Records in the log of record that the simulation is destroyed, fenced like an append
+    /// (destroy_simulation, before anything of it is removed); nothing is appended after it.
+    fn seal(&mut self) -> Result<(), StoreError>;
 }
 
 /// Why an append was not made.

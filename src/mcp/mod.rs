@@ -243,6 +243,12 @@ impl PhysicsServer {
         let (out, moved) = tokio::task::spawn_blocking(move || {
             let _turn = turn;
             let mut guard = lock_sim(&sim);
+            // Cluster mode: the lease is checked again now that the call has waited (a node
+            // paused meanwhile may have lost it); the refusal names the new owner, so routing
+            // resends the call there. Nothing ran, nothing is logged.
+            if let Err(moved) = guard.fenced() {
+                return (Err(moved), false);
+            }
             let before = (guard.log().head_seq(), guard.state_hash().to_string());
             let out = f(&mut guard, &args, reg.limits());
             let moved = guard.log().head_seq() != before.0 || guard.state_hash() != before.1;

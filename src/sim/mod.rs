@@ -124,9 +124,9 @@ pub struct Sim {
     /// Snapshot writes slower than [`stall_ms`] since the MCP layer last took them, as
     /// sentences for logging sessions (an operator wants to know the disk is slow).
     pub(crate) stalls: Vec<String>,
-    /// The cluster this simulation belongs to (cluster mode): its index entry is refreshed
-    /// after each change.
-    pub(crate) cluster: Option<Arc<crate::cluster::Cluster>>,
+    /// Its place in a cluster (cluster mode): the ownership it is served under (checked by
+    /// every call, `fenced`) and its index entry's writes.
+    pub(crate) cluster: Option<cluster::Seat>,
 }
 
 /// A snapshot (serialise, hash, commit) slower than this many milliseconds is a stall worth a
@@ -263,6 +263,7 @@ impl Sim {
     /// Refuses every call on a destroyed simulation with the standard sentence, before
     /// anything is computed or logged.
     pub(crate) fn ensure_live(&self) -> Result<(), Refusal> {
+        self.fenced()?;
         if self.destroyed {
             Err(sim_not_found(self.id()))
         } else if let Some(why) = &self.damaged {
@@ -615,8 +616,6 @@ pub struct Registry {
     mac_key: [u8; 32],
     /// The cluster this node is part of (`serve --cluster`); None: embedded mode.
     cluster: Option<Arc<crate::cluster::Cluster>>,
-    /// Held while a simulation is taken over, so two calls do not both rebuild it.
-    takeovers: Mutex<()>,
     /// This node's sweepers, once started (a cluster node's sweeps then run across the cluster).
     sweeps: std::sync::OnceLock<Arc<sweep_worker::NodeSweeps>>,
     /// Calls waiting for busy simulations, bounded per simulation (`queue.rs`).
@@ -689,7 +688,6 @@ impl Registry {
             sandbox,
             mac_key,
             cluster,
-            takeovers: Mutex::new(()),
             sweeps: std::sync::OnceLock::new(),
             queues: queue::Queues::default(),
             listings: Mutex::new(BTreeMap::new()),
@@ -857,15 +855,24 @@ impl Registry {
         self.table().sims.insert(id.to_string(), sim);
     }
 
+    /// Drops what this process keeps about a destroyed simulation besides the simulation
+    /// itself: the viewer's cached answers, its waiting queue, its last listing.
+    fn forget_local(&self, id: &str) {
+        crate::seeing::viewer::forget(id);
+        self.queues.forget(id);
+        self.listings.lock().unwrap_or_else(|p| p.into_inner()).remove(id);
+    }
+
     /// Removes a simulation and deletes its log.
     pub fn destroy(&self, id: &str) -> Result<Message, Refusal> {
         if let Some(why) = self.damaged.get(id) {
             return Err(sim_damaged(id, why));
         }
-        if self.cluster.is_some() {
-            self.get(id)?;
+        if let Some(cluster) = &self.cluster {
+            self.destroy_in_cluster(cluster, id)?;
+            self.forget_local(id);
+            return Ok(Message::new(format!("Simulation {id} destroyed")));
         }
-        let _no_takeovers = self.no_takeovers();
         let sim = self.table().sims.remove(id).ok_or_else(|| sim_not_found(id))?;
         // Wait for any call in flight; then, still under the lock, mark it destroyed and close
         // its log before deleting the files, so a request that took the handle earlier finds
@@ -876,10 +883,7 @@ impl Registry {
             guard.log.path().to_path_buf()
         };
         remove_log_files(&path);
-        crate::seeing::viewer::forget(id);
-        self.queues.forget(id);
-        self.listings.lock().unwrap_or_else(|p| p.into_inner()).remove(id);
-        self.forget_in_cluster(id)?;
+        self.forget_local(id);
         Ok(Message::new(format!("Simulation {id} destroyed")))
     }
 

@@ -171,8 +171,13 @@ impl Registry {
         let how = (keep, full, rank_by);
         if let Some(nodes) = self.sweepers().filter(|_| sent.len() == variants.len()) {
             let controls = (0..sent.len()).map(|_| controls()).collect();
-            let done = self.sweep_across(&nodes, source, crate::sim::sweep_across::Across { sent, steps, observe, keep }, controls);
-            return self.conclude(&parent, args, done, how, (budget, slots));
+            let sweep = uuid::Uuid::new_v4().to_string();
+            let done = self.sweep_across(&nodes, &sweep, source, crate::sim::sweep_across::Across { sent, steps, observe, keep }, controls);
+            let concluded = self.conclude(&parent, args, done, how, (budget, slots));
+            // Every sweep ends with a verdict (a kept one wrote its own in `keep_all`): workers
+            // still waiting for an answer follow it.
+            nodes.decided(&sweep);
+            return concluded;
         }
         let fork_args = fork_arguments(id, source.at());
         let items: Vec<Variant> =
@@ -227,6 +232,13 @@ impl Registry {
         let keep = how.0;
         let outcome = finish(done, how, budget);
         let mut p = lock_sim(parent);
+        // The lease, checked when the answer is decided (in a cluster the variants ran
+        // meanwhile, and this node may have lost the swept simulation): refused, nothing kept.
+        if let Err(why) = p.ensure_live() {
+            let (Ok((_, sims)) | Err((_, sims))) = outcome;
+            F::discard_all(self, sims);
+            return Err(why);
+        }
         let (swept, sims) = match outcome {
             Ok(ok) => ok,
             Err((why, sims)) => {

@@ -16,10 +16,14 @@ mod lockstep;
 mod nats;
 mod nodes;
 
+mod any_size;
 mod balancer_crash;
 mod big_batch;
 mod distributed_sweep;
+mod destroyed;
 mod equivalence;
+mod fault_schedule;
+mod fenced_everywhere;
 mod fencing;
 mod import_export;
 mod nats_crash;
