@@ -20,6 +20,9 @@ pub struct Limits {
     /// Bytes per tool reply (the serialized JSON-RPC message): the Python MCP SDK drops SSE
     /// events over 1 MiB, so a larger reply would be lost, not just slow.
     pub max_reply_bytes: usize,
+    /// Bytes per file write_file writes: the default, 3,000,000, sent as base64 (a third more)
+    /// with its envelope, fits the HTTP transport's 4 MiB request-body cap.
+    pub max_write_bytes: usize,
 }
 
 /// the documented defaults: one table for the CLI flags and `Default`.
@@ -31,6 +34,7 @@ pub const DEFAULT: Limits = Limits {
     max_rays: 16_384,
     max_image_px: 1_048_576,
     max_reply_bytes: 1_048_576,
+    max_write_bytes: 3_000_000,
 };
 
 impl Default for Limits {
@@ -51,6 +55,7 @@ impl Limits {
             max_rays: usize::MAX,
             max_image_px: usize::MAX,
             max_reply_bytes: usize::MAX,
+            max_write_bytes: usize::MAX,
         }
     }
 }
