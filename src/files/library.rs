@@ -157,7 +157,8 @@ pub fn wrong_tool(user: &str, format: Format) -> Refusal {
 
 /// Up to three built-in models nearest `user`: same file name first (`ant.xml` →
 /// `mujoco/ant.xml`), then names containing its stem (`kuka.urdf` → `kuka_iiwa/model.urdf`),
-/// then names within a small edit distance.
+/// then names within a small edit distance — only the best of these kinds that has any, so a
+/// clear match is not diluted by look-alikes (`kuka.urdf` names no `cube.urdf`).
 fn nearest(user: &str) -> Vec<String> {
     let user = user.to_lowercase();
     let base = user.rsplit('/').next().unwrap_or(&user).to_string();
@@ -180,7 +181,8 @@ fn nearest(user: &str) -> Vec<String> {
         })
         .collect();
     scored.sort();
-    scored.into_iter().take(3).map(|(_, _, name)| name.to_string()).collect()
+    let best = scored.first().map(|(rank, _, _)| *rank);
+    scored.into_iter().filter(|(rank, _, _)| Some(*rank) == best).take(3).map(|(_, _, name)| name.to_string()).collect()
 }
 
 /// What a listing needs from the files layer: the load command of a built-in model, files

@@ -188,39 +188,59 @@ fn parse(urdf: &str) -> Result<urdf_rs::Robot, Refusal> {
 /// The URDF text as PyBullet's parser reads it, where that differs from urdf-rs's reading in
 /// two ways that pybullet_data's own files rely on: an element inside `<geometry>` after its
 /// shape is ignored (racecar.urdf has a `<material>` there), and an `<origin>` `xyz` or `rpy`
-/// that is not three numbers is ignored, leaving 0 (husky.urdf has a xacro leftover,
-/// `rpy="$(optenv HUSKY_IMU_RPY 0 -1.5708 3.1416)"`; pybullet 3.2.7 reports that joint's
-/// frame unrotated). None when neither occurs (or the text is not XML).
+/// that is not three numbers is read as PyBullet's `parseVector3` reads it (`pybullet_vector3`;
+/// husky.urdf has xacro leftovers, `xyz="$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)"`, which
+/// pybullet 3.2.7 reads as 0 0 0.19). None when neither occurs (or the text is not XML).
 fn pybullet_tolerated(urdf: &str) -> Option<String> {
     let doc = roxmltree::Document::parse(urdf).ok()?;
-    let mut cut: Vec<std::ops::Range<usize>> = Vec::new();
+    // (range of the text, what replaces it)
+    let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
     for node in doc.descendants().filter(|n| n.is_element()) {
         match node.tag_name().name() {
-            "geometry" => cut.extend(node.children().filter(|c| c.is_element()).skip(1).map(|c| c.range())),
+            "geometry" => edits.extend(node.children().filter(|c| c.is_element()).skip(1).map(|c| (c.range(), String::new()))),
             "origin" => {
                 let three_numbers = |v: &str| {
                     let parts: Vec<&str> = v.split_whitespace().collect();
                     parts.len() == 3 && parts.iter().all(|p| p.parse::<f64>().is_ok())
                 };
-                cut.extend(node.attributes().filter(|a| matches!(a.name(), "xyz" | "rpy") && !three_numbers(a.value())).map(|a| a.range()));
+                for a in node.attributes().filter(|a| matches!(a.name(), "xyz" | "rpy") && !three_numbers(a.value())) {
+                    let replacement = match pybullet_vector3(a.value()) {
+                        Some([x, y, z]) => format!("{}=\"{x:?} {y:?} {z:?}\"", a.name()),
+                        None => String::new(),
+                    };
+                    edits.push((a.range(), replacement));
+                }
             }
             _ => {}
         }
     }
-    if cut.is_empty() {
+    if edits.is_empty() {
         return None;
     }
-    cut.sort_by_key(|r| r.start);
+    edits.sort_by_key(|(r, _)| r.start);
     let mut out = String::with_capacity(urdf.len());
     let mut at = 0;
-    for r in cut {
+    for (r, replacement) in edits {
         if r.start >= at {
             out.push_str(&urdf[at..r.start]);
+            out.push_str(&replacement);
             at = r.end;
         }
     }
     out.push_str(&urdf[at..]);
     Some(out)
+}
+
+/// A vector as bullet3's URDF parser (`parseVector3`) reads it: the value split at spaces,
+/// each piece read as C's `atof` (its longest leading number, else 0), the first three kept;
+/// None (the attribute left out: 0 0 0) when there are fewer than three pieces.
+fn pybullet_vector3(value: &str) -> Option<[f64; 3]> {
+    let atof = |piece: &str| {
+        let numeric = piece.find(|c: char| !(c.is_ascii_digit() || matches!(c, '+' | '-' | '.' | 'e' | 'E'))).unwrap_or(piece.len());
+        (1..=numeric).rev().find_map(|n| piece[..n].parse::<f64>().ok().filter(|x| x.is_finite())).unwrap_or(0.0)
+    };
+    let pieces: Vec<f64> = value.split(' ').filter(|p| !p.is_empty()).map(atof).collect();
+    (pieces.len() >= 3).then(|| [pieces[0], pieces[1], pieces[2]])
 }
 
 /// How a URDF is read where the rules changed over releases. Each flag is the load_urdf event's
@@ -650,7 +670,12 @@ mod tests {
         assert!(!tolerated.contains("material") && !tolerated.contains("optenv") && tolerated.contains(r#"xyz="1 2 3""#), "{tolerated}");
         let read = parse(&quirky).unwrap();
         assert_eq!(read.joints[0].origin.xyz.0, [1.0, 2.0, 3.0]);
-        assert_eq!(read.joints[0].origin.rpy.0, [0.0, 0.0, 0.0], "the unreadable rpy reads 0, as in PyBullet");
+        assert_eq!(read.joints[0].origin.rpy.0, [0.0, 0.0, 0.0], "the first three pieces read as atof: 0 0 0, as in PyBullet");
+        // husky.urdf's IMU: the first three pieces are "$(optenv", "HUSKY_IMU_XYZ", "0.19".
+        let husky = robot("", r#"xyz="$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)""#);
+        assert_eq!(parse(&husky).unwrap().joints[0].origin.xyz.0, [0.0, 0.0, 0.19]);
+        assert_eq!(pybullet_vector3("1.5x -2e1 .25 9"), Some([1.5, -20.0, 0.25]));
+        assert_eq!(pybullet_vector3("$(a b)"), None, "fewer than three pieces: left out");
         // Something else wrong still says what urdf-rs said.
         assert!(parse("<robot name=\"r\"><link/></robot>").unwrap_err().starts_with("file_path is not a valid URDF"));
     }
