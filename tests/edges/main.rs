@@ -1,6 +1,7 @@
 //! Trust at the edges: models read no file behind the log's back, outputs never replace a file,
 //! a request's files are read once within a budget before its simulation is locked, a shutdown
-//! always ends, and the source tree keeps the rules that make these checkable.
+//! always ends, a client writes files only where and as it may, and the source tree keeps the
+//! rules that make these checkable.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -12,3 +13,4 @@ mod bounded_requests;
 mod model_files;
 mod output_files;
 mod shutdown;
+mod write_files;
