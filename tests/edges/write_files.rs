@@ -31,7 +31,7 @@ fn tetrahedron_stl(s: f32) -> Vec<u8> {
         out.extend_from_slice(&[0u8; 12]);
         for i in f {
             for x in v[i] {
-                out.extend_from_slice(&(x as f32).to_le_bytes());
+                out.extend_from_slice(&x.to_le_bytes());
             }
         }
         out.extend_from_slice(&[0, 0]);

@@ -19,26 +19,13 @@ use crate::common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use crate::mjcf::{floats, quat_diff, vec_diff};
 use common::{Client, Server};
 use serde_json::{json, Value};
 
 fn reference(name: &str) -> Value {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reference").join(name);
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
-
-fn floats(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap_or_else(|| panic!("array expected, got {v}")).iter().map(|x| x.as_f64().unwrap()).collect()
-}
-
-fn vec_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
-}
-
-/// Largest difference between two quaternions up to sign.
-fn quat_diff(a: &[f64], b: &[f64]) -> f64 {
-    let d = |s: f64| a.iter().zip(b).map(|(x, y)| (x - s * y).abs()).fold(0.0, f64::max);
-    d(1.0).min(d(-1.0))
 }
 
 /// A link's mass here for pybullet's `mass`: a link pybullet gives 0 kg is one an

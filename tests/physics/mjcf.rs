@@ -19,15 +19,18 @@ fn reference() -> Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
-fn floats(v: &Value) -> Vec<f64> {
+/// A JSON array of numbers (shared with builtins.rs).
+pub(crate) fn floats(v: &Value) -> Vec<f64> {
     v.as_array().unwrap_or_else(|| panic!("array expected, got {v}")).iter().map(|x| x.as_f64().unwrap()).collect()
 }
 
-fn vec_diff(a: &[f64], b: &[f64]) -> f64 {
+/// Largest difference between two vectors.
+pub(crate) fn vec_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
-fn quat_diff(a: &[f64], b: &[f64]) -> f64 {
+/// Largest difference between two quaternions up to sign.
+pub(crate) fn quat_diff(a: &[f64], b: &[f64]) -> f64 {
     let d = |s: f64| a.iter().zip(b).map(|(x, y)| (x - s * y).abs()).fold(0.0, f64::max);
     d(1.0).min(d(-1.0))
 }
