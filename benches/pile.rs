@@ -95,6 +95,7 @@ pub fn arms_world() -> World {
                     fixed_base: false,
                     continuous_limits_from_file: true,
                     revolute_prismatic_limits_from_file: true,
+                    inertials_as_pybullet: true,
                     parsed: Default::default(),
                 },
                 &mut |_| true,

@@ -42,6 +42,9 @@ pub struct LimitArgs {
     /// sweep's forks), estimated before the work and refused past it.
     #[arg(long, default_value_t = DEFAULT.max_request_bytes)]
     pub max_request_bytes: usize,
+    /// Bytes per file write_file writes (the HTTP request-body cap grows to hold it as base64).
+    #[arg(long, default_value_t = DEFAULT.max_write_bytes)]
+    pub max_write_bytes: usize,
 }
 
 /// `--max-reply-bytes`: at least `budget::MIN_REPLY_BYTES`, so every state-changing reply,
@@ -80,6 +83,7 @@ impl From<LimitArgs> for Limits {
             max_waiting,
             max_work,
             max_request_bytes,
+            max_write_bytes,
         } = a;
         Limits {
             max_sims,
@@ -92,6 +96,7 @@ impl From<LimitArgs> for Limits {
             max_waiting,
             max_work,
             max_request_bytes,
+            max_write_bytes,
         }
     }
 }

@@ -432,6 +432,12 @@ fn main() {
     #[cfg(feature = "failpoints")]
     let _failpoints = physics_mcp::failpoints::setup();
     ignore_file_size_signal();
+    // The built-in model library: only this binary links its archive (test binaries that never
+    // install it carry none of its bytes).
+    if let Err(e) = physics_mcp::files::library::install(physics_models::ARCHIVE) {
+        eprintln!("physics-mcp: the built-in model library is damaged: {e}");
+        std::process::exit(2);
+    }
     if let Err(e) = physics_mcp::cli::step_on_threads(usize::from(cli.threads)) {
         eprintln!("physics-mcp: --threads: {e}");
         std::process::exit(2);

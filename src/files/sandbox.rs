@@ -53,7 +53,12 @@ impl Sandbox {
     /// The canonical path of an existing entry to read (whether it is a regular file is
     /// checked on the opened handle, by `read`).
     pub fn existing(&self, user: &str) -> Result<PathBuf, Refusal> {
-        self.probe(user)?.ok_or_else(|| format!("file_path {user} does not exist in the workspace {}", self.workspace.display()))
+        self.probe(user)?.ok_or_else(|| self.missing(user))
+    }
+
+    /// The sentence for a path inside the workspace with nothing there.
+    pub fn missing(&self, user: &str) -> Refusal {
+        format!("file_path {user} does not exist in the workspace {}", self.workspace.display())
     }
 
     /// Where `user` resolves: Some(canonical path) when it exists inside the workspace, None

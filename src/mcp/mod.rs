@@ -138,7 +138,9 @@ impl PhysicsServer {
                 + PhysicsServer::time_router()
                 + PhysicsServer::mjcf_router()
                 + PhysicsServer::batch_router()
-                + PhysicsServer::sweep_router();
+                + PhysicsServer::sweep_router()
+                + PhysicsServer::files_router()
+                + PhysicsServer::models_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::input(&tool.input_schema));

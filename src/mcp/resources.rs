@@ -2,7 +2,7 @@
 //! `sim://{id}/info` (get_simulation_info's answer), `sim://{id}/history` (its events as JSON
 //! lines) and `sim://{id}/image` (a PNG from the viewer camera) — and the session list that
 //! lets a simulation created or destroyed in one session tell every session its resource list
-//! changed.
+//! changed; beside them, the viewer app and `models://builtin` (list_models' answer).
 //!
 //! Reading a resource is a look, not a tool call: it is not recorded in the simulation's log
 //! (the README says so), and it never changes the world.
@@ -16,6 +16,7 @@ use rmcp::{Peer, RoleServer};
 use serde_json::{json, Value};
 
 use super::subscriptions::Subscriptions;
+use super::tools::models::MODELS_URI;
 use super::PhysicsServer;
 use crate::seeing::viewer;
 use crate::sim::reads;
@@ -170,7 +171,10 @@ impl PhysicsServer {
         let app = Resource::new(viewer::app::APP_URI, "viewer")
             .with_description("The simulation viewer as an MCP App (3D, timeline, inspector).")
             .with_mime_type(viewer::app::APP_MIME);
-        let resources = std::iter::once(app).chain(resources).collect();
+        let models = Resource::new(MODELS_URI, "built-in models")
+            .with_description("The built-in models load_urdf and load_mjcf take by name (as list_models).")
+            .with_mime_type("application/json");
+        let resources = [app, models].into_iter().chain(resources).collect();
         // Simulations come and go: a client must not serve this list from a cache.
         ListResourcesResult::with_all_items(resources).with_ttl_ms(0)
     }
@@ -195,6 +199,14 @@ impl PhysicsServer {
         if uri == viewer::app::APP_URI {
             let html = ResourceContents::text(viewer::app::app_html(), &uri).with_mime_type(viewer::app::APP_MIME);
             return Ok(ReadResourceResult::new(vec![html.with_meta(viewer::app::resource_meta())]));
+        }
+        if uri == MODELS_URI {
+            let listed = tokio::task::spawn_blocking(|| crate::files::library::matching(None))
+                .await
+                .map_err(|_| ErrorData::internal_error("Internal error: the models could not be listed", None))?
+                .map_err(|why| ErrorData::internal_error(why, None))?;
+            let text = serde_json::to_string(&crate::outputs::Models { models: listed }).map_err(|e| ErrorData::internal_error(format!("Internal error: {e}"), None))?;
+            return Ok(ReadResourceResult::new(vec![ResourceContents::text(text, &uri).with_mime_type("application/json")]));
         }
         if let Some((id, kind, query)) = viewer_read(&uri) {
             let (reg, budget) = (self.reg.clone(), self.reg.limits().max_reply_bytes);

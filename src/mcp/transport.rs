@@ -166,6 +166,14 @@ fn session_manager(max: usize, per_client: usize) -> Arc<BoundedSessions> {
     Arc::new(BoundedSessions::new(manager, max, per_client.max(1)))
 }
 
+/// The HTTP request-body cap: rmcp's 4 MiB, or more when `--max-write-bytes` needs it — a
+/// write_file of that many bytes, sent as base64 (4 bytes for every 3), with 64 KiB for the
+/// request around it — so the flag, not the transport, says how large a file may be.
+fn request_body_cap(max_write_bytes: usize) -> usize {
+    const RMCP_DEFAULT: usize = 4 << 20;
+    RMCP_DEFAULT.max(max_write_bytes.div_ceil(3).saturating_mul(4).saturating_add(64 << 10))
+}
+
 /// How long an idle MCP session is kept.
 const SESSION_IDLE: std::time::Duration = std::time::Duration::from_secs(8 * 3600);
 
@@ -196,6 +204,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let ct = CancellationToken::new();
     // SSE priming events: off unless asked for (see `sse_retry`).
     let config = StreamableHttpServerConfig::default()
+        .with_max_request_body_bytes(request_body_cap(reg.limits().max_write_bytes))
         .with_sse_retry(sse_retry())
         .with_allowed_hosts(hosts)
         .with_allowed_origins(origins)

@@ -25,6 +25,8 @@ mod animation;
 mod mjcf;
 mod batch;
 mod sweep;
+mod files;
+mod models;
 
 pub use simulations::*;
 pub use objects::*;
@@ -39,6 +41,8 @@ pub use animation::*;
 pub use mjcf::*;
 pub use batch::*;
 pub use sweep::*;
+pub use files::*;
+pub use models::*;
 
 use std::any::TypeId;
 use std::collections::BTreeMap;
@@ -142,8 +146,8 @@ fn shown_name(name: &str) -> String {
     format!("{start}… ({length} characters)")
 }
 
-/// Levenshtein distance between two names.
-fn edit_distance(a: &str, b: &str) -> usize {
+/// Levenshtein distance between two names (also: the built-in models nearest a missing file).
+pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut row: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {

@@ -30,4 +30,5 @@ mod nats_crash;
 mod notifications;
 mod owner_crash;
 mod round_robin;
+mod shared_files;
 mod smoke;

@@ -1,7 +1,8 @@
 //! Trust at the edges: models read no file behind the log's back, outputs never replace a file,
 //! a request's files are read once within a budget before its simulation is locked, one client
 //! cannot sink the others, a shutdown always ends, a server started anywhere keeps its files
-//! somewhere usable, and the source tree keeps the rules that make these checkable.
+//! somewhere usable, a client writes files only where and as it may, and the source tree keeps
+//! the rules that make these checkable.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -18,3 +19,4 @@ mod isolation_viewer;
 mod model_files;
 mod output_files;
 mod shutdown;
+mod write_files;

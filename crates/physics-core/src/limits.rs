@@ -30,6 +30,9 @@ pub struct Limits {
     /// Bytes of memory one request may hold beyond the live world, estimated before it runs:
     /// a batch's results and world copy, a sweep's forks in flight and kept.
     pub max_request_bytes: usize,
+    /// Bytes per file write_file writes: the default, 3,000,000, sent as base64 (a third more)
+    /// with its envelope, fits the HTTP transport's 4 MiB request-body cap.
+    pub max_write_bytes: usize,
 }
 
 /// the documented defaults: one table for the CLI flags and `Default`.
@@ -44,6 +47,7 @@ pub const DEFAULT: Limits = Limits {
     max_waiting: 64,
     max_work: 200_000_000,
     max_request_bytes: 512 * 1024 * 1024,
+    max_write_bytes: 3_000_000,
 };
 
 impl Default for Limits {
@@ -67,6 +71,7 @@ impl Limits {
             max_waiting: usize::MAX,
             max_work: u64::MAX,
             max_request_bytes: usize::MAX,
+            max_write_bytes: usize::MAX,
         }
     }
 }
