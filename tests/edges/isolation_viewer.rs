@@ -96,6 +96,11 @@ async fn an_object_that_never_existed_is_refused_without_re_simulating() {
 
 /// A simulation whose re-simulation from its root (the first seq returned) to its step (the
 /// second) steps 1,000 static boxes `steps` times: long enough to be stopped in the middle.
+/// Steps of the long histories the cancellation tests re-simulate: long enough (seconds, even
+/// on a quiet machine: static boxes step in microseconds) that the re-simulation is still
+/// running when the client gives up after 0.3 s, and within the default `--max-work`.
+const LONG: u64 = 150_000;
+
 async fn long_history(c: &common::Client, steps: u64) -> (String, u64, u64) {
     let sim = c.new_sim(json!({})).await;
     let root = c.call("get_history", json!({"sim_id": sim}))
@@ -110,14 +115,15 @@ async fn a_cancelled_trajectory_stops_re_simulating_and_is_recorded_as_refused()
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start_with_env(dir.path(), &[], &[("RUST_LOG", "physics_mcp=info")]);
     let c = server.client().await;
-    let (sim, root, head) = long_history(&c, 20_000).await;
+    let (sim, root, head) = long_history(&c, LONG).await;
     let req = ClientRequest::CallToolRequest(Request::new(
         CallToolRequestParams::new("get_trajectory").with_arguments(json!({"sim_id": sim, "from_seq": root, "every": 100000}).as_object().unwrap().clone()),
     ));
     let mut opts = PeerRequestOptions::no_options();
     opts.timeout = Some(Duration::from_millis(300));
     let handle = c.service.send_cancellable_request(req, opts).await.unwrap();
-    assert!(handle.await_response().await.is_err(), "the call should have been cancelled");
+    let r = handle.await_response().await;
+    assert!(r.is_err(), "the call should have been cancelled: {r:?}");
     // The server says it stopped, and the log records the call as refused, saying why.
     let stderr = server.stderr.clone();
     common::until("the re-simulation to stop", || stderr.lock().unwrap().iter().any(|l| l.contains("re-simulation stopped") && l.contains(&sim))).await;
@@ -139,7 +145,7 @@ async fn a_viewer_ask_the_browser_gave_up_stops_re_simulating() {
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start_with_env(dir.path(), &[], &[("RUST_LOG", "physics_mcp=info")]);
     let c = server.client().await;
-    let (sim, root, _) = long_history(&c, 20_000).await;
+    let (sim, root, _) = long_history(&c, LONG).await;
     // The browser asks for a clip of the whole chain and goes away after 0.3 s.
     let url = format!("{}/viewer/{sim}/clip?from_seq={root}&every=1000000", server.base_url());
     let http = reqwest::Client::builder().timeout(Duration::from_millis(300)).build().unwrap();
@@ -155,7 +161,9 @@ async fn viewer_asks_waiting_for_a_busy_simulation_hold_a_few_threads() {
     let c = Arc::new(server.client().await);
     let sim = c.new_sim(json!({})).await;
     c.call("batch", json!({"sim_id": sim, "calls": static_boxes(100)})).await;
-    c.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]})).await;
+    // An arm never sleeps (a falling box does, and then a million steps take moments on a
+    // quiet machine), so the step below holds the simulation for a minute or more.
+    c.call("load_urdf", json!({"sim_id": sim, "file_path": "kuka_iiwa/model.urdf", "position": [0, 2, 0]})).await;
     let stepping = {
         let (c, sim) = (c.clone(), sim.clone());
         tokio::spawn(async move { c.try_call("step_simulation", json!({"sim_id": sim, "steps": 1_000_000})).await })
@@ -164,6 +172,7 @@ async fn viewer_asks_waiting_for_a_busy_simulation_hold_a_few_threads() {
     let url = format!("{}/viewer/{sim}/poses?seq=1", server.base_url());
     loop {
         tokio::time::sleep(Duration::from_millis(200)).await;
+        assert!(!stepping.is_finished(), "the step ended before the viewer saw it busy: the test proves nothing");
         if get(&url).await.0 == 202 {
             break;
         }
