@@ -97,31 +97,33 @@ async fn session_end_no_content(req: Request, next: Next) -> Response {
     response
 }
 
-/// Waits for SIGINT or SIGTERM.
-async fn signalled() {
-    let ctrl_c = tokio::signal::ctrl_c();
+/// SIGINT or SIGTERM, listened for from this call on, not from the first poll: serving calls
+/// it before announcing its address, so a signal sent the moment a client sees the address
+/// ends the server cleanly instead of killing it by the signal's default action (seen: the
+/// cluster ledger test's SIGTERM right after a restart).
+fn signalled() -> impl std::future::Future<Output = ()> {
     #[cfg(unix)]
-    {
-        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(s) => s,
-            Err(_) => {
-                let _ = ctrl_c.await;
-                return;
+    let handlers = {
+        use tokio::signal::unix::{signal, SignalKind};
+        (signal(SignalKind::terminate()).ok(), signal(SignalKind::interrupt()).ok())
+    };
+    async move {
+        #[cfg(unix)]
+        if let (Some(mut term), Some(mut int)) = handlers {
+            tokio::select! {
+                _ = term.recv() => {},
+                _ = int.recv() => {},
             }
-        };
-        tokio::select! {
-            _ = ctrl_c => {},
-            _ = term.recv() => {},
+            return;
         }
+        let _ = tokio::signal::ctrl_c().await;
     }
-    #[cfg(not(unix))]
-    let _ = ctrl_c.await;
 }
 
 /// After a signal: running work is told to stop (`shutdown::begin`) and the sessions are
 /// cancelled.
-async fn shutdown_signal(ct: CancellationToken) {
-    signalled().await;
+async fn shutdown_signal(signal: impl std::future::Future<Output = ()>, ct: CancellationToken) {
+    signal.await;
     crate::shutdown::begin();
     ct.cancel();
 }
@@ -233,13 +235,14 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let app = mcp
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
+    let signal = signalled();
     announce_address(local);
     // Graceful: no new connection, open ones finish their replies — for at most
     // `shutdown::GRACE` after the signal (a client may hold a stream open for ever), then the
     // flush.
     // Each request knows its peer's address (`tell_clients_apart`).
     let app = app.into_make_service_with_connect_info::<SocketAddr>();
-    let serving = axum::serve(listener, app).with_graceful_shutdown(shutdown_signal(ct.clone()));
+    let serving = axum::serve(listener, app).with_graceful_shutdown(shutdown_signal(signal, ct.clone()));
     tokio::select! {
         served = serving => served?,
         _ = async {

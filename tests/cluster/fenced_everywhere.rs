@@ -40,7 +40,7 @@ async fn heavy_world(c: &Client) -> String {
     // Stepped until verifying it takes a few seconds on this machine (nothing is judged by
     // how long: it only has to outlast the queueing and the freeze below).
     for _ in 0..30 {
-        c.step(&sim, 200).await;
+        c.step(&sim, 2_000).await;
         let started = Instant::now();
         c.call("verify_simulation", json!({"sim_id": sim})).await;
         if started.elapsed() > VERIFY_AT_LEAST {
@@ -75,7 +75,7 @@ async fn queued_behind_a_freeze(a: &Node, b: &Node, sim: &str, tool: &'static st
         };
         tokio::time::sleep(Duration::from_millis(1200)).await;
         if verifying.is_finished() {
-            a.client().await.step(sim, 300).await;
+            a.client().await.step(sim, 2_000).await;
             continue;
         }
         let queued = {
