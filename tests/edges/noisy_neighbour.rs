@@ -83,6 +83,15 @@ fn refused(r: Result<Value, String>) -> bool {
     r.is_err()
 }
 
+/// Starts a long step on `sim` (seconds) and returns once it holds the simulation: the
+/// attacks on a busy simulation run meanwhile and await the returned task at their end.
+async fn keep_busy(c: &Arc<Client>, sim: &str) -> tokio::task::JoinHandle<Result<Value, String>> {
+    let (c, sim) = (c.clone(), sim.to_string());
+    let stepping = tokio::spawn(async move { c.try_call("step_simulation", json!({"sim_id": sim, "steps": 40_000})).await });
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    stepping
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 #[ignore = "the noisy-neighbour run: .ci/run runs it alone"]
 async fn noisy_neighbour() {
@@ -184,11 +193,7 @@ async fn noisy_neighbour() {
         let (bad, busy) = (bad.clone(), busy.clone());
         attacks.push(Box::new(move || {
             Box::pin(async move {
-                let stepping = {
-                    let (bad, busy) = (bad.clone(), busy.clone());
-                    tokio::spawn(async move { bad.try_call("step_simulation", json!({"sim_id": busy, "steps": 40_000})).await })
-                };
-                tokio::time::sleep(Duration::from_millis(300)).await;
+                let stepping = keep_busy(&bad, &busy).await;
                 let calls = (0..600).map(|_| {
                     let (bad, busy) = (bad.clone(), busy.clone());
                     async move { refused(bad.try_call("get_history", json!({"sim_id": busy})).await) }
@@ -203,11 +208,7 @@ async fn noisy_neighbour() {
         let (bad, busy, http, url) = (bad.clone(), busy.clone(), http.clone(), url.clone());
         attacks.push(Box::new(move || {
             Box::pin(async move {
-                let stepping = {
-                    let (bad, busy) = (bad.clone(), busy.clone());
-                    tokio::spawn(async move { bad.try_call("step_simulation", json!({"sim_id": busy, "steps": 40_000})).await })
-                };
-                tokio::time::sleep(Duration::from_millis(300)).await;
+                let stepping = keep_busy(&bad, &busy).await;
                 // A past moment of a busy simulation: a few are answered when it is free, the
                 // rest told "ask again" (202) at once, none holding a thread meanwhile.
                 let calls = (0..60).map(|_| {
