@@ -1,5 +1,5 @@
 //! A call reaches its owner whatever its size, and a call that cannot succeed is not retried as
-//! if it might (issue 47, cases 3 and 4). A 10,000-call batch (≈ 2 MB, over NATS's 1 MiB
+//! if it might. A 10,000-call batch (≈ 2 MB, over NATS's 1 MiB
 //! message limit) sent to a node that does not own the simulation is forwarded and answered as
 //! on the owner. A `sim_id` that cannot name a simulation (not a valid NATS key) is answered
 //! "not found", as embedded, without holding up the node: a destroy of another simulation

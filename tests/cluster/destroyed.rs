@@ -1,5 +1,5 @@
-//! What a destroy leaves, and what a read of a simulation being destroyed does (issue 47, case
-//! 5 and the suspected items). An `export` reading a simulation's subject when the simulation
+//! What a destroy leaves, and what a read of a simulation being destroyed does, and
+//! what it must not leave behind. An `export` reading a simulation's subject when the simulation
 //! is destroyed ends (it hung forever, waiting for messages the purge removed). A destroyed
 //! simulation leaves no index entry behind, even right after a change (whose index write is
 //! not awaited); no ownership record (nothing per simulation is renewed for it); and none of

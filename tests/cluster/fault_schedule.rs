@@ -1,5 +1,5 @@
 //! A seeded fault schedule over three nodes and three NATS servers, judged by its history
-//! (issue 47; Jepsen-style, bounded). Clients call every kind of tool — changes, reads,
+//! (Jepsen-style, bounded). Clients call every kind of tool — changes, reads,
 //! batches over 1 MiB, kept sweeps, forks, destroys, exports — through random nodes as
 //! stateless requests (a round-robin balancer's traffic), while the schedule pauses
 //! (SIGSTOP/SIGCONT) and kills nodes and NATS servers and starts them again (at most one NATS

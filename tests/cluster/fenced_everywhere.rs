@@ -1,5 +1,5 @@
 //! Every operation on a simulation is decided under a lease checked when the work runs, not
-//! only when the call was admitted (issue 47, cases 1 and 2). Node A holds a simulation; a long
+//! only when the call was admitted. Node A holds a simulation; a long
 //! read (verify_simulation of a 600-box world) holds its lock; another call queues behind it on
 //! A; A is frozen (SIGSTOP) past its lease while node B takes the simulation over and changes
 //! it; A is thawed. The queued call must then neither answer from A's stale state (a read) nor
