@@ -162,8 +162,10 @@ async fn acknowledged_calls_survive_kill_9_anywhere() {
     let seed = seed();
     let mut rng = rng(seed);
     let env = |name: &str, default: usize| std::env::var(name).ok().and_then(|s| s.parse().ok()).unwrap_or(default);
-    // CI size: 100 random kills, a 300-body simulation; PHYSICS_CRASH_BODIES=1000 for the full one.
+    // Full size: 100 random kills and 5 in each risky phase; .ci/run sets a smaller count of each.
+    // A 300-body simulation; PHYSICS_CRASH_BODIES=1000 for the full one.
     let random_kills = env("PHYSICS_CRASH_KILLS", 100);
+    let phase_rounds = env("PHYSICS_CRASH_PHASE_KILLS", 5) as u64;
     let bodies = env("PHYSICS_CRASH_BODIES", 300);
     let dir = tempfile::tempdir().unwrap();
     let acks: Acks = Arc::default();
@@ -195,7 +197,7 @@ async fn acknowledged_calls_survive_kill_9_anywhere() {
     }
     let mut phase_kills = std::collections::BTreeMap::new();
     for point in ["snapshot_write", "after_commit", "checkpoint", "create_before_publish", "adopt_before_publish", "publish_before_rename", "save_write"] {
-        for round in 0..5 {
+        for round in 0..phase_rounds {
             let what = format!("{point} round {round} (seed={seed})");
             drop(restart_and_check(dir.path(), &sims, &acks, &mut recovery, &what).await);
             // Fires on a random one of the next few times the phase is reached.
