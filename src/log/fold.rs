@@ -550,7 +550,7 @@ pub fn lend(log: &dyn EventLog, id: &str, from: Option<u64>, to: Option<u64>) ->
     }
     let (chain, start) = chain_from_snapshot(log, to, from).map_err(read)?;
     if !chain.iter().any(|e| e.seq == from) {
-        return Err(format!("from_seq {from} is not a state-changing event on the chain to to_seq {to} of simulation {id}"));
+        return Err(off_chain(log, id, from, to).map_err(read)?);
     }
     let chain = chain
         .into_iter()
@@ -563,6 +563,20 @@ pub fn lend(log: &dyn EventLog, id: &str, from: Option<u64>, to: Option<u64>) ->
     let taken: BTreeSet<u64> = log.snapshot_seqs().map_err(read)?.into_iter().collect();
     let snapshots = chain.iter().skip(1).map(|(e, _)| e.seq).filter(|s| taken.contains(s)).collect();
     Ok(Lent { id: id.to_string(), start, chain, interval: Interval { from_seq: from, to_seq: to }, until_step: None, snapshots })
+}
+
+/// Why `from` cannot start an interval ending at `to`, and what to ask instead: an event of
+/// another branch (undone, or left by a later change) is reached through its own chain, or
+/// continued in a fork made there.
+fn off_chain(log: &dyn EventLog, id: &str, from: u64, to: u64) -> Result<String, StoreError> {
+    Ok(match log.event(from)? {
+        Some(e) if e.kind.is_state_changing() => format!(
+            "from_seq {from} is on another branch of simulation {id} (undone or replaced), not on the chain to to_seq {to}; \
+             give to_seq={from} to look at that branch, or fork_simulation at_seq={from} to continue from it"
+        ),
+        Some(_) => format!("from_seq {from} is a read, not a state-changing event of simulation {id}; get_history lists the changes"),
+        None => format!("from_seq {from} is not an event of simulation {id}; get_history lists its events"),
+    })
 }
 
 /// Where an observer is called during a re-simulation.

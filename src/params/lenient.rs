@@ -138,6 +138,29 @@ lenient!(
     }
 );
 lenient!(
+    /// A joint control mode as PyBullet spells it, normalised to its upper-case name: any
+    /// case, with or without `_CONTROL` (`"position"`, `"Position_Control"`), or PyBullet's
+    /// integer constant (`p.VELOCITY_CONTROL` 0, `TORQUE_CONTROL` 1, `POSITION_CONTROL` 2,
+    /// `PD_CONTROL` 3, `STABLE_PD_CONTROL` 4); the tool says which modes it supports.
+    ControlModeName(String) as String,
+    |name, v| {
+        const BY_NUMBER: [&str; 5] = ["VELOCITY_CONTROL", "TORQUE_CONTROL", "POSITION_CONTROL", "PD_CONTROL", "STABLE_PD_CONTROL"];
+        match v {
+            Value::String(s) if s.trim().parse::<i64>().is_err() => {
+                let upper = s.trim().to_ascii_uppercase().replace([' ', '-'], "_");
+                Ok(if upper.ends_with("_CONTROL") || upper.is_empty() { upper } else { format!("{upper}_CONTROL") })
+            }
+            Value::Number(_) | Value::String(_) => {
+                let i = value::integer(name, v)?;
+                usize::try_from(i).ok().and_then(|i| BY_NUMBER.get(i)).map(|s| (*s).to_string()).ok_or_else(|| {
+                    format!("{name} must be POSITION_CONTROL, VELOCITY_CONTROL or TORQUE_CONTROL (PyBullet's 2, 0 or 1); got {i}")
+                })
+            }
+            other => Err(format!("{name} must be a string such as POSITION_CONTROL; got {}", value::show(other))),
+        }
+    }
+);
+lenient!(
     /// An object id: an integer ≥ 0 (whether it exists is the world's question).
     ObjectId(u32) as u32,
     |name, v| {

@@ -44,7 +44,7 @@ pub struct MotorControl {
     /// PyBullet numbering.
     pub joint_index: Int<u32>,
     /// POSITION_CONTROL, VELOCITY_CONTROL or TORQUE_CONTROL.
-    pub control_mode: Text,
+    pub control_mode: ControlModeName,
     /// rad or m; required for POSITION_CONTROL.
     pub target_position: Option<Num>,
     /// Default 0.
@@ -68,7 +68,7 @@ pub struct MotorControlArray {
     /// PyBullet numbering.
     pub joint_indices: Vec<Int<u32>>,
     /// As set_joint_motor_control's, for all.
-    pub control_mode: Text,
+    pub control_mode: ControlModeName,
     /// Required for POSITION_CONTROL.
     pub target_positions: Option<NumList>,
     /// Default 0s.

@@ -2,6 +2,7 @@
 //! session report, the web viewer and the MCAP export for Foxglove.
 
 pub mod animation;
+pub mod fit;
 pub mod foxglove;
 pub mod framing;
 pub mod overlay;

@@ -327,7 +327,8 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
     let px = width as u64 * height as u64;
     if px > max_px as u64 {
         return Err(format!(
-            "Image too large: {width}x{height} = {px} pixels (at most {max_px}, --max-image-px)"
+            "Image too large: {width}x{height} = {px} pixels (at most {max_px}, --max-image-px){}",
+            crate::seeing::fit::hint(width, height, max_px as u64)
         ));
     }
     let asked = framing::Asked { view: p.view_matrix.as_ref().map(|m| m.0), ..Default::default() };

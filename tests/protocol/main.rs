@@ -10,6 +10,7 @@ mod cli_call;
 mod context_cost;
 mod mcp_app;
 mod output_schemas;
+mod next_steps;
 mod params;
 mod resources;
 mod revisions;

@@ -18,7 +18,8 @@ use crate::params::{self, RenderAnimation};
 use crate::mcp::PhysicsServer;
 use crate::seeing::animation::{self, Camera, Pacing};
 use crate::sim::budget;
-use crate::log::fold::Lent;
+use crate::command::Command;
+use crate::log::fold::{Interval, Lent};
 use crate::value::{Args, Refusal};
 use crate::files::{write, Sandbox};
 
@@ -130,8 +131,31 @@ fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::trajectory::Asked, Asked
     Ok((interval, Asked { every: every(p.every)?, cam, pacing, output: output(p.output_path, sandbox)? }))
 }
 
+/// Why an interval without steps is refused (it would be one still frame lasting 0 s), and what
+/// to ask instead: a fork's own chain starts at its fork point, so its default interval is
+/// empty until it steps; the steps it inherited are reached by their seqs.
+fn nothing_to_animate(lent: &Lent) -> Refusal {
+    let Interval { from_seq, to_seq } = lent.interval;
+    let forked = lent.chain.iter().find_map(|(e, c)| match c {
+        Command::ForkSimulation { parent_id, at_seq, .. } if e.seq == from_seq => Some((parent_id, at_seq)),
+        _ => None,
+    });
+    match forked {
+        Some((parent, at)) => format!(
+            "Nothing to animate: simulation {} has not stepped since it was forked from {parent} (from_seq {from_seq} to to_seq {to_seq} holds no steps); step_simulation first, or give to_seq={at} to animate the last step it inherited",
+            lent.id
+        ),
+        None => format!(
+            "Nothing to animate: from_seq {from_seq} to to_seq {to_seq} holds no steps; step_simulation first, or give a from_seq before a step (get_history lists them)"
+        ),
+    }
+}
+
 /// Checks the size, renders the interval and writes or inlines the GIF (no lock held).
 fn run(asked: Asked, lent: &Lent, max_px: usize, sandbox: &Sandbox) -> Result<(AnimationSummary, Option<Vec<u8>>), Refusal> {
+    if lent.interval_steps() == 0 {
+        return Err(nothing_to_animate(lent));
+    }
     let every = asked.every.unwrap_or_else(|| animation::default_every(lent.interval_steps()));
     animation::check_size(animation::sample_count(lent, every), every, &asked.cam, max_px)?;
     let anim = animation::animate(lent, every, &asked.cam, asked.pacing)?;

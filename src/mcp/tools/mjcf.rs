@@ -38,7 +38,7 @@ impl PhysicsServer {
             .await
     }
 
-    /// A link's world frame, centre of mass and velocity.
+    /// A link's frame (link_world_*: the URDF link frame, which IK targets) and centre of mass (com_world_*), and its velocity.
     #[tool(input_schema = schema_for_type::<params::LinkRef>(), annotations(read_only_hint = true))]
     async fn get_link_state(&self, args: JsonObject) -> Result<Json<LinkState>, String> {
         self.read("get_link_state", args, |sim, p: LinkRef| reads::link_state(&sim.read_context(), &p)).await

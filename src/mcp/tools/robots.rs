@@ -18,6 +18,9 @@ fn control_mode(text: &str) -> Result<ControlMode, Refusal> {
         "POSITION_CONTROL" => Ok(ControlMode::PositionControl),
         "VELOCITY_CONTROL" => Ok(ControlMode::VelocityControl),
         "TORQUE_CONTROL" => Ok(ControlMode::TorqueControl),
+        "PD_CONTROL" | "STABLE_PD_CONTROL" => Err(format!(
+            "control_mode {text} is not supported; use POSITION_CONTROL, a PD motor with position_gain and velocity_gain"
+        )),
         other => Err(format!("control_mode must be POSITION_CONTROL, VELOCITY_CONTROL or TORQUE_CONTROL; got {other}")),
     }
 }
@@ -146,7 +149,7 @@ impl PhysicsServer {
         self.change("set_joint_motor_control_array", args, decide_motor_array).await
     }
 
-    /// Joint positions (per movable joint) reaching the target within limits.
+    /// Joint positions (per movable joint) putting the end effector's link frame (not its centre of mass) at the target, within limits.
     #[tool(input_schema = schema_for_type::<params::InverseKinematics>(), annotations(read_only_hint = true))]
     async fn calculate_inverse_kinematics(&self, args: JsonObject) -> Result<Json<IkSolution>, String> {
         self.read("calculate_inverse_kinematics", args, |sim, p| {

@@ -111,8 +111,10 @@ pub fn check_size(frames: u64, every: u64, cam: &Camera, max_px: usize) -> Resul
     let px = u64::from(cam.width) * u64::from(cam.height);
     if cam.width == 0 || cam.height == 0 || px > max_px as u64 {
         return Err(format!(
-            "Image too large: {}x{} = {px} pixels a frame (at least 1x1, at most {max_px}, --max-image-px); give a smaller width and height",
-            cam.width, cam.height
+            "Image too large: {}x{} = {px} pixels a frame (at least 1x1, at most {max_px}, --max-image-px); give a smaller width and height{}",
+            cam.width,
+            cam.height,
+            super::fit::hint(cam.width, cam.height, max_px as u64)
         ));
     }
     if frames > MAX_FRAMES {
@@ -122,8 +124,10 @@ pub fn check_size(frames: u64, every: u64, cam: &Camera, max_px: usize) -> Resul
     }
     if frames * px > MAX_TOTAL_PX {
         return Err(format!(
-            "Too many pixels: {frames} frames of {}x{} (at most {MAX_TOTAL_PX} pixels in all); give a smaller width and height or a larger every",
-            cam.width, cam.height
+            "Too many pixels: {frames} frames of {}x{} (at most {MAX_TOTAL_PX} pixels in all); give a smaller width and height or a larger every{}",
+            cam.width,
+            cam.height,
+            super::fit::hint(cam.width, cam.height, MAX_TOTAL_PX / frames)
         ));
     }
     Ok(())
