@@ -4,6 +4,7 @@
 //! - the default camera frames what moves (or everything) and says which camera it used;
 //! - the ground shows a 1 m checker; a box above the floor casts a shadow that moves with its
 //!   height, away from the light;
+//! - the key light follows the camera: a red box seen from any side shows red, not maroon;
 //! - animations play at real time (speed scales it), never start blank, carry a time overlay
 //!   that changes from frame to frame.
 
@@ -65,17 +66,17 @@ async fn the_default_camera_frames_the_scene_and_says_so() {
 
     // set_camera then becomes the default.
     c.call("set_camera", json!({"sim_id": sim, "distance": 7, "yaw": 10, "pitch": -20, "target": [0, 0, 0]})).await;
-    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 128, "height": 96})).await;
     assert_eq!(s["camera"], json!({"source": "set_camera", "distance": 7.0, "yaw": 10.0, "pitch": -20.0, "target": [0.0, 0.0, 0.0]}));
     // set_camera back to the initial camera means "frame it" again; undo goes back to 7 m.
     c.call("set_camera", json!({"sim_id": sim, "distance": 5, "yaw": 50, "pitch": -35, "target": [0, 0, 0]})).await;
-    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 128, "height": 96})).await;
     assert_eq!(s["camera"]["source"], "framed");
     c.call("undo", json!({"sim_id": sim})).await;
-    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 128, "height": 96})).await;
     assert_eq!(s["camera"]["source"], "set_camera");
     c.call("undo", json!({"sim_id": sim})).await;
-    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    let (_, _, _, _, s) = look(&c, json!({"sim_id": sim, "width": 128, "height": 96})).await;
     assert_eq!(s["camera"]["source"], "framed");
 
     // An animation frames what moves (the falling box), not the still tower.
@@ -140,6 +141,26 @@ async fn the_ground_has_a_checker_and_a_lifted_box_casts_a_moving_shadow() {
     let (low, high) = (centres[0], centres[1]);
     // Top-down with y up: −x is left, −y is down the picture.
     assert!(high.0 < low.0 - 5.0 && high.1 > low.1 + 5.0, "the shadow moves away from the light as the box rises: {low:?} → {high:?}");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn the_faces_a_camera_sees_are_lit_from_whichever_side_it_looks() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.ground(&sim).await;
+    let b = c.call("add_box", json!({"sim_id": sim, "dimensions": [0.15, 0.15, 0.15], "position": [0, 0, 0.15], "color": [1, 0, 0]})).await["object_id"].as_i64().unwrap();
+    for yaw in [0, 90, 180, 270] {
+        c.call("set_camera", json!({"sim_id": sim, "distance": 1.2, "yaw": yaw, "pitch": -25, "target": [0, 0, 0.15]})).await;
+        let (_, _, rgb, seg, _) = look(&c, json!({"sim_id": sim, "width": 128, "height": 96})).await;
+        let mut red: Vec<u8> = (0..seg.len()).filter(|i| seg[*i] == b).map(|i| rgb[3 * i]).collect();
+        assert!(red.len() > 400, "the box fills part of the picture from yaw {yaw}: {} pixels", red.len());
+        red.sort_unstable();
+        // Unlit, a red face is 0.35 × 255 ≈ 89 (maroon); lit squarely from the side, ≈ 168.
+        let median = red[red.len() / 2];
+        assert!(median >= 150, "the red box seen from yaw {yaw} is dark: median red {median}");
+    }
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -8,8 +8,8 @@
 //! (convex) shapes are culled. Segmentation holds the object id per pixel, −1 for background.
 //!
 //! Colour is decided after that geometry pass, per pixel (`shading`): the object's colour
-//! (`seeing::style`) lit by ambient plus one directional light with shadows (a shadow map from
-//! the light), fixed bodies' upward faces with the ground's 1 m checker, a sky gradient behind.
+//! (`seeing::style`) lit by ambient plus one directional key light over the camera's shoulder
+//! with shadows (a shadow map from the light), fixed bodies' upward faces with the ground's 1 m checker, a sky gradient behind.
 //! What is seen where — depth and segmentation — is the geometry pass's alone.
 
 use rapier3d::parry::shape::{Shape, TypedShape};
@@ -212,7 +212,7 @@ impl Raster {
     }
 
     /// Draws one collider, given as its world-space triangles.
-    fn draw(&mut self, part: &Triangulated, view: &[f32; 16], proj: &[f32; 16], eye: Option<Vector>) {
+    fn draw(&mut self, part: &Triangulated, view: &[f32; 16], proj: &[f32; 16], eye: Option<Vector>, light: Vector) {
         let world = &part.world;
         if world.is_empty() {
             return;
@@ -226,7 +226,6 @@ impl Raster {
             })
             .collect();
         let base = style::object_bytes(part.object_id, part.color);
-        let light = shading::light();
         for t in &part.tris {
             let (Some(&a), Some(&b), Some(&c)) = (world.get(t[0] as usize), world.get(t[1] as usize), world.get(t[2] as usize)) else {
                 continue;
@@ -310,12 +309,13 @@ fn render_parts<'a>(parts: impl Iterator<Item = Drawable<'a>>, width: u32, heigh
     let (view32, proj32) = (to_f32(view), to_f32(proj));
     // Back faces are culled from the eye's position for perspective projections.
     let eye = (proj32[11] == -1.0 && proj32[15] == 0.0).then(|| eye_position(&view32));
+    let light = shading::light(&view32);
     let parts: Vec<Triangulated> = parts.map(Triangulated::of).collect();
     for part in &parts {
-        raster.draw(part, &view32, &proj32, eye);
+        raster.draw(part, &view32, &proj32, eye, light);
     }
     let casters: Vec<(&[Vector], &[[u32; 3]])> = parts.iter().filter(|p| p.casts_shadow()).map(|p| (p.world.as_slice(), p.tris.as_slice())).collect();
-    let shadows = ShadowMap::new(&casters, width.max(height));
+    let shadows = ShadowMap::new(&casters, light, width.max(height));
     let rgb = shade_pixels(&raster, shadows.as_ref(), view, proj);
     Frame { width, height, rgb, depth: raster.depth, segmentation: raster.segmentation }
 }

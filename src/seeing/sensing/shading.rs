@@ -5,7 +5,8 @@
 
 use rapier3d::prelude::Vector;
 
-/// Light comes from this (world) direction, normalised at use: high, from the +x/+y side.
+/// Light comes from this (world) direction for a camera looking straight down or up, normalised
+/// at use: high, from the +x/+y side.
 pub const LIGHT_FROM: [f32; 3] = [0.35, 0.45, 1.0];
 /// Share of the colour a face gets however it faces the light: `AMBIENT_DOWN` for faces
 /// looking down, `AMBIENT_UP` for faces looking up (a sky above, the ground below).
@@ -45,9 +46,25 @@ pub struct Surface {
     pub checker: bool,
 }
 
-/// The direction light comes from, unit length.
-pub fn light() -> Vector {
-    Vector::from_array(LIGHT_FROM).normalize()
+/// The key light's turn from the camera's side, seen from above (rad, 30°), and its height
+/// above the horizon (rad, 55°): over the camera's shoulder, so the faces a camera sees are lit
+/// from whichever side it looks (a fixed light left the faces seen from yaw 0 in shade).
+const KEY_TURN: f32 = 0.5236;
+const KEY_ELEVATION: f32 = 0.9599;
+
+/// The direction light comes from for a camera with this (column-major, rigid) view matrix,
+/// unit length: the key light over the camera's shoulder; `LIGHT_FROM` for a camera looking
+/// (nearly) straight down or up, whose side is no direction.
+pub fn light(view: &[f32; 16]) -> Vector {
+    // The camera's +z axis in world coordinates (the view rotation's third row): towards the eye.
+    let (x, y) = (view[2], view[6]);
+    let side = (x * x + y * y).sqrt();
+    if side.is_nan() || side <= 0.2 {
+        return Vector::from_array(LIGHT_FROM).normalize();
+    }
+    let turn = y.atan2(x) + KEY_TURN;
+    let (c, s) = (KEY_ELEVATION.cos(), KEY_ELEVATION.sin());
+    Vector::new(turn.cos() * c, turn.sin() * c, s).normalize()
 }
 
 /// Whether a face with normal `n` of a body that is `fixed` is ground (gets the checker).
@@ -103,7 +120,7 @@ pub fn sky(dir: [f32; 3]) -> [u8; 3] {
 }
 
 /// Depths seen from the light, over the region where shadow casters are: orthographic along
-/// `light()`, each texel holding the height (towards the light) of the nearest caster.
+/// the light (`light`), each texel holding the height (towards the light) of the nearest caster.
 pub struct ShadowMap {
     u: Vector,
     v: Vector,
@@ -118,9 +135,8 @@ pub struct ShadowMap {
 impl ShadowMap {
     /// A map over the given casters' world vertices, sharp enough for an image whose longer
     /// side is `image_side` pixels (None when there are no casters).
-    pub fn new(casters: &[(&[Vector], &[[u32; 3]])], image_side: u32) -> Option<ShadowMap> {
+    pub fn new(casters: &[(&[Vector], &[[u32; 3]])], l: Vector, image_side: u32) -> Option<ShadowMap> {
         let texels = (image_side as usize).clamp(SHADOW_TEXELS.0, SHADOW_TEXELS.1);
-        let l = light();
         let u = l.cross(Vector::Z).normalize();
         let v = l.cross(u);
         let (mut u0, mut u1, mut v0, mut v1) = (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
