@@ -7,8 +7,11 @@
 //! 3. set_camera has moved the camera from the initial one by the moment pictured (an
 //!    interval's last event) → its camera;
 //! 4. else **framed**: looking at the objects that move over the pictures (all of them that can
-//!    move when none does; the fixed ones, ground left out, when there are only those) from a
-//!    three-quarter elevated view, close enough that they fill the frame.
+//!    move when none does, or when the movers move little — less than `STILL_SHARE` of the
+//!    extent of everything that can move, so a rocking domino does not crop its row out; the
+//!    fixed ones, ground left out, when there are only those) from a three-quarter elevated
+//!    view, close enough that they fill the frame. A picture asked for `whole_scene` (the
+//!    session report's) frames everything but the ground over all its scenes.
 //!
 //! An interval is taken with one camera throughout (no cuts), so what set_camera does to past
 //! frames is the same for every look-back tool: the camera in effect at the interval's last
@@ -34,6 +37,9 @@ const MARGIN: f64 = 1.0 / 0.85;
 /// `MOVED_SHARE` of the farthest any object moves, has moved.
 const MOVED: f32 = 1e-3;
 const MOVED_SHARE: f32 = 0.05;
+/// Movers whose largest motion is under this share of the diagonal of everything that can move
+/// move little: the picture frames everything that can move instead of zooming onto them.
+const STILL_SHARE: f32 = 0.05;
 
 /// A camera in set_camera's terms.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,6 +90,9 @@ pub struct Asked {
     pub pitch: Option<f64>,
     /// Target point.
     pub target: Option<[f64; 3]>,
+    /// Frame everything but the ground over all the scenes, moving or not (the report: one
+    /// camera in which the scene can be seen being built).
+    pub whole_scene: bool,
 }
 
 impl Asked {
@@ -122,7 +131,8 @@ pub fn choose(asked: &Asked, scenes: &[&Scene], aspect: f64) -> (Mat4, CameraUse
     let (terms, source) = match (asked.any_term(), set) {
         (false, Some(t)) => (t, "set_camera"),
         (given, _) => {
-            let mut t = framed(scenes, aspect, asked.yaw.unwrap_or(FRAMED_YAW), asked.pitch.unwrap_or(FRAMED_PITCH));
+            let looked_at = if asked.whole_scene { whole(scenes) } else { bounds(scenes) };
+            let mut t = framed_bounds(looked_at, aspect, asked.yaw.unwrap_or(FRAMED_YAW), asked.pitch.unwrap_or(FRAMED_PITCH));
             t.distance = asked.distance.unwrap_or(t.distance);
             t.target = asked.target.unwrap_or(t.target);
             (t, if given { "given" } else { "framed" })
@@ -135,7 +145,13 @@ pub fn choose(asked: &Asked, scenes: &[&Scene], aspect: f64) -> (Mat4, CameraUse
 /// objects' bounds, from the nearest distance at which every corner of those bounds is inside
 /// the default lens's view with a margin (`MARGIN` of the half-width on each side).
 pub fn framed(scenes: &[&Scene], aspect: f64, yaw: f64, pitch: f64) -> Terms {
-    let Some((lo, hi)) = bounds(scenes) else {
+    framed_bounds(bounds(scenes), aspect, yaw, pitch)
+}
+
+/// The camera that frames the world box `looked_at` (as `framed`; the initial camera, turned to
+/// (yaw, pitch), when there is nothing to look at).
+fn framed_bounds(looked_at: Option<(Vector, Vector)>, aspect: f64, yaw: f64, pitch: f64) -> Terms {
+    let Some((lo, hi)) = looked_at else {
         let initial = Terms::of_viewer(&Viewer::default());
         return Terms { yaw, pitch, ..initial };
     };
@@ -162,9 +178,12 @@ pub fn framed(scenes: &[&Scene], aspect: f64, yaw: f64, pitch: f64) -> Terms {
 /// the scenes, over all of them; else every part that can move, in the last scene; else the
 /// fixed parts that are not ground-sized. None when there is nothing to look at.
 fn bounds(scenes: &[&Scene]) -> Option<(Vector, Vector)> {
-    let moving = moving_objects(scenes);
+    let (moving, most) = moving_objects(scenes);
     let mut acc = Bounds::default();
-    if !moving.is_empty() {
+    let mut movable = Bounds::default();
+    scenes.iter().flat_map(|s| s.parts.iter()).filter(|p| !p.fixed).for_each(|p| movable.add(p));
+    let extent = movable.get().map_or(0.0, |(lo, hi)| (hi - lo).length());
+    if !moving.is_empty() && most >= STILL_SHARE * extent {
         for s in scenes {
             s.parts.iter().filter(|p| moving.binary_search(&p.object_id).is_ok()).for_each(|p| acc.add(p));
         }
@@ -184,11 +203,11 @@ fn bounds(scenes: &[&Scene]) -> Option<(Vector, Vector)> {
     acc.get()
 }
 
-/// Ids of the objects that move between scenes (sorted): those whose motion — the farthest any
+/// Ids of the objects that move between scenes (sorted), and the largest motion: those whose motion — the farthest any
 /// of their parts' points gets from where it first was — is at least `MOVED` and at least
 /// `MOVED_SHARE` of the largest motion, so boxes settling by a fraction of a millimetre under
 /// a falling one are not what the picture is about.
-fn moving_objects(scenes: &[&Scene]) -> Vec<u32> {
+fn moving_objects(scenes: &[&Scene]) -> (Vec<u32>, f32) {
     use std::collections::BTreeMap;
     let mut first: BTreeMap<(u32, usize), rapier3d::prelude::Pose> = BTreeMap::new();
     let mut motion: BTreeMap<u32, f32> = BTreeMap::new();
@@ -209,7 +228,19 @@ fn moving_objects(scenes: &[&Scene]) -> Vec<u32> {
         }
     }
     let most = motion.values().copied().fold(0.0f32, f32::max);
-    motion.into_iter().filter(|(_, d)| *d >= MOVED && *d >= MOVED_SHARE * most).map(|(id, _)| id).collect()
+    (motion.into_iter().filter(|(_, d)| *d >= MOVED && *d >= MOVED_SHARE * most).map(|(id, _)| id).collect(), most)
+}
+
+/// The world bounds of every part of every scene that is not ground-sized (fixed or not).
+fn whole(scenes: &[&Scene]) -> Option<(Vector, Vector)> {
+    let mut acc = Bounds::default();
+    for p in scenes.iter().flat_map(|s| s.parts.iter()) {
+        let aabb = p.shape.compute_aabb(&p.pose);
+        if (aabb.maxs - aabb.mins).max_element() <= CASTER_MAX_SIZE {
+            acc.add(p);
+        }
+    }
+    acc.get()
 }
 
 /// A growing axis-aligned box.

@@ -5,6 +5,8 @@
 //! - the ground shows a 1 m checker; a box above the floor casts a shadow that moves with its
 //!   height, away from the light;
 //! - the key light follows the camera: a red box seen from any side shows red, not maroon;
+//! - an animation where the movers move little (a rocked domino) frames the whole row; one
+//!   where a mover moves far frames the mover;
 //! - animations play at real time (speed scales it), never start blank, carry a time overlay
 //!   that changes from frame to frame.
 
@@ -141,6 +143,32 @@ async fn the_ground_has_a_checker_and_a_lifted_box_casts_a_moving_shadow() {
     let (low, high) = (centres[0], centres[1]);
     // Top-down with y up: −x is left, −y is down the picture.
     assert!(high.0 < low.0 - 5.0 && high.1 > low.1 + 5.0, "the shadow moves away from the light as the box rises: {low:?} → {high:?}");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_domino_that_barely_rocks_does_not_crop_its_row_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.ground(&sim).await;
+    let mut row = Vec::new();
+    for k in 0..10 {
+        let r = c.call("add_box", json!({"sim_id": sim, "dimensions": [0.02, 0.1, 0.2], "position": [0.3 * f64::from(k), 0, 0.2], "mass": 0.1})).await;
+        row.push(r["object_id"].as_i64().unwrap());
+    }
+    c.step(&sim, 5).await;
+    let target_x = |v: &Value| v["camera"]["target"][0].as_f64().unwrap();
+    // Rocked: a few centimetres against a row 2.7 m long.
+    c.call("set_object_velocity", json!({"sim_id": sim, "object_id": row[0], "angular_velocity": [0, 0.6, 0]})).await;
+    c.step(&sim, 30).await;
+    let rocked = c.call("render_animation", json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    assert!((target_x(&rocked) - 1.35).abs() < 0.2, "the row's middle is looked at: {}", rocked["camera"]);
+    // Thrown up 0.4 m: the picture is about it.
+    c.call("set_object_velocity", json!({"sim_id": sim, "object_id": row[0], "linear_velocity": [0, 0, 3]})).await;
+    c.step(&sim, 40).await;
+    let thrown = c.call("render_animation", json!({"sim_id": sim, "width": 64, "height": 48})).await;
+    assert!(target_x(&thrown).abs() < 0.2, "the thrown domino is looked at: {}", thrown["camera"]);
 }
 
 #[tokio::test(flavor = "multi_thread")]

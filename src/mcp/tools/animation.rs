@@ -118,7 +118,7 @@ fn parse(a: &Args, sandbox: &Sandbox) -> Result<(super::trajectory::Asked, Asked
     let p: RenderAnimation = params::parse(TOOL, a)?;
     let interval = (opt_u64(p.from_seq, "from_seq")?, opt_u64(p.to_seq, "to_seq")?);
     let terms = p.camera.unwrap_or_default();
-    let asked = framing::Asked { view: p.view_matrix.map(|m| m.0), distance: terms.distance, yaw: terms.yaw, pitch: terms.pitch, target: terms.target };
+    let asked = framing::Asked { view: p.view_matrix.map(|m| m.0), distance: terms.distance, yaw: terms.yaw, pitch: terms.pitch, target: terms.target, whole_scene: false };
     asked.check()?;
     let cam = Camera {
         width: side(p.width, "width", 320)?,

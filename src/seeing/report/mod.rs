@@ -327,16 +327,22 @@ fn movie(shots: &[animation::Shot]) -> Result<(Vec<u8>, usize), String> {
     if shots.is_empty() {
         return Ok((Vec::new(), 0));
     }
-    let movie = animation::animate_shots(shots, &Camera::sized(MOVIE.0, MOVIE.1), animation::Pacing::default())?;
+    let movie = animation::animate_shots(shots, &scene_wide(MOVIE), animation::Pacing::default())?;
     Ok((movie.gif, movie.frames))
+}
+
+/// The report's one camera, for the movie and every thumbnail: framing everything but the
+/// ground over the whole run, so the scene is seen being built and nothing moving little is
+/// blown up to fill the picture.
+fn scene_wide((width, height): (u32, u32)) -> Camera {
+    Camera { asked: crate::seeing::framing::Asked { whole_scene: true, ..Default::default() }, ..Camera::sized(width, height) }
 }
 
 /// Renders the chosen thumbnails as PNGs on all cores, all with the camera of the run's
 /// animation (`run`: its scenes), so they compare with one another and with the movie.
 fn thumbnails(thumbs: &[(u64, Scene)], run: &[&Scene]) -> Result<BTreeMap<u64, Vec<u8>>, String> {
     use rayon::prelude::*;
-    let cam = Camera::sized(THUMB.0, THUMB.1);
-    let (view, proj, _) = cam.fix(run);
+    let (view, proj, _) = scene_wide(THUMB).fix(run);
     thumbs
         .par_iter()
         .map(|(seq, s)| {
