@@ -1,7 +1,8 @@
 //! The session report tells the story of a session recorded through the real server: two red
-//! boxes and a green one (static) beside a two-link arm moved by its motors, with reads and an
-//! undo/redo. The page plots the objects that moved (and only those) in their own colours, the
-//! second red box dashed, the arm's joints; its counts add up to replay's; arguments never
+//! boxes and a green one (static) beside a two-link arm moved by its motors, with reads, an
+//! undo/redo and an undone step. The page plots the objects that moved (and only those) in their
+//! own colours, the second red box dashed, the fixed-base arm by its end effector, the arm's
+//! joints; the undone step is marked with its time; its counts add up to replay's; arguments never
 //! break inside a token; the read runs are folded. In a real browser (ignored here; `.ci/run`
 //! runs it): no two pieces of text overlap, line colours are the objects' colours, no console
 //! message, no request.
@@ -60,6 +61,10 @@ async fn record(dir: &Path) -> Session {
     c.call("undo", json!({"sim_id": sim})).await;
     c.call("redo", json!({"sim_id": sim})).await;
     c.step(&sim, 60).await;
+    // A step undone and replaced: it stays in the log, off the head's chain.
+    c.step(&sim, 30).await;
+    c.call("undo", json!({"sim_id": sim})).await;
+    c.step(&sim, 20).await;
     c.hash(&sim).await;
     c.hash(&sim).await;
     let live = server.data.join(format!("{sim}.sqlite"));
@@ -113,17 +118,20 @@ async fn the_report_plots_what_moved_in_its_colours_and_counts_as_replay_does() 
     // Counts: state-changing and moves apart, summing to replay's state events.
     let replayed = physics_mcp::log::replay::replay(&s.log, None, |_, _| {}).unwrap();
     let n = |id: &str| by_id(&page, id).parse::<u64>().unwrap();
-    assert_eq!(n("moves"), 2, "one undo, one redo");
+    assert_eq!(n("moves"), 3, "two undos, one redo");
     assert_eq!(n("state-changing") + n("moves"), replayed.state_events);
     assert_eq!(n("state-events"), replayed.state_events);
     let events = physics_mcp::log::replay::events(&s.log).unwrap();
     assert_eq!(n("state-changing") + n("moves") + n("reads") + n("refused"), events.len() as u64);
 
-    // The objects that moved, and only those, in their colours; the second red one dashed.
+    // The objects that moved, and only those, in their colours; the second red one dashed; the
+    // fixed-base arm by its end effector (its base does not move).
     let height = figure(&page, "plot-height");
     let plotted: BTreeSet<u32> = attrs(height, "data-object").iter().map(|v| v.parse().unwrap()).collect();
-    assert_eq!(plotted, BTreeSet::from([s.falling, s.sliding]), "the still box, the ground and the fixed arm's base did not move");
-    for line in lines(height) {
+    assert_eq!(plotted, BTreeSet::from([s.falling, s.sliding, s.arm]), "the still box and the ground did not move");
+    let arm_line = lines(height).into_iter().find(|l| attrs(l, "data-object")[0] == s.arm.to_string()).unwrap();
+    assert!(attrs(arm_line, "data-label")[0].ends_with("two_link_arm end effector (link 1)"), "{arm_line}");
+    for line in lines(height).into_iter().filter(|l| *l != arm_line) {
         let id: u32 = attrs(line, "data-object")[0].parse().unwrap();
         assert_eq!(attrs(line, "stroke")[0], object_hex(id, Some(RED)), "{line}");
         assert!(attrs(line, "data-label")[0].ends_with(" box"), "{line}");
@@ -152,6 +160,14 @@ async fn the_report_plots_what_moved_in_its_colours_and_counts_as_replay_does() 
     let row = &page[page.find(&format!("data-seq=\"{}\"", first.seq)).unwrap()..];
     assert!(!row[..row.find("</tr>").unwrap()].contains("<img"), "no thumbnail of an empty world");
     assert!(page.contains("width=\"480\" height=\"360\""), "the larger animation");
+
+    // The undone step: marked, with its time.
+    let undone = events.iter().filter(|e| e.tool == "step_simulation").rev().nth(1).unwrap();
+    let row = &page[page.find(&format!("data-seq=\"{}\"", undone.seq)).unwrap()..];
+    let row = &row[..row.find("</tr>").unwrap()];
+    assert!(page[..page.find(&format!("data-seq=\"{}\"", undone.seq)).unwrap()].ends_with("<tr class=\"event undone\" "), "{row}");
+    assert!(row.contains("undone (not on the head&#39;s chain)"), "{row}");
+    assert!(row.contains("<td class=\"mono\">1.1250</td>"), "its time, 270 steps of 1/240 s: {row}");
 
     // The running server's note only while it ran.
     let note = physics_mcp::seeing::report::RUNNING_NOTE;
@@ -256,7 +272,15 @@ async fn browser_the_report_page_has_no_overlapping_text_and_lines_in_object_col
     assert!(r["texts"].as_u64().unwrap() > 100, "texts measured: {}", r["texts"]);
     assert_eq!(r["overlaps"], json!([]), "text boxes that intersect");
 
-    let colour = |id: u32| if id == s.still { object_hex(id, Some(GREEN)) } else { object_hex(id, Some(RED)) };
+    // The arm's line is in its links' colour, as the page wrote it.
+    let html = std::fs::read_to_string(&page).unwrap();
+    let arm_line = lines(figure(&html, "plot-height")).into_iter().find(|l| attrs(l, "data-object")[0] == s.arm.to_string()).unwrap();
+    let arm_stroke = attrs(arm_line, "stroke")[0].to_string();
+    let colour = |id: u32| match id {
+        _ if id == s.arm => arm_stroke.clone(),
+        _ if id == s.still => object_hex(id, Some(GREEN)),
+        _ => object_hex(id, Some(RED)),
+    };
     let mut seen = BTreeSet::new();
     for line in r["lines"].as_array().unwrap() {
         if line["chart"] == "plot-height" || line["chart"] == "plot-speed" {
@@ -265,11 +289,12 @@ async fn browser_the_report_page_has_no_overlapping_text_and_lines_in_object_col
             seen.insert(id);
         }
     }
-    assert_eq!(seen, BTreeSet::from([s.falling, s.sliding]));
+    assert_eq!(seen, BTreeSet::from([s.falling, s.sliding, s.arm]));
     let legends = r["legends"].as_array().unwrap();
     let height = legends.iter().find(|l| l["chart"] == "plot-height").unwrap();
     let items: Vec<&str> = height["items"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
-    assert_eq!(items.len(), 2, "{items:?}");
+    assert_eq!(items.len(), 3, "{items:?}");
+    assert!(items.iter().any(|i| i.ends_with("two_link_arm end effector (link 1)")), "{items:?}");
     for id in [s.falling, s.sliding] {
         assert!(items.contains(&format!("#{id} box").as_str()), "{items:?}");
     }

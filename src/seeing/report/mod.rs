@@ -68,6 +68,9 @@ pub struct Story {
     pub time_at: BTreeMap<u64, f64>,
     /// Simulated time by state hash.
     pub time_of_hash: BTreeMap<String, f64>,
+    /// The seqs of the head's chain: a change that is not on it was undone (or left behind by
+    /// a change after an undo), and the page says so.
+    pub chain: std::collections::BTreeSet<u64>,
     /// PNG thumbnails after chosen state-changing events (by seq); a thumbnail identical to
     /// the one before it is left out (see `same_picture`), as is an empty world's.
     pub thumbnails: BTreeMap<u64, Vec<u8>>,
@@ -111,6 +114,7 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
     let thumb_every = changes.len().div_ceil(MAX_THUMBNAILS).max(1);
     let thumb_seqs: std::collections::BTreeSet<u64> = changes.iter().copied().step_by(thumb_every).collect();
 
+    let mut effectors = Effectors::default();
     let mut shots: Vec<animation::Shot> = Vec::new();
     let mut thumbs: Vec<(u64, Scene)> = Vec::new();
     let mut time_at = BTreeMap::new();
@@ -129,6 +133,7 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
             // Over get_trajectory's cell bound the sampler says so at `finish`; the
             // re-simulation goes on for the pictures.
             sampler.sample(w, m.seq);
+            effectors.record(w);
             for (id, o) in w.objects() {
                 described.entry(id).or_insert_with(|| describe(id, o));
             }
@@ -152,7 +157,10 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
     let scenes: Vec<&Scene> = shots.iter().map(|s| &s.scene).collect();
     let (thumbnails, same_picture) = distinct(thumbnails(&thumbs, &scenes)?);
     let charts = match sampler.finish("every") {
-        Ok(trajectory) => charts(&trajectory, &described),
+        Ok(mut trajectory) => {
+            effectors.substitute(&mut trajectory, &mut described);
+            charts(&trajectory, &described)
+        }
         Err(_) => Vec::new(),
     };
     Ok(Story {
@@ -160,6 +168,7 @@ pub fn gather(path: &Path, mut progress: impl FnMut(u64, u64) + Send) -> Result<
         events,
         time_at,
         time_of_hash,
+        chain: lent.chain.iter().map(|(e, _)| e.seq).collect(),
         thumbnails,
         same_picture,
         frames,
@@ -219,6 +228,53 @@ fn describe(id: u32, o: &crate::world::Object) -> Described {
                 _ => "joint position (rad or m)",
             };
             Described { label: format!("#{id} {}", robot.name), color, joints, units }
+        }
+    }
+}
+
+/// Where each fixed-base robot's end effector (its last link, PyBullet's usual choice) is at
+/// every sample: a fixed base stays put, so its height and speed say nothing; the plots show
+/// the end effector's instead.
+#[derive(Default)]
+struct Effectors {
+    /// Samples recorded so far.
+    samples: usize,
+    /// Per robot: (sample index, link frame position, centre-of-mass velocity), and the link.
+    tracks: BTreeMap<u32, (i32, Vec<(usize, [f64; 3], [f64; 3])>)>,
+}
+
+impl Effectors {
+    /// Records the sample the trajectory sampler just took.
+    fn record(&mut self, w: &crate::world::World) {
+        for (id, o) in w.objects() {
+            let Some(robot) = o.kind.robot().filter(|r| r.fixed_base && !r.links.is_empty()) else { continue };
+            let link = (robot.links.len() - 1) as i32;
+            if let Some(s) = w.link_state(id, link) {
+                self.tracks.entry(id).or_insert_with(|| (link, Vec::new())).1.push((self.samples, s.link_world_position, s.linear_velocity));
+            }
+        }
+        self.samples += 1;
+    }
+
+    /// Puts each fixed-base robot's end effector in place of its base in `t`, and says so in
+    /// its label. Left as it is when the samples do not line up (they always should).
+    fn substitute(&self, t: &mut crate::outputs::Trajectory, described: &mut BTreeMap<u32, Described>) {
+        if self.samples != t.samples {
+            return;
+        }
+        for o in &mut t.objects {
+            let Some((link, track)) = self.tracks.get(&o.object_id) else { continue };
+            let mut positions = vec![None; t.samples];
+            let mut velocities = vec![None; t.samples];
+            for (i, p, v) in track {
+                positions[*i] = Some(*p);
+                velocities[*i] = Some(*v);
+            }
+            o.positions = positions;
+            o.linear_velocities = Some(velocities);
+            if let Some(d) = described.get_mut(&o.object_id) {
+                d.label = format!("{} end effector (link {link})", d.label);
+            }
         }
     }
 }

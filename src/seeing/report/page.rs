@@ -28,6 +28,8 @@ table.timeline th { text-align: left; border-bottom: 2px solid #ccc; padding: 4p
 table.timeline td { border-bottom: 1px solid #eee; padding: 3px 4px; vertical-align: top; }
 tr.refused td { color: #999; } tr.refused td.outcome { color: #cf222e; }
 tr.inherited td.seq::after { content: ' ↰'; color: #999; }
+tr.undone td { color: #888; text-decoration: line-through; }
+tr.undone td.outcome, tr.undone td.mono { text-decoration: none; }
 td.args { max-width: 420px; }
 span.arg { display: inline-block; white-space: nowrap; margin-right: 0.6em; }
 tr.reads summary { cursor: pointer; color: #555; }
@@ -224,20 +226,36 @@ fn reads_row(p: &mut String, story: &Story, run: &[Event]) -> std::fmt::Result {
     Ok(())
 }
 
+/// The simulated time an event's recorded result gives (`landed.time`, or `current_time`):
+/// how an undone change, whose state the head's chain never reaches, still shows its time.
+fn recorded_time(e: &Event) -> Option<f64> {
+    let result: serde_json::Value = serde_json::from_str(e.result.as_deref()?).ok()?;
+    result["landed"]["time"].as_f64().or_else(|| result["current_time"].as_f64())
+}
+
 /// One event's row.
 fn row(p: &mut String, story: &Story, e: &Event) -> std::fmt::Result {
     let refused = e.kind == Kind::Refused;
     let outcome = if refused { format!("refused: {}", e.result.as_deref().unwrap_or("")) } else { e.kind.as_str().to_string() };
-    let time = story.time_at.get(&e.seq).or_else(|| story.time_of_hash.get(&e.state_hash)).map_or(String::new(), |t| format!("{t:.4}"));
+    let undone = e.kind == Kind::Change && !e.inherited && !story.chain.contains(&e.seq);
+    let outcome = if undone { "change, undone (not on the head's chain)".to_string() } else { outcome };
+    let time = story
+        .time_at
+        .get(&e.seq)
+        .or_else(|| story.time_of_hash.get(&e.state_hash))
+        .copied()
+        .or_else(|| recorded_time(e))
+        .map_or(String::new(), |t| format!("{t:.4}"));
     let (tw, th) = super::THUMB;
     let thumb = match (story.thumbnails.get(&e.seq), story.same_picture.get(&e.seq)) {
         (Some(png), _) => format!("<img width=\"{tw}\" height=\"{th}\" alt=\"after seq {}\" src=\"data:image/png;base64,{}\">", e.seq, b64(png)),
         (None, Some(first)) => format!("<span class=\"same\">same picture as seq {first}</span>"),
         (None, None) => String::new(),
     };
-    let class = match (refused, e.inherited) {
-        (true, _) => "event refused",
-        (false, true) => "event inherited",
+    let class = match (refused, e.inherited, undone) {
+        (true, _, _) => "event refused",
+        (false, true, _) => "event inherited",
+        (false, false, true) => "event undone",
         _ => "event",
     };
     writeln!(
