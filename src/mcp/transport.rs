@@ -128,9 +128,41 @@ async fn shutdown_signal(signal: impl std::future::Future<Output = ()>, ct: Canc
     ct.cancel();
 }
 
+/// How often idle simulations' buffered reads are committed (`Registry::flush_idle`): a read
+/// is in the log at most about two of these after the simulation's last call.
+const IDLE_FLUSH_EVERY: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// Commits idle simulations' buffered reads every `IDLE_FLUSH_EVERY` while the server runs
+/// (embedded mode: in cluster mode the log of record is the cluster's, written by its owner).
+fn flush_idle_reads(reg: &Arc<Registry>) -> Option<tokio::task::JoinHandle<()>> {
+    if reg.cluster().is_some() {
+        return None;
+    }
+    let reg = reg.clone();
+    Some(tokio::spawn(async move {
+        let mut seen = std::collections::HashMap::new();
+        loop {
+            tokio::time::sleep(IDLE_FLUSH_EVERY).await;
+            let r = reg.clone();
+            match tokio::task::spawn_blocking(move || {
+                r.flush_idle(&mut seen);
+                seen
+            })
+            .await
+            {
+                Ok(s) => seen = s,
+                Err(_) => return,
+            }
+        }
+    }))
+}
+
 /// The end of every serving mode: buffered events flushed, within `shutdown::DEADLINE` of
 /// the moment shutdown began (`Registry::flush_all_until` says what a busy simulation keeps).
-async fn finish(reg: Arc<Registry>) {
+async fn finish(reg: Arc<Registry>, idle_flusher: Option<tokio::task::JoinHandle<()>>) {
+    if let Some(f) = idle_flusher {
+        f.abort();
+    }
     crate::shutdown::begin();
     let deadline = crate::shutdown::began() + crate::shutdown::DEADLINE - std::time::Duration::from_millis(500);
     let busy = tokio::task::spawn_blocking(move || {
@@ -236,6 +268,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
     let signal = signalled();
+    let idle_flusher = flush_idle_reads(&reg);
     announce_address(local);
     // Graceful: no new connection, open ones finish their replies — for at most
     // `shutdown::GRACE` after the signal (a client may hold a stream open for ever), then the
@@ -252,7 +285,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
             tracing::warn!("connections were still open {:?} after the signal; closing them", crate::shutdown::GRACE);
         }
     }
-    finish(reg).await;
+    finish(reg, idle_flusher).await;
     Ok(())
 }
 
@@ -262,6 +295,7 @@ pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
     if let Some(cluster) = reg.cluster() {
         super::forwarded::start(PhysicsServer::new(reg.clone(), sessions.clone()), cluster.clone());
     }
+    let idle_flusher = flush_idle_reads(&reg);
     let service = PhysicsServer::new(reg.clone(), sessions)
         .serve(rmcp::transport::stdio())
         .await?;
@@ -276,7 +310,7 @@ pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
             cancel.cancel();
         }
     };
-    finish(reg).await;
+    finish(reg, idle_flusher).await;
     Ok(())
 }
 

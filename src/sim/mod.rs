@@ -915,6 +915,23 @@ impl Registry {
         SimulationList { simulations, damaged }
     }
 
+    /// Commits the buffered reads of every simulation that was idle since the last call (its
+    /// last seq is what `seen` held then), so a report or an export made beside a running
+    /// server sees the reads after the last change within a tick. A busy simulation is
+    /// skipped (`try_lock`): its next write commits them anyway.
+    pub fn flush_idle(&self, seen: &mut std::collections::HashMap<String, u64>) {
+        let mut now = std::collections::HashMap::new();
+        for sim in self.all() {
+            let Ok(mut s) = sim.try_lock() else { continue };
+            let (id, last) = (s.id().to_string(), s.log().last_seq());
+            if seen.get(&id) == Some(&last) {
+                s.flush();
+            }
+            now.insert(id, last);
+        }
+        *seen = now;
+    }
+
     /// Commits every simulation's buffered events at shutdown. The list is copied out of the
     /// table first, so a call holding a simulation that waits for the table (fork, keep)
     /// finishes instead of waiting for this. A simulation still busy at `deadline` is left:

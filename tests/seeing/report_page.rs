@@ -69,7 +69,9 @@ async fn record(dir: &Path) -> Session {
     c.hash(&sim).await;
     let live = server.data.join(format!("{sim}.sqlite"));
     assert!(live.exists(), "{}", live.display());
-    // A report made beside the running server (on the live file: the lock is the server's).
+    // A report made beside the running server (on the live file: the lock is the server's),
+    // a second after the last reads: they are in it (idle simulations' reads are committed).
+    tokio::time::sleep(std::time::Duration::from_millis(1500)).await;
     let while_running = dir.join("while_running.html");
     report(&live, &while_running);
     server.terminate();
@@ -172,7 +174,9 @@ async fn the_report_plots_what_moved_in_its_colours_and_counts_as_replay_does() 
     // The running server's note only while it ran.
     let note = physics_mcp::seeing::report::RUNNING_NOTE;
     assert!(!page.contains(note), "no note once the server stopped");
-    assert!(std::fs::read_to_string(&s.while_running).unwrap().contains(note), "the note while the server ran");
+    let running = std::fs::read_to_string(&s.while_running).unwrap();
+    assert!(running.contains(note), "the note while the server ran");
+    assert_eq!(running.matches("<tr class=\"event").count(), events.len(), "the trailing reads were in the log while it ran");
     assert!(page.len() <= physics_mcp::seeing::report::MAX_PAGE_BYTES);
 }
 

@@ -114,7 +114,7 @@ impl Counts {
 }
 
 /// What the header says when a server held the log's data directory.
-pub const RUNNING_NOTE: &str = "the server was running when this report was made; reads of the last moments may be missing";
+pub const RUNNING_NOTE: &str = "the server was running when this report was made; reads of its last second may not be in the log yet";
 
 /// The page for a gathered story.
 pub fn html(story: &Story) -> Result<String, String> {
