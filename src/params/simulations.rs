@@ -42,6 +42,10 @@ pub struct Step {
     pub sample_every: Option<Int<u64>>,
     /// Default all.
     pub sample_objects: Option<Vec<ObjectId>>,
+    /// Samples: full = exact, unmoved objects too.
+    pub detail: Option<Text>,
+    /// Samples' decimals (default 4).
+    pub precision: Option<Int<u32>>,
 }
 
 /// set_timestep parameters.

@@ -340,6 +340,10 @@ pub fn file_bytes(t: &Trajectory, form: FileForm) -> Vec<u8> {
     if form == FileForm::Jsonl { to_jsonl(t) } else { to_csv(t) }.into_bytes()
 }
 
+/// The decimals every compact series of samples is rounded to unless `precision` says
+/// otherwise (get_trajectory, step_simulation's samples, run_sweep's).
+pub const DEFAULT_DECIMALS: u32 = 4;
+
 /// What a model reads by default: with `precision` every number is rounded to that many
 /// decimals (times too), and then objects whose every shown sample is the same go from
 /// `objects` to `unmoved` (a 100-sample track of a static ground is ~5 KB of the same

@@ -22,6 +22,9 @@ pub struct Sampling {
     pub object_ids: Option<Vec<u32>>,
     /// Velocities too.
     pub include_velocities: bool,
+    /// The samples as a model reads them by default (`trajectory::compact` at these decimals),
+    /// None for the exact form (`detail: "full"`).
+    pub compact: Option<u32>,
 }
 
 impl Sim {
@@ -66,6 +69,9 @@ impl Sim {
         // The samples' seq is the event's, appended right after `head_seq`.
         debug_assert_eq!(self.log().head_seq(), seq);
         result.trajectory = sampler.finish("sample_every").ok();
+        if let (Some(t), Some(decimals)) = (result.trajectory.as_mut(), sampling.compact) {
+            trajectory::compact(t, Some(decimals));
+        }
         Ok(result)
     }
 

@@ -419,6 +419,8 @@ fn variant_work(
                     every: Some(every),
                     object_ids: observe.object_ids.clone(),
                     include_velocities: observe.include_velocities,
+                    // Compacted once the sweep is done (`finish`), with the rest of the answer.
+                    compact: None,
                 };
                 let s = sim.step_sampled_watched(&a, steps, &sampling, limits, &mut *control, &mut watch)?;
                 trajectory = s.trajectory.clone();
@@ -520,7 +522,7 @@ fn finish<F: VariantFork>(
             v.objects.retain(|o| !still.contains(&o.object_id));
             v.unmoved = still;
             if let Some(t) = &mut v.trajectory {
-                crate::seeing::trajectory::compact(t, None);
+                crate::seeing::trajectory::compact(t, Some(crate::seeing::trajectory::DEFAULT_DECIMALS));
             }
         }
     }

@@ -163,7 +163,7 @@ async fn sampled_step_is_a_plain_step_with_get_trajectorys_samples() {
     let at = head(&c, &sim).await;
     let plain = c.call("fork_simulation", json!({"sim_id": sim, "at_seq": at})).await["simulation_id"].as_str().unwrap().to_string();
     for (steps, every) in [(37u64, 5u64), (10, 10), (3, 1)] {
-        let sampled = c.call("step_simulation", json!({"sim_id": sim, "steps": steps, "sample_every": every})).await;
+        let sampled = c.call("step_simulation", json!({"sim_id": sim, "steps": steps, "sample_every": every, "detail": "full"})).await;
         let stepped = c.step(&plain, steps).await;
         assert_eq!(c.hash(&sim).await, c.hash(&plain).await, "same state as a plain step");
         let traj = sampled["trajectory"].clone();
@@ -177,8 +177,30 @@ async fn sampled_step_is_a_plain_step_with_get_trajectorys_samples() {
         assert_eq!(traj, t, "step_simulation's samples are get_trajectory's over that event");
         assert_eq!(t["objects"].as_array().unwrap().len(), objects.len());
     }
+    // By default the samples are get_trajectory's default: compact (4 decimals, still objects
+    // listed in `unmoved`); `precision` as there.
+    for (precision, decimals) in [(None, 4), (Some(2), 2)] {
+        let mut args = json!({"sim_id": sim, "steps": 24, "sample_every": 6});
+        let mut asked = json!({"sim_id": sim, "every": 6});
+        if let Some(p) = precision {
+            args["precision"] = json!(p);
+            asked["precision"] = json!(p);
+        }
+        let sampled = c.call("step_simulation", args).await;
+        c.step(&plain, 24).await;
+        let t = c.call("get_trajectory", asked).await;
+        assert_eq!(sampled["trajectory"], t, "compact like get_trajectory's default");
+        let scale = 10f64.powi(decimals);
+        for o in t["objects"].as_array().unwrap() {
+            for x in o["positions"].as_array().unwrap().iter().flat_map(|p| p.as_array().unwrap()) {
+                let x = x.as_f64().unwrap();
+                assert_eq!((x * scale).round() / scale, x, "{x} has at most {decimals} decimals");
+            }
+        }
+        assert!(!t["unmoved"].as_array().unwrap().is_empty(), "the still objects are listed apart: {t}");
+    }
     // Only some objects.
-    let sampled = c.call("step_simulation", json!({"sim_id": sim, "steps": 4, "sample_objects": [objects[2]]})).await;
+    let sampled = c.call("step_simulation", json!({"sim_id": sim, "steps": 4, "sample_objects": [objects[2]], "detail": "full"})).await;
     assert_eq!(sampled["trajectory"]["objects"].as_array().unwrap().len(), 1);
     c.step(&plain, 4).await;
     assert_eq!(c.hash(&sim).await, c.hash(&plain).await);

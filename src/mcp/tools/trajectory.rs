@@ -43,12 +43,21 @@ fn opt_ids(v: Option<Vec<ObjectId>>) -> Option<Vec<u32>> {
     v.map(|ids| ids.into_iter().map(|i| i.0).collect())
 }
 
-/// The decimals a compact trajectory is rounded to unless `precision` says otherwise.
-const DEFAULT_DECIMALS: u32 = 4;
+/// How an inline table of samples is shortened: None for everything, exact (`detail:
+/// "full"`), else the decimals it is rounded to before unmoved objects are listed apart.
+type Shortening = Option<u32>;
 
-/// How the inline table is shortened: None for everything (`detail: "full"`), else the
-/// decimals to round to (None: exact).
-type Shortening = Option<Option<u32>>;
+/// `detail` and `precision` as every sampled series reads them (get_trajectory,
+/// step_simulation's samples): compact at `trajectory::DEFAULT_DECIMALS` unless asked.
+pub(crate) fn shortening(detail: Option<&crate::params::lenient::Text>, precision: Option<Int<u32>>) -> Result<Shortening, Refusal> {
+    let precision = precision
+        .map(|n| u32::try_from(n.get()).ok().filter(|n| *n <= 15).ok_or_else(|| format!("precision must be an integer from 0 to 15 (decimals); got {}", n.get())))
+        .transpose()?;
+    // Compact by default: 0.1 mm (and 1e-4 of a quaternion, ~0.01°) is finer than the questions
+    // a model asks of a trajectory (did it move, when did it land) at ~40 % of the bytes; "full"
+    // gives every bit.
+    Ok((!crate::params::lenient::full_detail(detail)?).then_some(precision.unwrap_or(trajectory::DEFAULT_DECIMALS)))
+}
 
 /// What get_trajectory asks besides the interval: what to sample, output_path (with the form
 /// its extension asks for), shortening.
@@ -57,14 +66,7 @@ type Asking = (Request, Option<(String, FileForm)>, Shortening);
 /// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path, shortening.
 fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
     let p: GetTrajectory = params::parse("get_trajectory", a)?;
-    let precision = p
-        .precision
-        .map(|n| u32::try_from(n.get()).ok().filter(|n| *n <= 15).ok_or_else(|| format!("precision must be an integer from 0 to 15 (decimals); got {}", n.get())))
-        .transpose()?;
-    // Compact by default: 0.1 mm (and 1e-4 of a quaternion, ~0.01°) is finer than the questions
-    // a model asks of a trajectory (did it move, when did it land) at ~40 % of the bytes; "full"
-    // gives every bit.
-    let shortening = (!crate::params::lenient::full_detail(p.detail.as_ref())?).then_some(Some(precision.unwrap_or(DEFAULT_DECIMALS)));
+    let shortening = shortening(p.detail.as_ref(), p.precision)?;
     let interval = (opt_seq(p.from_seq, "from_seq")?, opt_seq(p.to_seq, "to_seq")?);
     let req = Request {
         every: opt_every(p.every, "every")?,
@@ -83,8 +85,8 @@ fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
 fn sample_and_deliver((req, path, shortening): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
     let Some((user, form)) = path else {
         let mut t = trajectory::sample_interval(lent, &req)?;
-        if let Some(precision) = shortening {
-            trajectory::compact(&mut t, precision);
+        if let Some(decimals) = shortening {
+            trajectory::compact(&mut t, Some(decimals));
         }
         return Ok(t);
     };
@@ -216,5 +218,6 @@ impl PhysicsServer {
 pub(crate) fn step_sampling(p: &Step) -> Result<Option<Sampling>, Refusal> {
     let every = opt_every(p.sample_every, "sample_every")?;
     let object_ids = opt_ids(p.sample_objects.clone());
-    Ok((every.is_some() || object_ids.is_some()).then_some(Sampling { every, object_ids, include_velocities: false }))
+    let compact = shortening(p.detail.as_ref(), p.precision)?;
+    Ok((every.is_some() || object_ids.is_some()).then_some(Sampling { every, object_ids, include_velocities: false, compact }))
 }
