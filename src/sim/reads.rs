@@ -314,6 +314,10 @@ pub struct Rendered {
 /// itself until set_camera is called, and reports the camera it used (`seeing::framing`).
 pub const CAMERA_FRAMED_SINCE: u32 = 4;
 
+/// The event version from which get_camera_image's depth gives the background as an f32, as
+/// every other depth value (17 digits of an f64 far plane made a 64×48 depth image 52 KB).
+pub const DEPTH_F32_SINCE: u32 = 6;
+
 /// get_camera_image (at most `max_px` pixels).
 pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result<Rendered, Refusal> {
     let w = cx.world;
@@ -359,6 +363,7 @@ pub fn camera_image(cx: &ReadContext, p: &CameraParams, max_px: usize) -> Result
         }
     }
     let far = render::Frame::far_plane(&proj).unwrap_or(0.0);
+    let far = if cx.rules >= DEPTH_F32_SINCE { r32(far as f32) } else { far };
     let summary = CameraImage {
         width,
         height,

@@ -634,3 +634,22 @@ async fn contact_points_follow_a_box_that_slid_after_landing() {
         }
     }
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn every_depth_value_is_the_f32_it_is_background_included() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.call("add_box", json!({"sim_id": sim, "dimensions": [0.2, 0.2, 0.2], "position": [0, 0, 0.5]})).await;
+    let s = c.call("get_camera_image", json!({"sim_id": sim, "width": 32, "height": 24, "include_depth": true, "include_segmentation": true})).await;
+    let (depth, seg) = (s["depth"].as_array().unwrap(), s["segmentation"].as_array().unwrap());
+    assert!(seg.iter().any(|v| v.as_i64() == Some(-1)), "some sky in the picture");
+    for (d, id) in depth.iter().zip(seg) {
+        let d = d.as_f64().unwrap();
+        assert_eq!(format!("{}", d as f32).parse::<f64>().unwrap(), d, "{d} is an f32 in its shortest form");
+        if id.as_i64() == Some(-1) {
+            assert_eq!(d, 100.0, "the background is the far plane, 100 m");
+        }
+    }
+}

@@ -26,7 +26,9 @@ use crate::world::World;
 /// 5: a simulation created under it records state hash v2 (`world::HashRules`: a Merkle tree
 /// over objects, so a change to one object costs the same at any world size); results are as
 /// version 4's.
-pub const EVENT_VERSION: u32 = 5;
+/// 6: get_camera_image's depth gives the background (the far plane) as the f32 it is, like
+/// every other depth value (`100.0`, not `99.99999999997188`).
+pub const EVENT_VERSION: u32 = 6;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;
