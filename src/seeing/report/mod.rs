@@ -239,9 +239,12 @@ fn describe(id: u32, o: &crate::world::Object) -> Described {
 struct Effectors {
     /// Samples recorded so far.
     samples: usize,
-    /// Per robot: (sample index, link frame position, centre-of-mass velocity), and the link.
-    tracks: BTreeMap<u32, (i32, Vec<(usize, [f64; 3], [f64; 3])>)>,
+    /// Per robot: its end-effector link, and where it was at each sample it existed in.
+    tracks: BTreeMap<u32, (i32, Vec<EffectorAt>)>,
 }
+
+/// (sample index, link frame position, centre-of-mass velocity).
+type EffectorAt = (usize, [f64; 3], [f64; 3]);
 
 impl Effectors {
     /// Records the sample the trajectory sampler just took.

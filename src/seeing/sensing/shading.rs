@@ -49,7 +49,7 @@ pub struct Surface {
 /// The key light's turn from the camera's side, seen from above (rad, 30°), and its height
 /// above the horizon (rad, 55°): over the camera's shoulder, so the faces a camera sees are lit
 /// from whichever side it looks (a fixed light left the faces seen from yaw 0 in shade).
-const KEY_TURN: f32 = 0.5236;
+const KEY_TURN: f32 = std::f32::consts::FRAC_PI_6;
 const KEY_ELEVATION: f32 = 0.9599;
 
 /// The direction light comes from for a camera with this (column-major, rigid) view matrix,
