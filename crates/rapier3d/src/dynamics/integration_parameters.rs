@@ -7,6 +7,24 @@ use simba::simd::SimdRealField;
 //       LCP `(K + C, b)`, `C = diag((1/ms_i - 1) k_ii)` — the coupled soft step — so it shares
 //       the sequential sweep's fixed points; a rigid-LCP-then-cfm-scale variant left piles micro-jiggling.
 
+/// How multibodies' joint-space dynamics (mass matrix, its factorisation, free accelerations
+/// and the constraint solves that use them) are computed (physics-mcp patch 1, PATCHES.md).
+///
+/// Both paths compute the same equations; their results differ in the last bits, so a
+/// simulation that must replay bit-exactly keeps one for its life.
+#[derive(Default, Copy, Clone, Debug, PartialEq, Eq)]
+pub enum MultibodyDynamics {
+    /// rapier 0.36.1's: dense `ndofs × ndofs` matrices from every link's full-width body
+    /// jacobian, two LU factorisations per substep.
+    #[default]
+    Dense,
+    /// Over the tree's structure: compact body jacobians (a link's own and its ancestors'
+    /// degrees of freedom only), the mass matrices accumulated over those columns, and
+    /// factorised from the leaves up without fill-in (`Lᵀ·D·L`), one factorisation per substep
+    /// shared by every constraint of the multibody. 3D only.
+    TreeSparse,
+}
+
 /// Friction models used for all contact constraints between two rigid-bodies.
 ///
 /// This selection does not apply to multibodies that always rely on the [`FrictionModel::Coulomb`].
@@ -328,6 +346,11 @@ pub struct IntegrationParameters {
     /// The type of friction constraints used in the simulation.
     #[cfg(feature = "dim3")]
     pub friction_model: FrictionModel,
+    /// How multibodies' joint-space dynamics are computed (default: [`MultibodyDynamics::Dense`],
+    /// rapier 0.36.1's arithmetic). Not serialized: serialized parameters keep their form, and
+    /// whoever restores them chooses the path again.
+    #[cfg_attr(feature = "serde-serialize", serde(skip))]
+    pub multibody_dynamics: MultibodyDynamics,
 }
 
 impl IntegrationParameters {
@@ -432,6 +455,7 @@ impl Default for IntegrationParameters {
             soft_bodies: Default::default(),
             #[cfg(feature = "dim3")]
             friction_model: FrictionModel::default(),
+            multibody_dynamics: MultibodyDynamics::Dense,
         }
     }
 }

@@ -5,7 +5,9 @@ pub use self::ccd::CCDSolver;
 pub use self::coefficient_combine_rule::CoefficientCombineRule;
 #[cfg(feature = "dim3")]
 pub use self::integration_parameters::FrictionModel;
-pub use self::integration_parameters::{IntegrationParameters, SpringCoefficients};
+pub use self::integration_parameters::{
+    IntegrationParameters, MultibodyDynamics, SpringCoefficients,
+};
 #[cfg(feature = "alloc")]
 pub use self::island_manager::IslandManager;
 #[cfg(feature = "alloc")]

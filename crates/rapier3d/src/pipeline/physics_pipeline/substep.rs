@@ -436,7 +436,11 @@ impl PhysicsPipeline {
         // TODO: do this only on user-change.
         // TODO: do we want some kind of automatic inverse kinematics?
         for multibody in &mut multibody_joints.multibodies {
-            multibody.1.forward_kinematics(bodies, true);
+            multibody.1.forward_kinematics_for(
+                bodies,
+                true,
+                integration_parameters.multibody_dynamics,
+            );
             multibody
                 .1
                 .update_rigid_bodies_internal(bodies, true, false, false);

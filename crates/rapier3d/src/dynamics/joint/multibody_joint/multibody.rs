@@ -20,6 +20,20 @@ use na::{
 
 #[cfg(doc)]
 use crate::prelude::{GenericJoint, RigidBody};
+use crate::dynamics::MultibodyDynamics;
+
+// physics-mcp patch 1 (PATCHES.md): the tree-sparse path, chosen per step by
+// `IntegrationParameters::multibody_dynamics`.
+#[cfg(feature = "dim3")]
+#[path = "multibody_tree.rs"]
+mod tree;
+#[cfg(all(test, feature = "dim3"))]
+#[path = "multibody_tree_tests.rs"]
+mod tree_tests;
+
+/// No degree of freedom (the tree path's parent of a root degree of freedom).
+#[cfg(feature = "dim3")]
+const NONE_DOF: u32 = u32::MAX;
 
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default)]
@@ -134,6 +148,11 @@ pub struct Multibody {
     coriolis_v: Vec<OMatrix<Real, Dim, Dyn>>,
     coriolis_w: Vec<OMatrix<Real, AngDim, Dyn>>,
     i_coriolis_dt: Jacobian<Real>,
+    /// The tree-sparse path's workspace: rebuilt before it is read in a step, never
+    /// serialized (so snapshots keep the form above).
+    #[cfg(feature = "dim3")]
+    #[cfg_attr(feature = "serde-serialize", serde(skip))]
+    tree: tree::TreeWorkspace,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -170,6 +189,8 @@ impl Multibody {
             root_is_dynamic: false,
             self_contacts_enabled,
             couplings: Vec::new(),
+            #[cfg(feature = "dim3")]
+            tree: Default::default(),
             // solver_workspace: Some(SolverWorkspace::new()),
         }
     }
@@ -363,8 +384,31 @@ impl Multibody {
     }
 
     /// The inverse augmented mass matrix of this multibody.
+    ///
+    /// Computed by [`MultibodyDynamics::Dense`] only: under
+    /// [`MultibodyDynamics::TreeSparse`] it keeps what the dense path last computed (see
+    /// [`Self::augmented_mass`]).
     pub fn inv_augmented_mass(&self) -> &LU<Real, Dyn, Dyn> {
         &self.inv_augmented_mass
+    }
+
+    /// The augmented mass matrix of the last dynamics update: the joint-space mass matrix plus
+    /// `dt·damping + armature` and `dt²·stiffness` on its diagonal. Under
+    /// [`MultibodyDynamics::TreeSparse`] it is in the natural order of the degrees of freedom,
+    /// with identity rows and columns for kinematic ones; under [`MultibodyDynamics::Dense`]
+    /// kinematic degrees of freedom are moved to the end first (and their rows cleared).
+    pub fn augmented_mass(&self) -> &DMatrix<Real> {
+        &self.augmented_mass
+    }
+
+    /// Whether the last dynamics update ran [`MultibodyDynamics::TreeSparse`], so that the
+    /// constraint builders solve with its factorisation.
+    #[inline]
+    pub(crate) fn tree_dynamics_active(&self) -> bool {
+        #[cfg(feature = "dim3")]
+        return self.tree.active;
+        #[cfg(not(feature = "dim3"))]
+        return false;
     }
 
     /// The first link of this multibody.
@@ -816,7 +860,24 @@ impl Multibody {
         }
     }
 
+    /// One substep's mass matrices, their factorisations and the free accelerations, by the
+    /// path `params.multibody_dynamics` names.
+    pub(crate) fn update_dynamics(&mut self, params: &IntegrationParameters, bodies: &RigidBodySet) {
+        match params.multibody_dynamics {
+            #[cfg(feature = "dim3")]
+            MultibodyDynamics::TreeSparse => self.tree_update_dynamics(params.dt, bodies),
+            _ => {
+                self.update_mass_matrix(params.dt, bodies);
+                self.update_acceleration(params.dt, bodies);
+            }
+        }
+    }
+
     pub(crate) fn update_mass_matrix(&mut self, dt: Real, bodies: &RigidBodySet) {
+        #[cfg(feature = "dim3")]
+        {
+            self.tree.active = false;
+        }
         if self.ndofs == 0 {
             return; // Nothing to do.
         }
@@ -1200,8 +1261,17 @@ impl Multibody {
             for k in 0..ndofs {
                 jacobians[j_id + ndofs + k] = jacobians[j_id + k];
             }
-            self.inv_augmented_mass
-                .solve_mut(&mut jacobians.rows_mut(j_id + ndofs, ndofs));
+            #[cfg(feature = "dim3")]
+            let tree_active = self.tree.active;
+            #[cfg(not(feature = "dim3"))]
+            let tree_active = false;
+            if tree_active {
+                #[cfg(feature = "dim3")]
+                self.tree_solve(&mut jacobians.as_mut_slice()[j_id + ndofs..j_id + 2 * ndofs]);
+            } else {
+                self.inv_augmented_mass
+                    .solve_mut(&mut jacobians.rows_mut(j_id + ndofs, ndofs));
+            }
 
             // lhs = Jᵀ M⁻¹ J = Σ J[k]·WJ[k]; only g1/g2 entries of J are nonzero.
             let lhs = jacobians[j_id + ndofs + g2] - c.coeff * jacobians[j_id + ndofs + g1];
@@ -1426,6 +1496,22 @@ impl Multibody {
         bodies: &RigidBodySet,
         read_root_pose_from_rigid_body: bool,
     ) {
+        self.forward_kinematics_for(
+            bodies,
+            read_root_pose_from_rigid_body,
+            MultibodyDynamics::Dense,
+        )
+    }
+
+    /// [`Self::forward_kinematics`] for a step under `dynamics`: the tree path keeps compact
+    /// body jacobians of its own instead of the full ones ([`Self::body_jacobian`] then keeps
+    /// what the last dense forward kinematics computed).
+    pub(crate) fn forward_kinematics_for(
+        &mut self,
+        bodies: &RigidBodySet,
+        read_root_pose_from_rigid_body: bool,
+        dynamics: MultibodyDynamics,
+    ) {
         // Be sure the degrees of freedom match and take the root position if needed.
         self.update_root_type(bodies, read_root_pose_from_rigid_body);
 
@@ -1464,7 +1550,11 @@ impl Multibody {
         /*
          * Compute body jacobians.
          */
-        self.update_body_jacobians();
+        match dynamics {
+            #[cfg(feature = "dim3")]
+            MultibodyDynamics::TreeSparse => self.tree_update_jacobians(),
+            _ => self.update_body_jacobians(),
+        }
     }
 
     /// Computes the ids of all the links between the root and the link identified by `link_id`.
@@ -1621,6 +1711,18 @@ impl Multibody {
             return (0.0, 0.0);
         }
 
+        #[cfg(feature = "dim3")]
+        if self.tree.active {
+            let force = tree::Col {
+                v: unit_force,
+                w: unit_torque,
+            };
+            let result =
+                self.tree_fill_jacobians(link_id, force, *j_id, jacobians.as_mut_slice());
+            *j_id += self.ndofs * 2;
+            return result;
+        }
+
         let wj_id = *j_id + self.ndofs;
         let force = Force {
             linear: unit_force,
@@ -1669,6 +1771,40 @@ impl Multibody {
         jacobians: &mut DVector,
     ) {
         if self.ndofs == 0 {
+            return;
+        }
+
+        #[cfg(feature = "dim3")]
+        if self.tree.active {
+            let n = self.ndofs;
+            let (f1, f2) = (
+                tree::Col {
+                    v: unit_force1,
+                    w: unit_torque1,
+                },
+                tree::Col {
+                    v: unit_force2,
+                    w: unit_torque2,
+                },
+            );
+            let (out_j, workspace) =
+                jacobians.as_mut_slice()[*j_id..*j_id + 2 * n].split_at_mut(n);
+            let norm2 = self.tree_jacobian_tr_mul(link_id2, f2, out_j);
+            let norm1 = self.tree_jacobian_tr_mul(link_id1, f1, workspace);
+            for (o, w) in out_j.iter_mut().zip(workspace.iter()) {
+                *o -= *w;
+            }
+            // The dense path's cancellation guard.
+            let scale_sq = norm1 * (f1.v.length_squared() + f1.w.length_squared())
+                + norm2 * (f2.v.length_squared() + f2.w.length_squared());
+            let eps = Real::EPSILON * 1.0e3;
+            let jn: Real = out_j.iter().map(|x| x * x).sum();
+            if jn <= eps * eps * scale_sq {
+                out_j.fill(0.0);
+            }
+            workspace.copy_from_slice(out_j);
+            self.tree_solve(workspace);
+            *j_id += n * 2;
             return;
         }
 

@@ -36,9 +36,17 @@ pub fn unit_joint_limit_constraint(
     jacobians.rows_mut(*j_id, ndofs * 2).fill(0.0);
     jacobians[dof_j_id] = 1.0;
     jacobians[dof_j_id + ndofs] = 1.0;
-    multibody
-        .inv_augmented_mass()
-        .solve_mut(&mut jacobians.rows_mut(*j_id + ndofs, ndofs));
+    if multibody.tree_dynamics_active() {
+        // physics-mcp patch 1: the tree path's factorisation, along `e_dof`'s chain.
+        multibody.tree_solve_along(
+            dof_j_id - *j_id,
+            &mut jacobians.as_mut_slice()[*j_id + ndofs..*j_id + 2 * ndofs],
+        );
+    } else {
+        multibody
+            .inv_augmented_mass()
+            .solve_mut(&mut jacobians.rows_mut(*j_id + ndofs, ndofs));
+    }
 
     let lhs = jacobians[dof_j_id + ndofs]; // = J^t * M^-1 J
     let impulse_bounds = [
@@ -99,9 +107,17 @@ pub fn unit_joint_friction_constraint(
     jacobians.rows_mut(*j_id, ndofs * 2).fill(0.0);
     jacobians[dof_j_id] = 1.0;
     jacobians[dof_j_id + ndofs] = 1.0;
-    multibody
-        .inv_augmented_mass()
-        .solve_mut(&mut jacobians.rows_mut(*j_id + ndofs, ndofs));
+    if multibody.tree_dynamics_active() {
+        // physics-mcp patch 1: the tree path's factorisation, along `e_dof`'s chain.
+        multibody.tree_solve_along(
+            dof_j_id - *j_id,
+            &mut jacobians.as_mut_slice()[*j_id + ndofs..*j_id + 2 * ndofs],
+        );
+    } else {
+        multibody
+            .inv_augmented_mass()
+            .solve_mut(&mut jacobians.rows_mut(*j_id + ndofs, ndofs));
+    }
 
     let lhs = jacobians[dof_j_id + ndofs]; // = J^t * M^-1 J
     let max_impulse = friction * params.dt;
@@ -156,9 +172,17 @@ pub fn unit_joint_motor_constraint(
     jacobians.rows_mut(*j_id, ndofs * 2).fill(0.0);
     jacobians[dof_j_id] = 1.0;
     jacobians[dof_j_id + ndofs] = 1.0;
-    multibody
-        .inv_augmented_mass()
-        .solve_mut(&mut jacobians.rows_mut(*j_id + ndofs, ndofs));
+    if multibody.tree_dynamics_active() {
+        // physics-mcp patch 1: the tree path's factorisation, along `e_dof`'s chain.
+        multibody.tree_solve_along(
+            dof_j_id - *j_id,
+            &mut jacobians.as_mut_slice()[*j_id + ndofs..*j_id + 2 * ndofs],
+        );
+    } else {
+        multibody
+            .inv_augmented_mass()
+            .solve_mut(&mut jacobians.rows_mut(*j_id + ndofs, ndofs));
+    }
 
     let lhs = jacobians[dof_j_id + ndofs]; // = J^t * M^-1 J
     let impulse_bounds = [-motor_params.max_impulse, motor_params.max_impulse];

@@ -106,8 +106,7 @@ impl VelocitySolver {
                 .get_multibody_mut_internal(link.multibody)
                 .unwrap();
             multibody.update_velocities(bodies);
-            multibody.update_mass_matrix(params.dt, bodies);
-            multibody.update_acceleration(params.dt, bodies);
+            multibody.update_dynamics(params, bodies);
 
             let mut solver_vels_incr = self
                 .generic_solver_vels_increment
@@ -139,13 +138,12 @@ impl VelocitySolver {
                 .rows(multibody.solver_id as usize, multibody.ndofs());
             multibody.velocities.copy_from(&solver_vels);
             multibody.integrate(params.dt);
-            multibody.forward_kinematics(bodies, false);
+            multibody.forward_kinematics_for(bodies, false, params.multibody_dynamics);
             multibody.update_rigid_bodies_internal(bodies, !is_last_substep, true, false);
 
             if !is_last_substep {
                 multibody.update_velocities(bodies);
-                multibody.update_mass_matrix(params.dt, bodies);
-                multibody.update_acceleration(params.dt, bodies);
+                multibody.update_dynamics(params, bodies);
 
                 let mut solver_vels_incr = self
                     .generic_solver_vels_increment
