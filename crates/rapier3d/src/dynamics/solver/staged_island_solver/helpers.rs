@@ -11,6 +11,8 @@ use crate::dynamics::solver::manifold_store::ManifoldStore;
 use crate::dynamics::solver::solver_contact_graph::SolverContactGraph;
 #[cfg(feature = "dim3")]
 use crate::dynamics::solver::velocity_solver::GyroParams;
+#[cfg(all(feature = "parallel", feature = "dim3"))]
+use crate::dynamics::{MultibodyDynamics, MultibodyLinkId};
 use crate::dynamics::{IntegrationParameters, MultibodyJointSet, RigidBodyHandle, RigidBodySet};
 use crate::math::DVector;
 use parry::math::SIMD_WIDTH;
@@ -101,12 +103,28 @@ impl VelocitySolver {
         self.generic_solver_vels_increment = DVector::zeros(multibody_solver_id as usize);
         self.generic_solver_vels = DVector::zeros(multibody_solver_id as usize);
 
+        // physics-mcp patch 1: under the tree path, independent multibodies' dynamics run in
+        // parallel (each reads the bodies and writes only itself, so the bits do not depend on
+        // the thread count); the release's dense path stays serial, as released.
+        #[cfg(all(feature = "parallel", feature = "dim3"))]
+        let parallel = params.multibody_dynamics == MultibodyDynamics::TreeSparse
+            && self.multibody_roots.len() > 1
+            && rayon::current_num_threads() > 1;
+        #[cfg(not(all(feature = "parallel", feature = "dim3")))]
+        let parallel = false;
+        #[cfg(all(feature = "parallel", feature = "dim3"))]
+        if parallel {
+            update_multibodies_in_parallel(&self.multibody_roots, params, bodies, multibodies);
+        }
+
         for link in &self.multibody_roots {
             let multibody = multibodies
                 .get_multibody_mut_internal(link.multibody)
                 .unwrap();
-            multibody.update_velocities(bodies);
-            multibody.update_dynamics(params, bodies);
+            if !parallel {
+                multibody.update_velocities(bodies);
+                multibody.update_dynamics(params, bodies);
+            }
 
             let mut solver_vels_incr = self
                 .generic_solver_vels_increment
@@ -152,4 +170,40 @@ impl VelocitySolver {
             }
         }
     }
+}
+
+/// The multibodies of `roots`: their links' velocities written to the bodies (serially: they
+/// write the shared set), then each one's dynamics on the rayon pool (each reads the bodies and
+/// writes only itself).
+#[cfg(all(feature = "parallel", feature = "dim3"))]
+fn update_multibodies_in_parallel(
+    roots: &[MultibodyLinkId],
+    params: &IntegrationParameters,
+    bodies: &mut RigidBodySet,
+    multibodies: &mut MultibodyJointSet,
+) {
+    use rayon::prelude::*;
+    for link in roots {
+        if let Some(multibody) = multibodies.get_multibody_mut_internal(link.multibody) {
+            multibody.update_velocities(bodies);
+        }
+    }
+    let mut wanted: crate::alloc_prelude::Vec<bool> = crate::alloc_prelude::Vec::new();
+    for link in roots {
+        let slot = link.multibody.0.into_raw_parts().0 as usize;
+        if wanted.len() <= slot {
+            wanted.resize(slot + 1, false);
+        }
+        wanted[slot] = true;
+    }
+    let mut work: crate::alloc_prelude::Vec<&mut crate::dynamics::Multibody> = multibodies
+        .multibodies
+        .iter_mut()
+        .filter(|(i, _)| wanted.get(i.into_raw_parts().0 as usize).copied().unwrap_or(false))
+        .map(|(_, m)| m)
+        .collect();
+    let bodies: &RigidBodySet = bodies;
+    work.par_iter_mut()
+        .with_min_len(4)
+        .for_each(|multibody| multibody.update_dynamics(params, bodies));
 }
