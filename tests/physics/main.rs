@@ -6,6 +6,7 @@
 mod common;
 
 mod agent_calls;
+mod engine_rules;
 mod ik;
 mod link_state;
 mod mjcf;
