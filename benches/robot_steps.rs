@@ -32,6 +32,9 @@ mod gymnasium;
 #[path = "../tests/common/mjcf_command.rs"]
 mod mjcf_command;
 
+/// Builds one scene's world under an engine rule.
+type SceneBuilder = Box<dyn Fn(EngineRule) -> World>;
+
 fn env_or(name: &str, default: usize) -> usize {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
 }
@@ -111,7 +114,7 @@ fn main() {
         .collect();
     let runs = env_or("ROBOT_BENCH_RUNS", 5);
     let data = std::env::var_os("ROBOT_BENCH_DATA").map(std::path::PathBuf::from);
-    let mut scenes: Vec<(String, u64, Box<dyn Fn(EngineRule) -> World>)> = Vec::new();
+    let mut scenes: Vec<(String, u64, SceneBuilder)> = Vec::new();
     for (name, urdf) in [("kuka", "kuka_iiwa/model.urdf"), ("panda", "franka_panda/panda.urdf")] {
         match (&data, wants(name)) {
             (Some(d), true) => {

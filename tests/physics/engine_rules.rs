@@ -10,6 +10,7 @@
 //!   limits for 2 s), every reported motor torque within 1% of the motor's force;
 //! - the Gymnasium models whose motion over 2 s is not chaotic (no contact, or a pendulum on a
 //!   rail; nothing driving them): every body within `MJCF_TOLERANCE_M`.
+//!
 //! The models that land on their floor and tumble (ant, half_cheetah, hopper, humanoid,
 //! humanoidstandup, walker2d) amplify any rounding difference, as they amplify a 1e-7 change of
 //! a starting pose under rule 1 itself; their distance is printed, and they are held to the
