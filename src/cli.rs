@@ -31,6 +31,20 @@ pub struct LimitArgs {
     /// to change (fewer rays, a smaller image, `every`, or `output_path`).
     #[arg(long, default_value_t = DEFAULT.max_reply_bytes, value_parser = reply_bytes)]
     pub max_reply_bytes: usize,
+    /// Calls that may wait for one busy simulation; more are refused at once ("busy; retry").
+    #[arg(long, default_value_t = DEFAULT.max_waiting)]
+    pub max_waiting: usize,
+    /// Re-simulated body-steps (steps × bodies) one request may cost: trajectories,
+    /// animations, viewer asks; estimated from the log before the work and refused past it.
+    #[arg(long, default_value_t = DEFAULT.max_work)]
+    pub max_work: u64,
+    /// Bytes of memory one request may hold beyond the live world (a batch's results, a
+    /// sweep's forks), estimated before the work and refused past it.
+    #[arg(long, default_value_t = DEFAULT.max_request_bytes)]
+    pub max_request_bytes: usize,
+    /// Bytes per file write_file writes (the HTTP request-body cap grows to hold it as base64).
+    #[arg(long, default_value_t = DEFAULT.max_write_bytes)]
+    pub max_write_bytes: usize,
 }
 
 /// `--max-reply-bytes`: at least `budget::MIN_REPLY_BYTES`, so every state-changing reply,
@@ -58,8 +72,32 @@ pub fn step_on_threads(n: usize) -> Result<(), String> {
 impl From<LimitArgs> for Limits {
     fn from(a: LimitArgs) -> Limits {
         // Destructured, so a field added to one struct and not the other does not compile.
-        let LimitArgs { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px, max_reply_bytes } = a;
-        Limits { max_sims, max_objects, max_constraints, max_steps, max_rays, max_image_px, max_reply_bytes }
+        let LimitArgs {
+            max_sims,
+            max_objects,
+            max_constraints,
+            max_steps,
+            max_rays,
+            max_image_px,
+            max_reply_bytes,
+            max_waiting,
+            max_work,
+            max_request_bytes,
+            max_write_bytes,
+        } = a;
+        Limits {
+            max_sims,
+            max_objects,
+            max_constraints,
+            max_steps,
+            max_rays,
+            max_image_px,
+            max_reply_bytes,
+            max_waiting,
+            max_work,
+            max_request_bytes,
+            max_write_bytes,
+        }
     }
 }
 

@@ -24,8 +24,8 @@
 //! - `seeing`  — sensing, trajectories, animations, the session report and the web viewer.
 //! - `mcp`     — the MCP protocol (transports, sessions, subscriptions, logging, resources,
 //!   prompts) and `mcp::tools`, one thin adapter file per tool family.
-//! - `cli`, `client`, `shutdown`, `failpoints` — flags, `physics-mcp call`, the process-wide
-//!   shutdown, test-only crash points.
+//! - `cli`, `client`, `secret`, `shutdown`, `failpoints` — flags, `physics-mcp call`, the
+//!   token from a file or the environment, the process-wide shutdown, test-only crash points.
 #![warn(missing_docs)]
 
 pub use physics_core::{command, digest, engine, limits, outputs, value, world};
@@ -38,6 +38,7 @@ pub mod files;
 pub mod log;
 pub mod mcp;
 pub mod params;
+pub mod secret;
 pub mod seeing;
 pub mod shutdown;
 pub mod sim;

@@ -27,11 +27,14 @@ struct Cli {
 #[derive(clap::Args)]
 struct Common {
     /// Directory holding one SQLite log per simulation (exclusively locked while running).
-    #[arg(long, default_value = "./physics-mcp-data")]
-    data: PathBuf,
-    /// Directory that URDF, save and load paths are confined to.
-    #[arg(long, default_value = "./physics-mcp-workspace")]
-    workspace: PathBuf,
+    /// Default: ./physics-mcp-data, or $XDG_DATA_HOME/physics-mcp/data (~/.local/share/…) when
+    /// the working directory is /, the home directory or not writable.
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Directory that URDF, save and load paths are confined to. Default:
+    /// ./physics-mcp-workspace, or beside the data directory's default as for --data.
+    #[arg(long)]
+    workspace: Option<PathBuf>,
     /// Durability: `normal` survives a killed process; `full` also fsyncs for power loss.
     #[arg(long, value_enum, default_value_t = SyncMode::Normal)]
     sync: SyncMode,
@@ -92,6 +95,7 @@ fn default_node_name() -> String {
 fn connect_tool(urls: &str, namespace: &str) -> anyhow::Result<Arc<physics_mcp::cluster::Cluster>> {
     let mut config = physics_mcp::cluster::ClusterConfig::new(urls, &format!("cli-{}", std::process::id()));
     config.namespace = namespace.into();
+    config.serves = false;
     physics_mcp::cluster::Cluster::connect(config)
 }
 
@@ -102,15 +106,22 @@ enum Cmd {
         /// Address to bind (loopback by default; port 0 picks a free port).
         #[arg(long, default_value = "127.0.0.1:8000")]
         bind: SocketAddr,
-        /// Require `Authorization: Bearer <TOKEN>` on every request.
-        #[arg(long)]
+        /// Require `Authorization: Bearer <TOKEN>` on every request (visible in `ps`: prefer
+        /// --token-file or PHYSICS_MCP_TOKEN).
+        #[arg(long, conflicts_with = "token_file")]
         token: Option<String>,
+        /// Require the bearer token written on this file's first line.
+        #[arg(long, value_name = "PATH")]
+        token_file: Option<PathBuf>,
         /// Allow this browser Origin besides loopback ones (repeatable).
         #[arg(long)]
         allow_origin: Vec<String>,
-        /// Live MCP sessions at most; a new session past it is refused (503) until one ends.
+        /// Live MCP sessions at most; past it a new one ends the least recently used idle one.
         #[arg(long, default_value_t = physics_mcp::mcp::session_limit::DEFAULT_MAX_SESSIONS, value_parser = clap::value_parser!(usize))]
         max_sessions: usize,
+        /// Live MCP sessions of one client (bearer token, else address) at most.
+        #[arg(long, default_value_t = physics_mcp::mcp::session_limit::DEFAULT_MAX_SESSIONS_PER_CLIENT, value_parser = clap::value_parser!(usize))]
+        max_sessions_per_client: usize,
         #[command(flatten)]
         common: Common,
         #[command(flatten)]
@@ -203,9 +214,13 @@ enum Cmd {
         /// Its arguments as a JSON object.
         #[arg(default_value = "{}")]
         args: String,
-        /// Bearer token, when the server was started with --token.
-        #[arg(long)]
+        /// Bearer token, when the server requires one (visible in `ps`: prefer --token-file
+        /// or PHYSICS_MCP_TOKEN).
+        #[arg(long, conflicts_with = "token_file")]
         token: Option<String>,
+        /// Send the bearer token written on this file's first line.
+        #[arg(long, value_name = "PATH")]
+        token_file: Option<PathBuf>,
     },
     /// Name the first event where two logs diverge (exit 1 if they do).
     Diff {
@@ -357,10 +372,16 @@ fn print_history(file: &Path) -> anyhow::Result<()> {
 }
 
 fn open_registry(c: Common, cluster: Option<Arc<physics_mcp::cluster::Cluster>>) -> anyhow::Result<Arc<Registry>> {
+    let dirs = physics_mcp::log::default_dirs::choose(c.data, c.workspace)?;
+    if let Some(note) = &dirs.note {
+        // The first log line, in one write (a client's log shows it whole).
+        use std::io::Write;
+        let _ = std::io::stderr().lock().write_all(format!("{note}\n").as_bytes());
+    }
     Ok(Arc::new(Registry::open_with(
         Config {
-            data_dir: c.data,
-            workspace: c.workspace,
+            data_dir: dirs.data,
+            workspace: dirs.workspace,
             limits: c.limits.into(),
             sync: c.sync,
         },
@@ -411,6 +432,12 @@ fn main() {
     #[cfg(feature = "failpoints")]
     let _failpoints = physics_mcp::failpoints::setup();
     ignore_file_size_signal();
+    // The built-in model library: only this binary links its archive (test binaries that never
+    // install it carry none of its bytes).
+    if let Err(e) = physics_mcp::files::library::install(physics_models::ARCHIVE) {
+        eprintln!("physics-mcp: the built-in model library is damaged: {e}");
+        std::process::exit(2);
+    }
     if let Err(e) = physics_mcp::cli::step_on_threads(usize::from(cli.threads)) {
         eprintln!("physics-mcp: --threads: {e}");
         std::process::exit(2);
@@ -450,14 +477,17 @@ fn main() {
                     Cmd::Serve {
                         bind,
                         token,
+                        token_file,
                         allow_origin,
                         max_sessions,
+                        max_sessions_per_client,
                         common,
                         ..
                     } => {
+                        let token = physics_mcp::secret::token(token, token_file.as_deref()).map_err(anyhow::Error::msg)?;
                         let reg = open_registry(common, cluster)?;
                         physics_mcp::mcp::PhysicsServer::start_sweepers(&reg)?;
-                        serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions }).await
+                        serve_http(reg, HttpOptions { bind, token, allow_origin, max_sessions, max_sessions_per_client }).await
                     }
                     Cmd::Stdio { common } => serve_stdio(open_registry(common, None)?).await,
                     Cmd::Replay { file, render: Some(out), interval, size, force, .. } => {
@@ -490,7 +520,8 @@ fn main() {
                     Cmd::History { file } => print_history(&file),
                     // Run before this runtime starts (run_portable).
                     Cmd::Export { .. } | Cmd::Import { .. } => Ok(()),
-                    Cmd::Call { url, tool, args, token } => {
+                    Cmd::Call { url, tool, args, token, token_file } => {
+                        let token = physics_mcp::secret::token(token, token_file.as_deref()).map_err(anyhow::Error::msg)?;
                         let called = physics_mcp::client::call(&url, &tool, &args, token.as_deref()).await?;
                         println!("{}", called.output);
                         if called.is_error {

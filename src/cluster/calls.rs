@@ -29,9 +29,20 @@ pub const CALL: &str = "Pmcp-Call";
 pub const SIM: &str = "Pmcp-Sim";
 /// The header naming the node a piece of news comes from.
 pub const NODE: &str = "Pmcp-Node";
+/// The header naming the object a forwarded call's request is in, when it is too large for
+/// a message (the message's payload is then empty).
+pub const STORED: &str = "Pmcp-Stored";
+
+/// The largest request carried in a call's message; a larger one (a 10,000-call batch is
+/// ≈ 2 MB) goes through the object store, as a large commit does, so a call of any size a
+/// node takes from its own client it also takes forwarded.
+pub const REQUEST_INLINE_MAX: usize = 512 * 1024;
 
 /// The largest piece of an answer in one message (NATS's default payload limit is 1 MiB).
 const PART: usize = 512 * 1024;
+
+/// How long storing or reading a large request may take.
+const REQUEST_WAIT: Duration = Duration::from_secs(60);
 
 /// What a message on a call's reply inbox is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -96,12 +107,12 @@ impl Cluster {
     /// The node last seen holding `id`'s lease (a hint: a call sent there on it is refused
     /// with `not-owner` if the lease moved, and the lease is read again).
     pub fn owner_hint(&self, id: &str) -> Option<String> {
-        self.owners.lock().unwrap_or_else(|p| p.into_inner()).get(id).cloned()
+        self.hints.lock().unwrap_or_else(|p| p.into_inner()).get(id).cloned()
     }
 
     /// Remembers (or, with none, forgets) the node holding `id`'s lease.
     pub fn note_owner(&self, id: &str, owner: Option<&str>) {
-        let mut owners = self.owners.lock().unwrap_or_else(|p| p.into_inner());
+        let mut owners = self.hints.lock().unwrap_or_else(|p| p.into_inner());
         match owner {
             Some(node) => {
                 // A bound, not a cache policy: a node routing to many simulations forgets
@@ -133,21 +144,54 @@ impl Cluster {
         self.config.lease + Duration::from_secs(2)
     }
 
-    /// Who holds `id`'s lease now (none: nobody, and the caller may take it). Runs on the
-    /// cluster's runtime; awaitable from any.
-    pub async fn lease_holder(self: &Arc<Self>, id: &str) -> Result<Option<String>, String> {
-        let leases = self.leases.clone();
-        let key = id.to_string();
-        self.spawn(async move { super::kv_get(&leases, &key).await })
-            .await?
-            .map(|v| v.map(|b| String::from_utf8_lossy(&b).into_owned()))
-    }
-
     /// Runs `f` on the cluster's runtime and awaits it from any runtime (the async twin of
     /// `run`).
     pub async fn spawn<T: Send + 'static>(&self, f: impl std::future::Future<Output = T> + Send + 'static) -> Result<T, String> {
         let rt = self.rt.as_ref().ok_or("the cluster connection is closed")?;
         rt.spawn(f).await.map_err(|e| format!("a cluster task failed: {e}"))
+    }
+
+    /// Stores forwarded call `call`'s request (too large for a message) in the object store;
+    /// returns the object's name, which the call's message carries instead.
+    pub async fn store_request(self: &Arc<Self>, call: &str, bytes: Bytes) -> Result<String, String> {
+        let (store, name) = (self.objects.clone(), format!("call/{call}"));
+        let stored = name.clone();
+        self.spawn(async move {
+            let put = super::patiently(|| {
+                let mut reader = bytes.as_ref();
+                let (store, name) = (&store, &name);
+                async move { store.put(name.as_str(), &mut reader).await.map(|_| ()) }
+            });
+            tokio::time::timeout(REQUEST_WAIT, put).await.map_err(|_| format!("storing {name}: no answer within {REQUEST_WAIT:?}"))?.map_err(|e| format!("storing {name}: {e}"))
+        })
+        .await??;
+        Ok(stored)
+    }
+
+    /// A forwarded call's request that was stored (`store_request`).
+    pub async fn fetch_request(self: &Arc<Self>, name: &str) -> Result<Vec<u8>, String> {
+        let (store, name) = (self.objects.clone(), name.to_string());
+        self.spawn(async move {
+            use tokio::io::AsyncReadExt;
+            let read = super::patiently(|| async {
+                let mut object = store.get(&name).await.map_err(|e| format!("reading {name}: {e}"))?;
+                let mut bytes = Vec::new();
+                object.read_to_end(&mut bytes).await.map_err(|e| format!("reading {name}: {e}"))?;
+                Ok::<_, String>(bytes)
+            });
+            tokio::time::timeout(REQUEST_WAIT, read).await.map_err(|_| format!("reading {name}: no answer within {REQUEST_WAIT:?}"))?
+        })
+        .await?
+    }
+
+    /// Deletes a stored request once its call is answered (or given up).
+    pub fn drop_request(self: &Arc<Self>, name: String) {
+        let store = self.objects.clone();
+        if let Some(rt) = &self.rt {
+            rt.spawn(async move {
+                let _ = tokio::time::timeout(REQUEST_WAIT, store.delete(&name)).await;
+            });
+        }
     }
 
     /// Tells every node a piece of news (`what`, about `payload`), naming this node.

@@ -5,9 +5,11 @@
 //!
 //! - `record`: what a subject holds (commits, takeovers);
 //! - `replica`: the hook that sends every commit of a SQLite log to its subject, fenced;
-//! - `lease`: one owner per simulation (a KV bucket whose entries expire unless renewed);
+//! - `lease`: who serves a simulation (a lease per node, expired unless renewed; an ownership
+//!   record per simulation, changed only by a takeover);
 //! - `transfer`: a whole log into a subject (a simulation joining, `import`) and back into a
-//!   SQLite file (a takeover's cache, `export`).
+//!   SQLite file (a takeover's cache, `export`);
+//! - `retire`: what is left of a destroyed simulation, removed after its fenced marker.
 //!
 //! The rest of the server is synchronous; this module owns a small tokio runtime of its own
 //! and blocks on it ([`Cluster::run`]), whatever thread calls.
@@ -17,6 +19,7 @@ pub mod lease;
 pub mod portable;
 pub mod record;
 pub mod replica;
+pub mod retire;
 pub mod sweeps;
 pub mod transfer;
 
@@ -43,6 +46,9 @@ pub struct ClusterConfig {
     pub replicas: usize,
     /// How long a lease lasts unless renewed (the whole cluster must use one value).
     pub lease: Duration,
+    /// Whether this process serves simulations (a node: it holds a lease) or only moves logs
+    /// (`export`, `import`: no lease, no ownership).
+    pub serves: bool,
 }
 
 impl ClusterConfig {
@@ -55,6 +61,7 @@ impl ClusterConfig {
             streams: 4,
             replicas: 3,
             lease: Duration::from_millis(5000),
+            serves: true,
         }
     }
 }
@@ -70,14 +77,20 @@ pub const APPEND_PATIENCE: Duration = Duration::from_secs(30);
 pub struct Cluster {
     rt: Option<tokio::runtime::Runtime>,
     js: jetstream::Context,
-    leases: kv::Store,
+    /// `NS_nodes`: one lease per live node.
+    nodes: kv::Store,
+    /// `NS_owners`: one ownership record per owned simulation.
+    owners: kv::Store,
     index: kv::Store,
     settings: kv::Store,
     objects: object_store::ObjectStore,
     config: ClusterConfig,
-    held: Arc<Mutex<HashMap<String, lease::Held>>>,
+    /// This node's lease and the simulations it owns.
+    held: Mutex<lease::Holdings>,
     /// Where calls for simulations other nodes own were last sent (`calls::owner_hint`).
-    owners: Mutex<HashMap<String, String>>,
+    hints: Mutex<HashMap<String, String>>,
+    /// One lock per simulation being taken over or destroyed here (`one_at_a_time`).
+    takeovers: Mutex<HashMap<String, Arc<Mutex<()>>>>,
 }
 
 impl Drop for Cluster {
@@ -112,11 +125,8 @@ where
 impl Cluster {
     /// Connects to the cluster and makes sure its streams and buckets exist.
     pub fn connect(config: ClusterConfig) -> anyhow::Result<Arc<Cluster>> {
-        if config.node.is_empty() || config.node.contains(|c: char| c.is_whitespace() || c == '.') {
-            anyhow::bail!(
-                "--node must be a non-empty name without spaces or dots, not {:?}",
-                config.node
-            );
+        if !valid_id(&config.node) {
+            anyhow::bail!("--node must be 1 to 64 letters, digits, '-' or '_', not {:?}", config.node);
         }
         if config.namespace.is_empty()
             || config.namespace.len() > 32
@@ -139,7 +149,7 @@ impl Cluster {
             .enable_all()
             .build()?;
         let mut cfg = config;
-        let (js, leases, index, settings, objects, config) = rt.block_on(async move {
+        let (js, nodes, owners, index, settings, objects, config) = rt.block_on(async move {
             let addrs: Vec<async_nats::ServerAddr> = cfg
                 .urls
                 .split(',')
@@ -184,11 +194,8 @@ impl Cluster {
                     .await
                     .map_err(|e| anyhow::anyhow!("stream {}: {e}", stream_name(&cfg.namespace, k)))?;
             }
-            let leases = open_bucket(
-                &js,
-                bucket(&format!("{}_leases", cfg.namespace), cfg.lease, cfg.replicas),
-            )
-            .await?;
+            let nodes = open_bucket(&js, bucket(&format!("{}_nodes", cfg.namespace), cfg.lease, cfg.replicas)).await?;
+            let owners = open_bucket(&js, bucket(&format!("{}_owners", cfg.namespace), Duration::ZERO, cfg.replicas)).await?;
             let index = open_bucket(
                 &js,
                 bucket(&format!("{}_sims", cfg.namespace), Duration::ZERO, cfg.replicas),
@@ -207,20 +214,26 @@ impl Cluster {
             )
             .await
             .map_err(|e| anyhow::anyhow!("object store {objects_name}: {e}"))?;
-            anyhow::Ok((js, leases, index, settings, objects, cfg))
+            anyhow::Ok((js, nodes, owners, index, settings, objects, cfg))
         })?;
+        let serves = config.serves;
         let cluster = Arc::new(Cluster {
             rt: Some(rt),
             js,
-            leases,
+            nodes,
+            owners,
             index,
             settings,
             objects,
             config,
-            held: Arc::default(),
-            owners: Mutex::default(),
+            held: Mutex::default(),
+            hints: Mutex::default(),
+            takeovers: Mutex::default(),
         });
-        lease::start_renewing(&cluster);
+        if serves {
+            cluster.join().map_err(|e| anyhow::anyhow!("this node could not join the cluster: {e}"))?;
+            lease::start_renewing(&cluster);
+        }
         Ok(cluster)
     }
 
@@ -235,6 +248,24 @@ impl Cluster {
                 let _ = tx.send(f.await);
             });
         rx.recv().expect("a cluster task never drops its answer")
+    }
+
+    /// `run` with a deadline: every wait on the cluster ends, with an error naming it, after
+    /// `limit` (a read of a subject that was purged meanwhile, a server that never answers).
+    pub fn run_for<T: Send + 'static>(&self, limit: Duration, f: impl Future<Output = T> + Send + 'static) -> Result<T, String> {
+        self.run(async move { tokio::time::timeout(limit, f).await.map_err(|_| format!("the cluster did not answer within {limit:?}")) })
+    }
+
+    /// Holds `id`'s lock for takeovers and destruction: two calls never rebuild one simulation
+    /// at once, and a destroy never races a takeover of the same id — while calls for other
+    /// simulations go on (no lock is node-wide).
+    pub fn one_at_a_time(&self, id: &str) -> SimLock {
+        let lock = {
+            let mut all = self.takeovers.lock().unwrap_or_else(|p| p.into_inner());
+            all.retain(|_, l| Arc::strong_count(l) > 1);
+            all.entry(id.to_string()).or_default().clone()
+        };
+        SimLock(lock)
     }
 
     /// This node's configuration.
@@ -273,7 +304,7 @@ impl Cluster {
 }
 
 /// Creates a key-value bucket, or opens it when another node created it first.
-async fn open_bucket(js: &jetstream::Context, config: kv::Config) -> anyhow::Result<kv::Store> {
+pub(crate) async fn open_bucket(js: &jetstream::Context, config: kv::Config) -> anyhow::Result<kv::Store> {
     let name = config.bucket.clone();
     create_or_get(|| js.create_key_value(config.clone()), || js.get_key_value(name.clone()))
         .await
@@ -305,6 +336,67 @@ async fn agreed(settings: &kv::Store, key: &str, mine: u64) -> anyhow::Result<u6
     }
 }
 
+/// A simulation's lock for takeovers and destruction (`Cluster::one_at_a_time`): lock it with
+/// `hold`.
+pub struct SimLock(Arc<Mutex<()>>);
+
+impl SimLock {
+    /// Waits for the simulation's lock.
+    pub fn hold(&self) -> std::sync::MutexGuard<'_, ()> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// Whether `id` can name a simulation (or a node) in a cluster: 1 to 64 letters, digits, '-' or
+/// '_' — a file name, a NATS subject token and a key. Anything else names nothing, and is
+/// answered "not found" before the cluster is asked (a bad key is not an error that passes).
+pub fn valid_id(id: &str) -> bool {
+    !id.is_empty() && id.len() <= 64 && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+}
+
+/// A failed cluster request: one that may pass (retried) or not (returned at once).
+#[derive(Debug)]
+pub(crate) struct Failure {
+    permanent: bool,
+    why: String,
+}
+
+impl Failure {
+    /// A failure worth retrying (no responders, a timeout, an election).
+    pub(crate) fn passing(e: impl std::fmt::Display) -> Failure {
+        Failure { permanent: false, why: e.to_string() }
+    }
+    /// A failure that asking again cannot change (an invalid key).
+    pub(crate) fn permanent(e: impl std::fmt::Display) -> Failure {
+        Failure { permanent: true, why: e.to_string() }
+    }
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.why)
+    }
+}
+
+/// `patiently`, except that a permanent failure is returned at once.
+pub(crate) async fn patiently_unless<T, F, Fut>(mut attempt: F) -> Result<T, Failure>
+where
+    F: FnMut() -> Fut,
+    Fut: Future<Output = Result<T, Failure>>,
+{
+    let started = std::time::Instant::now();
+    loop {
+        match attempt().await {
+            Ok(t) => return Ok(t),
+            Err(e) if e.permanent || started.elapsed() >= PATIENCE => return Err(e),
+            Err(e) => {
+                tracing::debug!("retrying a cluster request: {e}");
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        }
+    }
+}
+
 /// How long a request that may fail for a passing reason (a bucket or stream just created, a
 /// leader being elected: "no responders", timeouts) is retried.
 pub const PATIENCE: Duration = Duration::from_secs(20);
@@ -332,7 +424,14 @@ where
 /// A key's value, retried for a few seconds while the bucket's replicas cannot answer yet
 /// (a bucket just created, a server just lost: direct gets see "no responders").
 pub(crate) async fn kv_get(store: &kv::Store, key: &str) -> Result<Option<bytes::Bytes>, String> {
-    patiently(|| store.get(key)).await.map_err(|e| e.to_string())
+    patiently_unless(|| async {
+        store.get(key).await.map_err(|e| match e.kind() {
+            kv::EntryErrorKind::InvalidKey => Failure::permanent(e),
+            _ => Failure::passing(e),
+        })
+    })
+    .await
+    .map_err(|e| e.to_string())
 }
 
 /// The name of stream `k` of a namespace.
@@ -354,46 +453,57 @@ pub struct IndexEntry {
     pub simulation_time: f64,
 }
 
+/// How long one index or listing request may take before the call it serves says so.
+const INDEX_WAIT: Duration = Duration::from_secs(30);
+
 impl Cluster {
     /// Writes a simulation's index entry (on joining, takeover, and after changes).
     pub fn index_put(&self, id: &str, entry: &IndexEntry) -> Result<(), String> {
         let index = self.index.clone();
         let (id, bytes) = (id.to_string(), serde_json::to_vec(entry).unwrap_or_default());
-        self.run(async move {
+        self.run_for(INDEX_WAIT, async move {
             patiently(|| index.put(&id, bytes.clone().into()))
                 .await
                 .map(|_| ())
                 .map_err(|e| e.to_string())
-        })
+        })?
     }
 
     /// Like `index_put`, without waiting (after a change: the entry is a convenience, the log
-    /// is the record).
-    pub fn index_touch(&self, id: &str, entry: &IndexEntry) {
+    /// is the record). The write starts once `after` (the simulation's previous one) is done, so
+    /// a simulation's index writes land in order, and whoever removes the entry can wait for the
+    /// last one first (`remove`): none lands after a destroy.
+    pub fn index_touch(&self, id: &str, entry: &IndexEntry, after: Option<tokio::task::JoinHandle<()>>) -> Option<tokio::task::JoinHandle<()>> {
         let index = self.index.clone();
         let (id, bytes) = (id.to_string(), serde_json::to_vec(entry).unwrap_or_default());
-        if let Some(rt) = &self.rt {
-            rt.spawn(async move {
-                let _ = index.put(id, bytes.into()).await;
-            });
-        }
+        let rt = self.rt.as_ref()?;
+        Some(rt.spawn(async move {
+            if let Some(previous) = after {
+                let _ = previous.await;
+            }
+            let _ = tokio::time::timeout(INDEX_WAIT, index.put(id, bytes.into())).await;
+        }))
     }
 
-    /// A simulation's index entry, if the cluster has it.
+    /// A simulation's index entry, if the cluster has it (read from the bucket's leader: a
+    /// replica that lags could call a simulation just made "not found").
     pub fn index_get(&self, id: &str) -> Result<Option<IndexEntry>, String> {
+        if !valid_id(id) {
+            return Ok(None);
+        }
         let index = self.index.clone();
         let id = id.to_string();
-        self.run(async move {
-            let got = kv_get(&index, &id).await?;
-            Ok(got.map(|b| serde_json::from_slice(&b).unwrap_or_default()))
-        })
+        self.run_for(INDEX_WAIT, async move {
+            let got = lease::leader_entry(&index, &id).await?;
+            Ok(got.map(|(b, _)| serde_json::from_slice(&b).unwrap_or_default()))
+        })?
     }
 
     /// Every simulation in the cluster with its index entry, by id.
     pub fn index_all(&self) -> Result<Vec<(String, IndexEntry)>, String> {
         use futures_util::StreamExt;
         let index = self.index.clone();
-        self.run(async move {
+        self.run_for(INDEX_WAIT, async move {
             let ids = patiently(|| async {
                 let mut keys = index.keys().await.map_err(|e| e.to_string())?.boxed();
                 let mut ids = Vec::new();
@@ -411,21 +521,6 @@ impl Cluster {
             }
             out.sort_by(|a, b| a.0.cmp(&b.0));
             Ok(out)
-        })
-    }
-
-    /// Removes a simulation from the cluster: its index entry, its subject, its lease.
-    pub fn forget(&self, id: &str) -> Result<(), String> {
-        let (index, js) = (self.index.clone(), self.js.clone());
-        let (stream, subject) = self.subject(id);
-        let key = id.to_string();
-        self.run(async move {
-            index.delete(&key).await.map_err(|e| e.to_string())?;
-            let stream = js.get_stream(stream).await.map_err(|e| e.to_string())?;
-            stream.purge().filter(subject).await.map_err(|e| e.to_string())?;
-            Ok::<(), String>(())
-        })?;
-        self.release(id);
-        Ok(())
+        })?
     }
 }

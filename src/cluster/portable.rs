@@ -12,6 +12,9 @@ use crate::sim::Sim;
 /// exists): the events, head, blobs and snapshots an embedded server would have written.
 /// Returns how many events it holds.
 pub fn export(cluster: &Cluster, id: &str, out: &Path) -> Result<usize, String> {
+    if !super::valid_id(id) {
+        return Err(format!("{} {id}", super::transfer::NO_LOG));
+    }
     whole::write_new_file(out, |staged| {
         cluster.materialize(id, staged, SyncMode::Full)?;
         whole::event_count(staged).map_err(|e| e.to_string())
@@ -27,10 +30,11 @@ pub fn import(cluster: &Cluster, file: &Path, new_id: Option<&str>) -> Result<St
     crate::log::replay::replay(&staged, None, |_, _| {}).map_err(|e| format!("{} does not verify: {e}", file.display()))?;
     let sim = Sim::recover(&staged, SyncMode::Normal).map_err(|e| format!("{} does not verify: {e}", file.display()))?;
     let entry = crate::sim::cluster::index_entry(&sim);
-    let epoch = cluster
-        .acquire(&id)
-        .map_err(|_| format!("a simulation with id {id} already exists in the cluster; pass --as NEW_ID"))?;
-    let uploaded = cluster.upload(&id, sim.log(), epoch).and_then(|_| cluster.index_put(&id, &entry));
-    cluster.release(&id);
-    uploaded.map(|()| id)
+    // No ownership is taken: the first node a call reaches takes it. The subject must be empty
+    // (an upload expects sequence 0), so an id the cluster has is refused.
+    cluster
+        .upload(&id, sim.log(), 0)
+        .map_err(|e| if e.contains("already exists") { format!("{e}; pass --as NEW_ID") } else { e })?;
+    cluster.index_put(&id, &entry)?;
+    Ok(id)
 }

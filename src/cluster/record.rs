@@ -25,7 +25,18 @@ pub enum Record {
     Takeover {
         /// The node that took it.
         node: String,
-        /// The revision of its lease.
+        /// The revision of its ownership record.
+        epoch: u64,
+    },
+    /// The simulation was destroyed (destroy_simulation on its owner): appended, fenced like
+    /// any commit, before anything of it is removed, so a node that lost its lease can neither
+    /// destroy it nor undo another node's acknowledged work; nothing may follow it. Readers
+    /// (a takeover, `export`, a sweep's materialisation) find no simulation in a subject that
+    /// holds it (docs/log-format.md "Cluster subjects").
+    Destroyed {
+        /// The node that destroyed it.
+        node: String,
+        /// The revision of its ownership record.
         epoch: u64,
     },
 }

@@ -39,7 +39,7 @@ impl SimReplica {
 
     /// Refuses to write once this node may no longer serve the simulation.
     fn check_lease(&self) -> Result<(), StoreError> {
-        if self.cluster.owns(&self.id) && self.cluster.held_epoch(&self.id) == Some(self.epoch) {
+        if self.cluster.serves(&self.id, self.epoch) {
             Ok(())
         } else {
             Err(StoreError::Fenced(format!(
@@ -97,5 +97,12 @@ impl Replica for SimReplica {
                 Err(e)
             }
         }
+    }
+
+    fn seal(&mut self) -> Result<(), StoreError> {
+        self.check_lease()?;
+        let seq = self.cluster.publish_destroyed(&self.id, self.expected, self.epoch)?;
+        self.expected = seq;
+        Ok(())
     }
 }

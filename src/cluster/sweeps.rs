@@ -7,10 +7,17 @@
 //! cluster has free. While a variant runs its worker sends in-progress acks; a node that dies
 //! stops sending them and JetStream gives its items to other sweepers after [`ACK_WAIT`].
 //! Progress and results travel on core NATS: progress on `NS.sweep.progress.SWEEP`, results as
-//! requests on `NS.sweep.done.SWEEP`, which the sweeping node answers (the first result for a
-//! variant is accepted, a later one — a redelivered item run again — is unwanted).
+//! requests on `NS.sweep.done.SWEEP`, which the sweeping node answers by what a result is —
+//! variant and attempt (one run of it, with its kept fork): the first attempt for a variant is
+//! accepted, and so is any repeat of that attempt (a worker asking again after an answer it
+//! never got); another attempt (a redelivered item run again) is unwanted.
 //! `NS.sweep.cancel.SWEEP` tells every node that a sweep is over, finished or cancelled (its
 //! running variants stop, its left-over items are dropped) and which kept forks to destroy.
+//! What became of a sweep is also written once, durably, in `NS_sweep_verdicts` (the kept forks
+//! its reply names; none if it was refused, cancelled or abandoned): a worker that holds a kept
+//! fork and never heard an answer follows the verdict, and when the sweeping node's lease is
+//! gone before it wrote one, the worker writes "abandoned" itself — the first write wins, so a
+//! fork a reply names is never destroyed and a fork no reply names is never kept.
 //! A payload too large for one message goes through the object store, as a large commit does.
 
 use std::future::Future;
@@ -43,13 +50,11 @@ pub const HEARTBEAT: Duration = Duration::from_secs(1);
 /// How long one pull waits for an item: how soon an idle sweeper notices a shutdown.
 const PULL_WAIT: Duration = Duration::from_secs(2);
 
-/// How long a worker waits for the sweeping node to answer one request, and how many times it
-/// asks before deciding the node is gone (nobody listens) or silent (no answer).
+/// How long a worker waits for the sweeping node to answer one request.
 const ANSWER_WAIT: Duration = Duration::from_secs(5);
-const ASKS: u32 = 3;
 
-/// Items no node wants any more (their sweeping node died) are dropped by JetStream after this.
-const ITEM_LIFE: Duration = Duration::from_secs(3600);
+/// How long a sweep's verdict is kept: far longer than any worker waits for one.
+const VERDICT_LIFE: Duration = Duration::from_secs(24 * 3600);
 
 /// The durable consumer all nodes share: one queue, each item to one sweeper at a time.
 const CONSUMER: &str = "sweepers";
@@ -85,6 +90,13 @@ pub struct WorkItem {
     /// The sweeping node's engine build: a node of another build (a rolling upgrade) gives the
     /// item back, since its results could differ.
     pub engine: String,
+    /// The sweeping node: while its lease lives, a worker waits for the sweep's answer or
+    /// verdict rather than give its result up.
+    #[serde(default)]
+    pub from: String,
+    /// The sweeping node's incarnation (its lease's token) when it sent the item.
+    #[serde(default)]
+    pub token: String,
 }
 
 /// A run's result, as a worker reports it.
@@ -92,6 +104,9 @@ pub struct WorkItem {
 pub struct Report {
     /// The variant's index.
     pub index: usize,
+    /// This run of the variant (a UUID): a repeat of a report is answered as the first was.
+    #[serde(default)]
+    pub attempt: String,
     /// The node that ran it.
     pub node: String,
     /// The kept fork's id, when kept (the reporting node holds it).
@@ -115,6 +130,18 @@ pub struct Over {
     pub discard: Vec<String>,
 }
 
+/// What became of a sweep, written once (`SweepQueue::decide`): the kept forks its reply
+/// names; none when it was refused, cancelled or abandoned.
+#[derive(Serialize, Deserialize, Default, Debug, Clone)]
+pub struct Verdict {
+    /// The forks that stay (every other fork of the sweep is destroyed by the node holding it).
+    #[serde(default)]
+    pub kept: Vec<String>,
+    /// Written by a worker that found the sweeping node's lease gone before it decided.
+    #[serde(default)]
+    pub abandoned: bool,
+}
+
 /// A payload that went to the object store; the message names it.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -129,9 +156,11 @@ pub enum Answer {
     Accepted,
     /// Another run's result came first: a kept fork goes.
     Unwanted,
-    /// Nobody listens for the sweep any more (it is over, or its node died): a kept fork goes.
+    /// Nobody listens for the sweep (it is over, its node died — or is reconnecting): the
+    /// verdict, or the sweeping node's lease, decides.
     Gone,
-    /// No answer: whether it counted is unknown, so the item is given back to run again.
+    /// No answer: whether it counted is unknown until an answer, the verdict or the sweeping
+    /// node's lease says.
     Silent,
 }
 
@@ -146,24 +175,34 @@ pub struct SweepQueue {
     cluster: Arc<Cluster>,
     consumer: PullConsumer,
     client: async_nats::Client,
+    /// `NS_sweep_verdicts`: what became of each sweep, written once.
+    verdicts: async_nats::jetstream::kv::Store,
 }
 
 impl SweepQueue {
     /// Creates the stream and the consumer, or opens them when another node did.
     pub fn open(cluster: &Arc<Cluster>) -> Result<SweepQueue, String> {
         let (js, ns, replicas) = (cluster.js.clone(), cluster.config.namespace.clone(), cluster.config.replicas);
-        let consumer = cluster.run(async move {
+        let (consumer, verdicts) = cluster.run(async move {
+            // Items live until their sweep is over (no age limit: a sweep may run for hours);
+            // the items of a sweeping node that died are dropped by the workers that pull them.
             let config = stream::Config {
                 name: stream_name(&ns),
                 subjects: vec![format!("{ns}.sweep.work.>")],
                 retention: stream::RetentionPolicy::WorkQueue,
                 num_replicas: replicas,
-                max_age: ITEM_LIFE,
                 ..Default::default()
             };
-            let stream = patiently(|| js.get_or_create_stream(config.clone()))
+            let mut stream = patiently(|| js.get_or_create_stream(config.clone()))
                 .await
                 .map_err(|e| format!("stream {}: {e}", config.name))?;
+            // A stream made by an earlier release dropped items after an hour: lifted.
+            if stream.cached_info().config.max_age != Duration::ZERO {
+                let mut lifted = stream.cached_info().config.clone();
+                lifted.max_age = Duration::ZERO;
+                patiently(|| js.update_stream(lifted.clone())).await.map_err(|e| format!("stream {}: {e}", config.name))?;
+                stream = patiently(|| js.get_stream(config.name.clone())).await.map_err(|e| format!("stream {}: {e}", config.name))?;
+            }
             let pulling = pull::Config {
                 durable_name: Some(CONSUMER.into()),
                 ack_policy: AckPolicy::Explicit,
@@ -172,11 +211,72 @@ impl SweepQueue {
                 filter_subject: format!("{ns}.sweep.work.>"),
                 ..Default::default()
             };
-            patiently(|| stream.get_or_create_consumer(CONSUMER, pulling.clone()))
+            let consumer = patiently(|| stream.get_or_create_consumer(CONSUMER, pulling.clone()))
                 .await
-                .map_err(|e| format!("consumer {CONSUMER} of {}: {e}", config.name))
+                .map_err(|e| format!("consumer {CONSUMER} of {}: {e}", config.name))?;
+            let verdicts = super::open_bucket(
+                &js,
+                async_nats::jetstream::kv::Config {
+                    bucket: format!("{ns}_sweep_verdicts"),
+                    history: 1,
+                    max_age: VERDICT_LIFE,
+                    num_replicas: replicas,
+                    ..Default::default()
+                },
+            )
+            .await
+            .map_err(|e| e.to_string())?;
+            Ok::<_, String>((consumer, verdicts))
         })?;
-        Ok(SweepQueue { cluster: cluster.clone(), consumer, client: cluster.js.client() })
+        Ok(SweepQueue { cluster: cluster.clone(), consumer, client: cluster.js.client(), verdicts })
+    }
+
+    /// Writes what became of `sweep`, unless a verdict is there already; returns the verdict
+    /// that holds (this one, or the one written first).
+    pub fn decide(&self, sweep: &str, verdict: &Verdict) -> Result<Verdict, String> {
+        let (verdicts, key) = (self.verdicts.clone(), sweep.to_string());
+        let bytes: Bytes = serde_json::to_vec(verdict).map_err(|e| e.to_string())?.into();
+        let mine = verdict.clone();
+        self.cluster.run_for(Duration::from_secs(30), async move {
+            patiently(|| async {
+                match verdicts.create(&key, bytes.clone()).await {
+                    Ok(_) => Ok(mine.clone()),
+                    Err(e) if e.kind() == async_nats::jetstream::kv::CreateErrorKind::AlreadyExists => {
+                        match super::lease::leader_entry(&verdicts, &key).await? {
+                            Some((b, _)) => serde_json::from_slice(&b).map_err(|e| e.to_string()),
+                            None => Err("a sweep's verdict vanished".to_string()),
+                        }
+                    }
+                    Err(e) => Err(e.to_string()),
+                }
+            })
+            .await
+        })?
+    }
+
+    /// What became of `sweep`, if it was decided.
+    pub fn verdict(&self, sweep: &str) -> Result<Option<Verdict>, String> {
+        let (verdicts, key) = (self.verdicts.clone(), sweep.to_string());
+        self.cluster.run_for(Duration::from_secs(30), async move {
+            let got = super::lease::leader_entry(&verdicts, &key).await?;
+            got.map(|(b, _)| serde_json::from_slice(&b).map_err(|e| e.to_string())).transpose()
+        })?
+    }
+
+    /// Whether the node that sent `item` still holds its lease (so its sweep may still be
+    /// answered). A cluster that cannot say is taken as yes: the worker asks again later.
+    pub fn sweeping_node_alive(&self, item: &WorkItem) -> bool {
+        if item.token.is_empty() {
+            return false;
+        }
+        let (cluster, node, token) = (self.cluster.clone(), item.from.clone(), item.token.clone());
+        let alive = self.cluster.run_for(Duration::from_secs(30), async move { cluster.node_alive(&node, &token).await });
+        !matches!(alive, Ok(Ok(false)))
+    }
+
+    /// This node's name and incarnation, for the items of its sweeps.
+    pub fn signature(&self) -> (String, String) {
+        (self.cluster.config.node.clone(), self.cluster.incarnation().unwrap_or_default())
     }
 
     /// This node's name (which the variants it runs are logged and reported under).
@@ -269,41 +369,20 @@ impl SweepQueue {
         });
     }
 
-    /// Whether a node still waits for the sweep's results (before running one of its items).
-    pub fn listening(&self, sweep: &str) -> bool {
-        self.ask(sweep, Vec::new()) != Answer::Gone
+    /// A run's result packed for `report` (the same bytes every time it is asked again).
+    pub fn packed(&self, report: &Report) -> Result<Vec<u8>, String> {
+        self.pack(report).map(|(payload, _)| payload)
     }
 
-    /// Sends a run's result to the sweeping node and returns its answer.
-    pub fn report(&self, sweep: &str, report: &Report) -> Answer {
-        match self.pack(report) {
-            Ok((payload, _)) => self.ask(sweep, payload),
-            Err(why) => {
-                tracing::warn!("the result of variant {} of sweep {sweep} could not be sent: {why}", report.index);
-                Answer::Silent
-            }
-        }
-    }
-
-    /// A request on the sweep's `done` subject, asked up to [`ASKS`] times.
-    fn ask(&self, sweep: &str, payload: Vec<u8>) -> Answer {
-        let (client, subject, payload) = (self.client.clone(), self.subject("done", sweep), Bytes::from(payload));
+    /// Sends a packed result to the sweeping node once and returns its answer.
+    pub fn report(&self, sweep: &str, packed: &[u8]) -> Answer {
+        let (client, subject, payload) = (self.client.clone(), self.subject("done", sweep), Bytes::copy_from_slice(packed));
         self.cluster.run(async move {
-            let mut nobody = 0;
-            for _ in 0..ASKS {
-                match tokio::time::timeout(ANSWER_WAIT, client.request(subject.clone(), payload.clone())).await {
-                    Ok(Ok(reply)) if reply.payload.as_ref() == UNWANTED => return Answer::Unwanted,
-                    Ok(Ok(_)) => return Answer::Accepted,
-                    Ok(Err(e)) if e.kind() == RequestErrorKind::NoResponders => nobody += 1,
-                    _ => {}
-                }
-                // A subscription just made may not have reached every server of the cluster.
-                tokio::time::sleep(Duration::from_millis(300)).await;
-            }
-            if nobody == ASKS {
-                Answer::Gone
-            } else {
-                Answer::Silent
+            match tokio::time::timeout(ANSWER_WAIT, client.request(subject, payload)).await {
+                Ok(Ok(reply)) if reply.payload.as_ref() == UNWANTED => Answer::Unwanted,
+                Ok(Ok(_)) => Answer::Accepted,
+                Ok(Err(e)) if e.kind() == RequestErrorKind::NoResponders => Answer::Gone,
+                _ => Answer::Silent,
             }
         })
     }

@@ -11,6 +11,21 @@ use async_nats::jetstream::stream::LastRawMessageErrorKind;
 
 use super::record::{blob_object, commit_object, snapshot_object, Commit, Record, WireEvent};
 use super::{Cluster, APPEND_PATIENCE, INLINE_COMMIT_MAX};
+
+/// The words a read of a subject that holds no simulation fails with (never made, or
+/// destroyed): callers answer "not found".
+pub const NO_LOG: &str = "the cluster holds no log for simulation";
+
+/// How long a read of one subject's end, or of one object, may take.
+const SUBJECT_WAIT: std::time::Duration = std::time::Duration::from_secs(30);
+
+/// How long a read of a whole subject may go without a message before it asks whether the
+/// subject still reaches the end it set out for.
+const MESSAGE_WAIT: std::time::Duration = std::time::Duration::from_secs(3);
+
+/// The most a whole subject's read may take (a log of 10,000 events reads in well under a
+/// second; a loaded machine and a large log get ample room).
+const READ_WHOLE_WAIT: std::time::Duration = std::time::Duration::from_secs(300);
 use crate::log::whole::{as_one_commit, write_log, CommitParts};
 use crate::log::{Event, EventLog, StoreError, SyncMode};
 
@@ -19,7 +34,7 @@ impl Cluster {
     /// (names are content hashes, so it holds the same bytes).
     pub fn put_object(&self, name: &str, bytes: &[u8]) -> Result<(), String> {
         let (store, name, bytes) = (self.objects.clone(), name.to_string(), bytes.to_vec());
-        self.run(async move {
+        self.run_for(READ_WHOLE_WAIT, async move {
             if store.info(&name).await.is_ok_and(|i| !i.deleted) {
                 return Ok(());
             }
@@ -30,13 +45,13 @@ impl Cluster {
             })
             .await
             .map_err(|e| format!("storing {name}: {e}"))
-        })
+        })?
     }
 
     /// The bytes of an object.
     pub fn get_object(&self, name: &str) -> Result<Vec<u8>, String> {
         let (store, name) = (self.objects.clone(), name.to_string());
-        self.run(async move {
+        self.run_for(READ_WHOLE_WAIT, async move {
             use tokio::io::AsyncReadExt;
             super::patiently(|| async {
                 let mut object = store.get(&name).await.map_err(|e| format!("reading {name}: {e}"))?;
@@ -48,7 +63,7 @@ impl Cluster {
                 Ok::<_, String>(bytes)
             })
             .await
-        })
+        })?
     }
 
     /// Publishes a commit on `subject` if the subject still ends at `expected`; returns its
@@ -124,31 +139,23 @@ impl Cluster {
 
     /// The sequence of the last message on a simulation's subject (0: none).
     pub fn last_sequence(&self, id: &str) -> Result<u64, String> {
-        let (stream, subject) = self.subject(id);
-        let js = self.js.clone();
-        self.run(async move {
-            super::patiently(|| async {
-                let stream = js.get_stream_no_info(&stream).await.map_err(|e| e.to_string())?;
-                match stream.get_last_raw_message_by_subject(&subject).await {
-                    Ok(m) => Ok(m.sequence),
-                    Err(e) if e.kind() == LastRawMessageErrorKind::NoMessageFound => Ok(0),
-                    Err(e) => Err(e.to_string()),
-                }
-            })
-            .await
-        })
-    }
-
-    /// Every commit on a simulation's subject in order, and the subject's last sequence.
-    pub fn read_commits(&self, id: &str) -> Result<(Vec<Commit>, u64), String> {
-        let last = self.last_sequence(id)?;
-        if last == 0 {
-            return Ok((Vec::new(), 0));
+        if !super::valid_id(id) {
+            return Ok(0);
         }
         let (stream, subject) = self.subject(id);
         let js = self.js.clone();
-        let records: Vec<Vec<u8>> =
-            self.run(async move { super::patiently(|| read_subject(&js, &stream, &subject, last)).await })?;
+        self.run_for(SUBJECT_WAIT, async move { last_on(&js, &stream, &subject).await })?
+    }
+
+    /// Every commit on a simulation's subject in order, and the subject's last sequence; None
+    /// when the subject holds no simulation (never made, purged, or ending in a `destroyed`
+    /// marker). Every wait has a deadline: a subject purged while it is read (a destroy) ends
+    /// the read instead of waiting for messages that are gone.
+    pub fn read_commits(&self, id: &str) -> Result<Option<(Vec<Commit>, u64)>, String> {
+        let (records, last) = self.raw_records_to_end(id)?;
+        if last == 0 {
+            return Ok(None);
+        }
         let mut commits = Vec::new();
         for bytes in records {
             match serde_json::from_slice::<Record>(&bytes)
@@ -165,18 +172,51 @@ impl Cluster {
                     }
                 }
                 Record::Takeover { .. } => {}
+                Record::Destroyed { .. } => return Ok(None),
             }
         }
-        Ok((commits, last))
+        if commits.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some((commits, last)))
+    }
+
+    /// Every message payload on `id`'s subject (empty: none).
+    pub(crate) fn raw_records(&self, id: &str) -> Result<Vec<Vec<u8>>, String> {
+        self.raw_records_to_end(id).map(|(records, _)| records)
+    }
+
+    /// Every message payload on `id`'s subject and the subject's last sequence (0: no
+    /// message). A read cut short (the subject was purged under it) is asked again.
+    fn raw_records_to_end(&self, id: &str) -> Result<(Vec<Vec<u8>>, u64), String> {
+        for _ in 0..3 {
+            let last = self.last_sequence(id)?;
+            if last == 0 {
+                return Ok((Vec::new(), 0));
+            }
+            if let Some(records) = self.records_up_to(id, last)? {
+                return Ok((records, last));
+            }
+        }
+        Err(format!("simulation {id}'s log kept changing while it was read"))
+    }
+
+    /// The payloads of `id`'s subject up to stream sequence `last` (as its end was seen a
+    /// moment ago); None when the subject no longer reaches `last` — it was purged while it was
+    /// read (a destroy). Never waits for messages that are gone.
+    pub fn records_up_to(&self, id: &str, last: u64) -> Result<Option<Vec<Vec<u8>>>, String> {
+        let (stream, subject) = self.subject(id);
+        let js = self.js.clone();
+        self.run_for(READ_WHOLE_WAIT, async move { read_subject(&js, &stream, &subject, last).await })?
     }
 
     /// Writes a simulation's log from its subject into a new SQLite file at `path`; returns
-    /// the subject's last sequence (what the next append must follow).
+    /// the subject's last sequence (what the next append must follow). A subject that holds
+    /// no simulation is [`NO_LOG`].
     pub fn materialize(&self, id: &str, path: &Path, sync: SyncMode) -> Result<u64, String> {
-        let (commits, last) = self.read_commits(id)?;
-        if commits.is_empty() {
-            return Err(format!("the cluster holds no log for simulation {id}"));
-        }
+        let Some((commits, last)) = self.read_commits(id)? else {
+            return Err(format!("{NO_LOG} {id}"));
+        };
         let mut parts = Vec::new();
         for commit in commits {
             let mut blobs = Vec::new();
@@ -196,6 +236,15 @@ impl Cluster {
         }
         write_log(path, id, sync, parts).map_err(|e| e.to_string())?;
         Ok(last)
+    }
+
+    /// Appends the `destroyed` marker to `id`'s subject if it still ends at `expected` (this
+    /// owner's view of it): the point at which destroy_simulation is decided.
+    pub fn publish_destroyed(&self, id: &str, expected: u64, epoch: u64) -> Result<u64, StoreError> {
+        let record = Record::Destroyed { node: self.config.node.clone(), epoch };
+        let payload = serde_json::to_vec(&record).map_err(|e| StoreError::Cluster(e.to_string()))?;
+        let subject = self.subject(id).1;
+        self.publish_fenced(&subject, payload, expected, &format!("{id}.{expected}.{}.{epoch}.destroyed", self.config.node))
     }
 
     /// Publishes a whole log as the first commit of an empty subject (refused if the subject
@@ -240,18 +289,33 @@ impl Cluster {
     }
 }
 
+/// The last sequence of `subject` in `stream` (0: no message), retried while it may pass.
+async fn last_on(js: &async_nats::jetstream::Context, stream: &str, subject: &str) -> Result<u64, String> {
+    super::patiently(|| async {
+        let stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
+        match stream.get_last_raw_message_by_subject(subject).await {
+            Ok(m) => Ok(m.sequence),
+            Err(e) if e.kind() == LastRawMessageErrorKind::NoMessageFound => Ok(0),
+            Err(e) => Err(e.to_string()),
+        }
+    })
+    .await
+}
+
 /// The payloads of a subject's messages up to stream sequence `last`, by an ordered consumer
-/// (one pass, not a request per message).
+/// (one pass, not a request per message). None: the subject ended before `last` (it was
+/// purged while read), seen from the consumer's count of what is left, or from a wait of
+/// [`MESSAGE_WAIT`] with no message after which the subject no longer reaches `last`.
 async fn read_subject(
     js: &async_nats::jetstream::Context,
     stream: &str,
     subject: &str,
     last: u64,
-) -> Result<Vec<Vec<u8>>, String> {
+) -> Result<Option<Vec<Vec<u8>>>, String> {
     use async_nats::jetstream::consumer::{pull, DeliverPolicy};
     use futures_util::StreamExt;
-    let stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
-    let consumer = stream
+    let js_stream = js.get_stream_no_info(stream).await.map_err(|e| e.to_string())?;
+    let consumer = js_stream
         .create_consumer(pull::OrderedConfig {
             filter_subject: subject.to_string(),
             deliver_policy: DeliverPolicy::All,
@@ -261,13 +325,25 @@ async fn read_subject(
         .map_err(|e| e.to_string())?;
     let mut messages = consumer.messages().await.map_err(|e| e.to_string())?;
     let mut out = Vec::new();
-    while let Some(m) = messages.next().await {
-        let m = m.map_err(|e| e.to_string())?;
-        let seq = m.info().map_err(|e| e.to_string())?.stream_sequence;
+    loop {
+        let m = match tokio::time::timeout(MESSAGE_WAIT, messages.next()).await {
+            Ok(Some(m)) => m.map_err(|e| e.to_string())?,
+            Ok(None) => return Err(format!("the cluster stopped sending {subject}")),
+            Err(_) => {
+                if last_on(js, stream, subject).await? < last {
+                    return Ok(None);
+                }
+                continue;
+            }
+        };
+        let info = m.info().map_err(|e| e.to_string())?;
+        let (seq, pending) = (info.stream_sequence, info.pending);
         out.push(m.payload.to_vec());
         if seq >= last {
-            break;
+            return Ok(Some(out));
+        }
+        if pending == 0 && last_on(js, stream, subject).await? < last {
+            return Ok(None);
         }
     }
-    Ok(out)
 }

@@ -11,6 +11,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::command::{Blob, Command};
+use crate::files::library::Format;
+use crate::files::model_files::ModelFiles;
 use crate::files::Reader;
 use crate::params;
 use crate::files::urdf::{MAX_MESH_BYTES, MAX_URDF_BYTES};
@@ -20,9 +22,9 @@ use crate::value::{self, Refusal};
 const MAX_INCLUDE_DEPTH: usize = 16;
 
 /// The text of an MJCF file (or include), within what is left of the model's byte budget.
-fn read_text(reader: &mut Reader, path: PathBuf, shown: &str, budget: &mut u64) -> Result<String, Refusal> {
+fn read_text(files: &mut ModelFiles, path: PathBuf, shown: &str, budget: &mut u64) -> Result<String, Refusal> {
     // The limit is the model's with its includes: what is left of it.
-    let (_, bytes) = reader.read_resolved(path, shown, *budget)?;
+    let bytes = files.read(path, shown, *budget)?;
     *budget -= bytes.len() as u64;
     String::from_utf8(bytes.to_vec()).map_err(|_| format!("{shown} is not an MJCF model: it is not UTF-8 text"))
 }
@@ -42,7 +44,7 @@ fn refuse_unresolvable(text: &str, shown: &str) -> Result<(), Refusal> {
 }
 
 /// The text with every `<include>` replaced by the included file's content, recursively.
-fn splice(reader: &mut Reader, text: &str, shown: &str, dir: &Path, chain: &mut Vec<PathBuf>, budget: &mut u64) -> Result<String, Refusal> {
+fn splice(files: &mut ModelFiles, text: &str, shown: &str, dir: &Path, chain: &mut Vec<PathBuf>, budget: &mut u64) -> Result<String, Refusal> {
     crate::world::xml_guard::check(text, shown)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| format!("{shown} is not well-formed XML: {e}"))?;
     refuse_unresolvable(text, shown)?;
@@ -66,17 +68,16 @@ fn splice(reader: &mut Reader, text: &str, shown: &str, dir: &Path, chain: &mut 
             return Err(format!("{shown} has an <include> without a file attribute"));
         }
         let candidate = dir.join(&file);
-        let path = reader
-            .sandbox()
-            .existing(&candidate.display().to_string())
+        let path = files
+            .existing(&candidate)
             .map_err(|why| format!("include {file} of {shown} cannot be read: {why}"))?;
         if chain.contains(&path) {
             return Err(format!("include {file} of {shown} includes itself (a cycle)"));
         }
         let inner_shown = format!("include {file}");
-        let inner_text = read_text(reader, path.clone(), &inner_shown, budget)?;
+        let inner_text = read_text(files, path.clone(), &inner_shown, budget)?;
         chain.push(path);
-        let inner = splice(reader, &inner_text, &inner_shown, dir, chain, budget)?;
+        let inner = splice(files, &inner_text, &inner_shown, dir, chain, budget)?;
         chain.pop();
         let inner_doc = roxmltree::Document::parse(&inner).map_err(|e| format!("include {file} is not well-formed XML: {e}"))?;
         let root = inner_doc.root_element();
@@ -102,48 +103,63 @@ pub fn decide_load_mjcf(reader: &mut Reader, a: &value::Args) -> Result<Command,
 }
 
 /// Builds load_mjcf's command: the MJCF text, its includes spliced in, and its meshes travel
-/// in it; every file is read through `reader` (once per request).
+/// in it; every file is read through `reader` (once per request). The model is the
+/// workspace's file of that name, else the built-in model of that name (`library`).
 pub fn load_mjcf_command(reader: &mut Reader, p: &params::LoadMjcf) -> Result<Command, Refusal> {
     let user = p.file_path.0.clone();
-    let position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
-    let orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
-    let fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
-    let keyframe = p.keyframe.as_ref().map(|k| k.0.clone());
-    let use_model_options = p.use_model_options.as_ref().is_some_and(|b| b.0);
-    let path = reader.sandbox().existing(&user)?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| reader.sandbox().workspace.clone());
+    let (files, at) = ModelFiles::locate(reader, &user, Format::Mjcf)?;
+    let mut command = mjcf_command(files, at, &user)?;
+    if let Command::LoadMjcf { position, orientation, fixed_base, keyframe, use_model_options, .. } = &mut command {
+        *position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
+        *orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
+        *fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
+        *keyframe = p.keyframe.as_ref().map(|k| k.0.clone());
+        *use_model_options = p.use_model_options.as_ref().is_some_and(|b| b.0);
+    }
+    Ok(command)
+}
+
+/// load_mjcf's command for built-in model `name` at the origin, its base as the file says
+/// (what list_models describes), read from the library alone.
+pub fn builtin_command(name: &str) -> Result<Command, Refusal> {
+    mjcf_command(ModelFiles::Builtin(None), PathBuf::from(name), name)
+}
+
+/// The command loading the MJCF model at `at` among `files` (at the origin, no keyframe, the
+/// simulation's own options), its includes and meshes read from the same files.
+fn mjcf_command(mut files: ModelFiles, at: PathBuf, user: &str) -> Result<Command, Refusal> {
+    let dir = files.folder(&at);
     let mut budget = MAX_URDF_BYTES;
     let shown = format!("file_path {user}");
-    let text = read_text(reader, path.clone(), &shown, &mut budget)?;
-    let mut chain = vec![path];
-    let spliced = splice(reader, &text, &shown, &dir, &mut chain, &mut budget)?;
-    let meshes = read_meshes(reader, &spliced, &dir, &user)?;
+    let text = read_text(&mut files, at.clone(), &shown, &mut budget)?;
+    let mut chain = vec![at];
+    let spliced = splice(&mut files, &text, &shown, &dir, &mut chain, &mut budget)?;
+    let meshes = read_meshes(&mut files, &spliced, &dir, user)?;
     Ok(Command::LoadMjcf {
-        file_path: user,
+        file_path: user.to_string(),
         mjcf: Blob::new(spliced.into_bytes()),
         meshes,
-        position,
-        orientation,
-        fixed_base,
-        keyframe,
+        position: [0.0; 3],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        fixed_base: false,
+        keyframe: None,
         parent_filter: true,
-        use_model_options,
+        use_model_options: false,
         parsed: Default::default(),
     })
 }
 
 /// Every mesh file the model's geoms use, read through the sandbox within the URDF mesh limit
 /// (their total), by the `<mesh file>` written in the model.
-fn read_meshes(reader: &mut Reader, xml: &str, dir: &Path, user: &str) -> Result<BTreeMap<String, Blob>, Refusal> {
+fn read_meshes(files: &mut ModelFiles, xml: &str, dir: &Path, user: &str) -> Result<BTreeMap<String, Blob>, Refusal> {
     let mut meshes = BTreeMap::new();
     let mut total = 0u64;
     for (file, path) in crate::world::mjcf_mesh::mesh_files(xml, dir) {
         let shown = format!("mesh {file} of {user}");
-        let path = reader
-            .sandbox()
-            .existing(&path.display().to_string())
+        let path = files
+            .existing(&path)
             .map_err(|why| format!("{shown} cannot be read: {why}"))?;
-        let (_, bytes) = reader.read_resolved(path, &shown, MAX_MESH_BYTES.saturating_sub(total))?;
+        let bytes = files.read(path, &shown, MAX_MESH_BYTES.saturating_sub(total))?;
         total += bytes.len() as u64;
         meshes.insert(file, Blob::from_shared(bytes));
     }

@@ -136,6 +136,31 @@ impl Reader {
         self.read_resolved(path, shown, limit)
     }
 
+    /// The bytes of built-in file `name` (`library`), at most `limit`, read like a workspace
+    /// file: once per request, counted in its budget. Kept under the relative path `name`,
+    /// which no canonical workspace path equals.
+    pub fn read_builtin(&mut self, name: &str, shown: &str, limit: u64) -> Result<Arc<Vec<u8>>, Refusal> {
+        let key = PathBuf::from(name);
+        if let Some(bytes) = self.read.get(&key) {
+            if bytes.len() as u64 > limit {
+                return Err(too_big(shown, bytes.len() as u64, limit));
+            }
+            return Ok(bytes.clone());
+        }
+        let bytes = super::library::read(name).ok_or_else(|| format!("{shown} is not in the built-in library"))?;
+        let size = bytes.len() as u64;
+        if size > limit {
+            return Err(too_big(shown, size, limit));
+        }
+        if size > self.left {
+            return Err(format!("{shown} does not fit what one request may read ({REQUEST_FILE_BYTES} bytes of files in all); split the request"));
+        }
+        self.left -= size;
+        let bytes = Arc::new(bytes);
+        self.read.insert(key, bytes.clone());
+        Ok(bytes)
+    }
+
     /// `read` of a path the sandbox already resolved (`Sandbox::existing`).
     pub fn read_resolved(&mut self, path: PathBuf, shown: &str, limit: u64) -> Result<(PathBuf, Arc<Vec<u8>>), Refusal> {
         if let Some(bytes) = self.read.get(&path) {

@@ -53,7 +53,12 @@ impl Sandbox {
     /// The canonical path of an existing entry to read (whether it is a regular file is
     /// checked on the opened handle, by `read`).
     pub fn existing(&self, user: &str) -> Result<PathBuf, Refusal> {
-        self.probe(user)?.ok_or_else(|| format!("file_path {user} does not exist in the workspace {}", self.workspace.display()))
+        self.probe(user)?.ok_or_else(|| self.missing(user))
+    }
+
+    /// The sentence for a path inside the workspace with nothing there.
+    pub fn missing(&self, user: &str) -> Refusal {
+        format!("file_path {user} does not exist in the workspace {}", self.workspace.display())
     }
 
     /// Where `user` resolves: Some(canonical path) when it exists inside the workspace, None
@@ -66,8 +71,10 @@ impl Sandbox {
         }
     }
 
-    /// The path to write `user` at: its parent directories are created inside the workspace;
-    /// an existing symlink at the target must itself point inside the workspace.
+    /// The path to write `user` at, checked to be inside the workspace (an existing symlink at
+    /// the target must itself point inside it). Nothing is created here: the folders are made
+    /// by the write itself (`write.rs`), once the call is accepted, so a refused call leaves no
+    /// trace on disk.
     pub fn writable(&self, user: &str) -> Result<PathBuf, Refusal> {
         if user.is_empty() {
             return Err("file_path must be a non-empty path".into());
@@ -104,8 +111,6 @@ impl Sandbox {
             let resolved = target.canonicalize().map_err(|_| self.denied(user))?;
             self.check_inside(&resolved, user)?;
         }
-        std::fs::create_dir_all(&canon_parent)
-            .map_err(|e| format!("could not create the folder for {user}: {e}"))?;
         Ok(target)
     }
 

@@ -1,19 +1,21 @@
-//! The adapter side of robots: reading a URDF and its meshes from the workspace (the world
-//! never reads files), the built-in assets, and writing generated URDFs.
+//! The adapter side of robots: reading a URDF and its meshes from the workspace or the
+//! built-in library (the world never reads files), and writing generated URDFs.
 //!
 //! A URDF's meshes are resolved against the URDF's folder: relative names directly,
 //! `package://pkg/rest` by trying `rest` and `pkg/rest` in the URDF's folder and each folder
-//! above it up to the workspace root, `file://` as a path. Every candidate goes through the
-//! sandbox; a missing or unreadable mesh is an error, never a silently missing collider.
+//! above it up to the workspace root (the library's top for a built-in), `file://` as a path.
+//! Every candidate goes through the sandbox (or the library); a missing or unreadable mesh is
+//! an error, never a silently missing collider.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use crate::command::{Blob, Command};
 use crate::params::lenient::{NumList, Positive};
 use crate::params;
 use crate::files::write::{self, write_owned, Owned};
+use crate::files::library::Format;
+use crate::files::model_files::ModelFiles;
 use crate::files::{Reader, Sandbox};
 use crate::value::{self, Refusal};
 use crate::world::urdf::mesh_names;
@@ -23,64 +25,62 @@ pub const MAX_URDF_BYTES: u64 = 8 << 20;
 /// Largest total of a robot's mesh files.
 pub const MAX_MESH_BYTES: u64 = 64 << 20;
 
-/// Built into the binary, found by name when the workspace has no such file.
-const BUILTIN: [(&str, &str); 3] = [
-    ("plane.urdf", include_str!("../../assets/plane.urdf")),
-    ("cube.urdf", include_str!("../../assets/cube.urdf")),
-    ("sphere.urdf", include_str!("../../assets/sphere.urdf")),
-];
-
-/// A built-in asset's text by its name.
-pub fn builtin(name: &str) -> Option<&'static str> {
-    BUILTIN.iter().find(|(n, _)| *n == name).map(|(_, text)| *text)
-}
-
 /// Builds load_urdf's command from its arguments (as a loaded file's robot entry gives them).
 pub fn decide_load_urdf(reader: &mut Reader, a: &value::Args) -> Result<Command, Refusal> {
     load_urdf_command(reader, &params::parse("load_urdf", a)?)
 }
 
 /// Builds load_urdf's command: the URDF text and every mesh it names, read now through
-/// `reader` (once per request), travel in it.
+/// `reader` (once per request), travel in it. The URDF is the workspace's file of that name,
+/// else the built-in model of that name (`library`).
 pub fn load_urdf_command(reader: &mut Reader, p: &params::LoadUrdf) -> Result<Command, Refusal> {
     let user = p.file_path.0.clone();
-    let position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
-    let orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
-    let fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
-    let (text, dir) = match reader.sandbox().existing(&user) {
-        Ok(path) => {
-            let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| reader.sandbox().workspace.clone());
-            let (_, bytes) = reader.read_resolved(path, &format!("file_path {user}"), MAX_URDF_BYTES)?;
-            (bytes, dir)
-        }
-        Err(why) => match builtin(&user) {
-            Some(text) => (Arc::new(text.as_bytes().to_vec()), reader.sandbox().workspace.clone()),
-            None => return Err(why),
-        },
-    };
+    let (files, at) = ModelFiles::locate(reader, &user, Format::Urdf)?;
+    let mut command = urdf_command(files, at, &user)?;
+    if let Command::LoadUrdf { position, orientation, fixed_base, .. } = &mut command {
+        *position = p.position.as_ref().map_or([0.0; 3], |v| v.0);
+        *orientation = p.orientation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
+        *fixed_base = p.use_fixed_base.as_ref().is_some_and(|b| b.0);
+    }
+    Ok(command)
+}
+
+/// load_urdf's command for built-in model `name` at the origin, its base as the file says
+/// (what list_models describes), read from the library alone.
+pub fn builtin_command(name: &str) -> Result<Command, Refusal> {
+    urdf_command(ModelFiles::Builtin(None), PathBuf::from(name), name)
+}
+
+/// The command loading the URDF at `at` among `files` (at the origin), its meshes read from
+/// the same files; `user` is the path as given.
+fn urdf_command(mut files: ModelFiles, at: PathBuf, user: &str) -> Result<Command, Refusal> {
+    let dir = files.folder(&at);
+    let text = files.read(at, &format!("file_path {user}"), MAX_URDF_BYTES)?;
     let utf8 = std::str::from_utf8(&text).map_err(|_| format!("file_path {user} is not a valid URDF: it is not UTF-8 text"))?;
     let mut meshes = BTreeMap::new();
     let mut total = 0u64;
     for name in mesh_names(utf8)? {
-        let path = resolve_mesh(reader.sandbox(), &dir, &name, &user)?;
-        let (_, bytes) = reader.read_resolved(path, &format!("mesh {name}"), MAX_MESH_BYTES.saturating_sub(total))?;
+        let path = resolve_mesh(&files, &dir, &name, user)?;
+        let bytes = files.read(path, &format!("mesh {name}"), MAX_MESH_BYTES.saturating_sub(total))?;
         total += bytes.len() as u64;
         meshes.insert(name, Blob::from_shared(bytes));
     }
     Ok(Command::LoadUrdf {
-        file_path: user,
+        file_path: user.to_string(),
         urdf: Blob::from_shared(text),
         meshes,
-        position,
-        orientation,
-        fixed_base,
+        position: [0.0; 3],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        fixed_base: false,
         continuous_limits_from_file: true,
         revolute_prismatic_limits_from_file: true,
+        inertials_as_pybullet: true,
         parsed: Default::default(),
     })
 }
 
-fn resolve_mesh(sandbox: &Sandbox, dir: &Path, name: &str, urdf: &str) -> Result<PathBuf, Refusal> {
+fn resolve_mesh(files: &ModelFiles, dir: &Path, name: &str, urdf: &str) -> Result<PathBuf, Refusal> {
+    let root = files.root();
     let candidates: Vec<PathBuf> = if let Some(rest) = name.strip_prefix("package://") {
         let rest = Path::new(rest);
         let without_package: PathBuf = rest.components().skip(1).collect();
@@ -88,7 +88,7 @@ fn resolve_mesh(sandbox: &Sandbox, dir: &Path, name: &str, urdf: &str) -> Result
         for folder in dir.ancestors() {
             c.push(folder.join(&without_package));
             c.push(folder.join(rest));
-            if folder == sandbox.workspace || !folder.starts_with(&sandbox.workspace) {
+            if folder == root || !folder.starts_with(&root) {
                 break;
             }
         }
@@ -98,7 +98,7 @@ fn resolve_mesh(sandbox: &Sandbox, dir: &Path, name: &str, urdf: &str) -> Result
     };
     let mut refusal = None;
     for c in &candidates {
-        match sandbox.probe(&c.display().to_string()) {
+        match files.probe(c) {
             Ok(Some(p)) => return Ok(p),
             Ok(None) => {}
             Err(why) => refusal = refusal.or(Some(why)),

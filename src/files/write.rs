@@ -9,6 +9,8 @@
 //!   generator's comment), anything else only with `overwrite: true`.
 //! - **The command line's outputs** (`report -o`, `replay --render/--trajectory`) never replace
 //!   a file without `--force`.
+//! - **A client's own files** (write_file) are created new; an existing regular file is
+//!   replaced only with `overwrite: true`; links and special files never are.
 //!
 //! Every write is atomic (temporary file in the same folder, fsynced, renamed) and gets the
 //! usual permissions (0666 less the umask); the data directory and its MAC key are not user
@@ -59,6 +61,12 @@ fn staged(target: &Path, bytes: &[u8], sandbox: Option<&Sandbox>) -> Result<temp
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
+    // A user file's folders are made now that the call was accepted (`Sandbox::writable`
+    // checked them inside the workspace; the temporary file's real folder is checked again
+    // below). The command line's outputs go to folders that exist.
+    if sandbox.is_some() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("could not create the folder for {}: {e}", target.display()))?;
+    }
     let mut builder = tempfile::Builder::new();
     builder.prefix(".physics-mcp-");
     #[cfg(unix)]
@@ -178,4 +186,86 @@ pub fn write_operator_file(path: &Path, bytes: &[u8], force: bool) -> Result<(),
         Err(e) if e.kind() == ErrorKind::AlreadyExists => Err(format!("{shown} already exists; pass --force to replace it")),
         Err(e) => Err(format!("could not write {shown}: {e}")),
     }
+}
+
+/// write_file: `bytes` as the workspace file `user` (at `target`, from `Sandbox::writable`),
+/// a regular file only. A new file is created (of two writers to one new path exactly one
+/// wins); an existing regular file is replaced only with `overwrite`; a symbolic link, folder,
+/// FIFO, socket or device at the path is refused either way, so nothing is written through a
+/// link or into a special file. Every refusal leaves the path as it was.
+pub fn write_client_file(sandbox: &Sandbox, target: &Path, user: &str, bytes: &[u8], overwrite: bool) -> Result<(), Refusal> {
+    let refuse_kind = |meta: &std::fs::Metadata| -> Result<(), Refusal> {
+        let kind = meta.file_type();
+        let what = if kind.is_symlink() {
+            "a symbolic link"
+        } else if kind.is_dir() {
+            "a folder"
+        } else if !kind.is_file() {
+            "not a regular file (a FIFO, socket or device)"
+        } else {
+            return Ok(());
+        };
+        Err(format!("path {user} is {what}; write_file writes regular files only"))
+    };
+    match target.symlink_metadata() {
+        Ok(meta) => {
+            refuse_kind(&meta)?;
+            if !overwrite {
+                return Err(format!("path {user} already exists; give overwrite: true to replace it, or a new path"));
+            }
+            let tmp = staged(target, bytes, Some(sandbox))?;
+            // Still the regular file looked at (not swapped for a link or a FIFO meanwhile)?
+            // A rename replaces the directory entry itself, never what a link points to.
+            if let Ok(now) = target.symlink_metadata() {
+                refuse_kind(&now)?;
+            }
+            tmp.persist(target).map(|_| ()).map_err(|e| format!("could not write {user}: {}", e.error))
+        }
+        Err(_) => {
+            let tmp = staged(target, bytes, Some(sandbox))?;
+            match tmp.persist_noclobber(target) {
+                Ok(_) => Ok(()),
+                Err(e) if e.error.kind() == ErrorKind::AlreadyExists => {
+                    Err(format!("path {user} was created by someone else meanwhile; give overwrite: true to replace it, or a new path"))
+                }
+                Err(e) => Err(format!("could not write {user}: {}", e.error)),
+            }
+        }
+    }
+}
+
+/// write_file's whole work: the content (text, or base64 for bytes) checked against
+/// `max_bytes` before anything is decoded or written, the path resolved inside the workspace
+/// (its folders created), then written under `write_client_file`'s rules.
+pub fn write_file(sandbox: &Sandbox, p: &crate::params::WriteFile, max_bytes: usize) -> Result<crate::outputs::FileWritten, Refusal> {
+    use base64::Engine as _;
+    let user = &p.path.0;
+    let over = |size: usize| format!("the file would be {size} bytes; write_file writes at most {max_bytes} (--max-write-bytes)");
+    let bytes = match (&p.content, &p.content_base64) {
+        (Some(_), Some(_)) => return Err("give content or content_base64, not both".into()),
+        (None, None) => return Err("content or content_base64 is required: the file as text, or as base64 for bytes".into()),
+        (Some(text), None) => {
+            if text.0.len() > max_bytes {
+                return Err(over(text.0.len()));
+            }
+            text.0.clone().into_bytes()
+        }
+        (None, Some(b64)) => {
+            let packed: Vec<u8> = b64.0.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
+            // Three bytes for every four characters: refused before decoding when surely over.
+            if packed.len() / 4 * 3 > max_bytes.saturating_add(2) {
+                return Err(over(packed.len() / 4 * 3));
+            }
+            let bytes = base64::engine::general_purpose::STANDARD
+                .decode(&packed)
+                .map_err(|e| format!("content_base64 is not valid base64: {e}"))?;
+            if bytes.len() > max_bytes {
+                return Err(over(bytes.len()));
+            }
+            bytes
+        }
+    };
+    let target = sandbox.writable(user).map_err(|why| why.replacen("file_path ", "path ", 1))?;
+    write_client_file(sandbox, &target, user, &bytes, p.overwrite.as_ref().is_some_and(|b| b.0))?;
+    Ok(crate::outputs::FileWritten { path: sandbox.shown(&target), bytes: bytes.len() as u64 })
 }

@@ -2,6 +2,7 @@
 //! exclusive lock and the saved-file MAC key. Private to the server: created 0700, the key
 //! 0600. (User files go through `crate::files`.)
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Creates `dir` (the data directory privately, `private`) and refuses `/` or the home
@@ -42,13 +43,20 @@ pub fn lock(data_dir: &Path) -> anyhow::Result<std::fs::File> {
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
     if tries == 40 && lock.try_lock().is_err() {
+        let holder = std::fs::read_to_string(&lock_path).ok().and_then(|s| s.trim().parse::<u32>().ok());
         anyhow::bail!(
-            "another physics-mcp process is using the data directory {} (it holds {}); \
-             stop it or pass a different --data",
+            "another physics-mcp process{} is using the data directory {} (it holds {}), and a \
+             data directory serves one process at a time: stop that one, or give this one its own \
+             directories with --data DIR --workspace DIR (in an MCP client's config: \
+             \"args\": [\"physics-mcp\", \"stdio\", \"--data\", \"DIR\", \"--workspace\", \"DIR\"]), \
+             or connect both clients to one `physics-mcp serve` over HTTP",
+            holder.map(|pid| format!(" (pid {pid})")).unwrap_or_default(),
             data_dir.display(),
             lock_path.display()
         );
     }
+    // Who holds it, for the message above in the next process that tries.
+    let _ = lock.set_len(0).and_then(|()| (&lock).write_all(format!("{}\n", std::process::id()).as_bytes()));
     Ok(lock)
 }
 

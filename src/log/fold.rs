@@ -45,6 +45,18 @@ pub enum FoldError {
         /// The event.
         seq: u64,
     },
+    /// The re-simulation's caller stopped it at this event: its client cancelled the request
+    /// or went away (`Bounds::stop`).
+    Cancelled {
+        /// The event.
+        seq: u64,
+    },
+    /// The re-simulation would cost more than its caller allows (`Bounds::max_work`); refused
+    /// before anything was folded. The sentence says what would fit.
+    OverBudget {
+        /// The refusal sentence (`Price::refusal`).
+        why: String,
+    },
     /// The world after the event is not the one the event recorded.
     Diverged {
         /// The event.
@@ -65,9 +77,26 @@ impl std::fmt::Display for FoldError {
             FoldError::Refused { seq, why } => write!(f, "event {seq} is refused: {why}"),
             FoldError::NeedsFile { seq, file } => write!(f, "event {seq} needs file {file}, which the log does not hold"),
             FoldError::Stopped { seq } => write!(f, "{} at event {seq}", crate::shutdown::STOPPED),
+            FoldError::Cancelled { seq } => write!(f, "{CANCELLED} (at event {seq})"),
+            FoldError::OverBudget { why } => f.write_str(why),
             FoldError::Diverged { seq, tool, expected, actual } => {
                 write!(f, "state hash diverges at seq {seq} ({tool}): expected {expected}, got {actual}")
             }
+        }
+    }
+}
+
+/// The sentence a re-simulation stopped by its caller ends with: nobody waits for its answer.
+pub const CANCELLED: &str = "The request was cancelled or its client went away; the re-simulation was stopped";
+
+impl FoldError {
+    /// The sentence a caller shows for this error, `what` (e.g. "The interval could not be
+    /// re-simulated") leading the ones that say the log is at fault; a stop or a refusal over
+    /// budget is its own sentence.
+    pub fn explained(&self, what: &str) -> String {
+        match self {
+            FoldError::Cancelled { .. } | FoldError::OverBudget { .. } => self.to_string(),
+            _ => format!("{what}: {self}"),
         }
     }
 }
@@ -344,6 +373,13 @@ pub struct Lent {
     pub chain: Vec<(Event, Command)>,
     /// The stretch to observe.
     pub interval: Interval,
+    /// Steps of `interval.to_seq`'s step event the caller needs (None: all of them): a moment
+    /// inside a step event (the viewer's `poses?seq&step`, whose observer stops there) is
+    /// priced only that far.
+    pub until_step: Option<u64>,
+    /// The seqs of the chain's later snapshots (after `chain[0]`), for saying which later
+    /// `from_seq` would start from one (`Price::refusal`).
+    pub snapshots: Vec<u64>,
 }
 
 impl std::fmt::Debug for Lent {
@@ -364,6 +400,121 @@ impl Lent {
             })
             .sum()
     }
+}
+
+/// What re-simulating a lent chain costs, in body-steps (steps × objects, as `work` counts
+/// them), priced before anything is folded: from the start world's object count, each
+/// command's change to it (an added object or model counts one, a removal takes one away — an
+/// upper bound, since a load that fails adds none) and each step event's steps.
+#[derive(Clone, Debug)]
+pub struct Price {
+    /// (seq, body-steps from the start through that event), oldest first.
+    pub through: Vec<(u64, u64)>,
+}
+
+impl Price {
+    /// Prices `lent` from a start world of `objects` objects.
+    pub fn of(lent: &Lent, objects: usize) -> Price {
+        let mut objects = objects as u64;
+        let mut total = 0u64;
+        let mut through = Vec::with_capacity(lent.chain.len());
+        for (i, (e, cmd)) in lent.chain.iter().enumerate() {
+            if i > 0 {
+                match cmd {
+                    Command::AddBody { .. } | Command::LoadUrdf { .. } | Command::LoadMjcf { .. } => objects += 1,
+                    Command::RemoveObject { .. } => objects = objects.saturating_sub(1),
+                    Command::StepSimulation { steps } => {
+                        let steps = match lent.until_step {
+                            Some(k) if e.seq == lent.interval.to_seq => k.min(*steps),
+                            _ => *steps,
+                        };
+                        total = total.saturating_add(steps.saturating_mul(objects.max(1)));
+                    }
+                    _ => {}
+                }
+            }
+            through.push((e.seq, total));
+        }
+        Price { through }
+    }
+
+    /// The whole re-simulation's cost.
+    pub fn total(&self) -> u64 {
+        self.through.last().map_or(0, |(_, w)| *w)
+    }
+
+    /// Refuses a re-simulation of `lent` costing more than `max` body-steps (`--max-work`), in one
+    /// sentence that says what fits: the latest `to_seq` whose re-simulation does, or the
+    /// earliest later `from_seq` that starts from a snapshot close enough.
+    pub fn check(&self, lent: &Lent, max: u64) -> Result<(), FoldError> {
+        let total = self.total();
+        if total <= max {
+            return Ok(());
+        }
+        let Interval { from_seq, to_seq } = lent.interval;
+        let start = self.through.first().map_or(from_seq, |(s, _)| *s);
+        let cost_at = |seq: u64| self.through.iter().find(|(s, _)| *s == seq).map_or(0, |(_, w)| *w);
+        let mut fits = Vec::new();
+        if let Some((seq, _)) = self.through.iter().rev().find(|(s, w)| *s > from_seq && *s < to_seq && *w <= max) {
+            fits.push(format!("a to_seq at or before {seq}"));
+        }
+        if let Some(seq) = lent.snapshots.iter().find(|s| **s > from_seq && **s < to_seq && total - cost_at(**s) <= max) {
+            fits.push(format!("a from_seq at or after {seq} (a snapshot is kept there)"));
+        }
+        let fits = if fits.is_empty() {
+            "no shorter interval of these events fits; a server started with a higher --max-work can re-simulate it".to_string()
+        } else {
+            format!("{} fits", fits.join(", or "))
+        };
+        Err(FoldError::OverBudget {
+            why: format!(
+                "Re-simulating simulation {}'s events {start} to {to_seq} would cost {total} body-steps (steps × objects), over the {max} one request may cost (--max-work); {fits}",
+                lent.id
+            ),
+        })
+    }
+}
+
+/// What a re-simulation on this thread may cost and who may stop it, set by its caller around
+/// the work (`bounded`): a client's request is held to `--max-work` and stopped when the client
+/// cancels or goes away; the command line (`replay`, `report`) runs unbounded.
+#[derive(Clone, Debug, Default)]
+pub struct Bounds {
+    /// Cancelled when nobody waits for the answer any more.
+    pub stop: Option<tokio_util::sync::CancellationToken>,
+    /// Most body-steps one re-simulation may cost (None: any).
+    pub max_work: Option<u64>,
+}
+
+impl Bounds {
+    /// Whether the caller has stopped the work.
+    pub fn stopped(&self) -> bool {
+        self.stop.as_ref().is_some_and(|s| s.is_cancelled())
+    }
+}
+
+thread_local! {
+    static BOUNDS: std::cell::RefCell<Bounds> = std::cell::RefCell::new(Bounds::default());
+}
+
+/// Runs `f` with every re-simulation it makes on this thread held to `bounds` (the ones in force
+/// before are back afterwards, even if `f` panics).
+pub fn bounded<T>(bounds: Bounds, f: impl FnOnce() -> T) -> T {
+    struct Restore(Option<Bounds>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            if let Some(b) = self.0.take() {
+                BOUNDS.with(|cell| *cell.borrow_mut() = b);
+            }
+        }
+    }
+    let _restore = Restore(Some(BOUNDS.with(|cell| cell.replace(bounds))));
+    f()
+}
+
+/// The bounds in force on this thread (`bounded`).
+pub fn current_bounds() -> Bounds {
+    BOUNDS.with(|cell| cell.borrow().clone())
 }
 
 fn is_step(e: &Event) -> bool {
@@ -409,7 +560,9 @@ pub fn lend(log: &dyn EventLog, id: &str, from: Option<u64>, to: Option<u64>) ->
             Ok((e, cmd))
         })
         .collect::<Result<Vec<_>, String>>()?;
-    Ok(Lent { id: id.to_string(), start, chain, interval: Interval { from_seq: from, to_seq: to } })
+    let taken: BTreeSet<u64> = log.snapshot_seqs().map_err(read)?.into_iter().collect();
+    let snapshots = chain.iter().skip(1).map(|(e, _)| e.seq).filter(|s| taken.contains(s)).collect();
+    Ok(Lent { id: id.to_string(), start, chain, interval: Interval { from_seq: from, to_seq: to }, until_step: None, snapshots })
 }
 
 /// Where an observer is called during a re-simulation.
@@ -486,13 +639,24 @@ pub type Observer<'a> = &'a mut (dyn FnMut(&World, &Moment) -> bool + Send);
 /// calls `observer` at the interval's start, every `every` steps (≥ 1) inside step events,
 /// and after every event of the interval. Returns the world at the interval's end. Nothing
 /// live is touched: a `Lent` is a copy.
+///
+/// Held to the thread's `Bounds`: priced (`Price`) once the start world is restored and
+/// refused over `max_work` before any event is folded; stopped at the next step when `stop`
+/// is cancelled (as by shutdown, with its own sentence).
 pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, FoldError> {
     let every = every.max(1);
+    let bounds = current_bounds();
     let (first, _) = lent.chain.first().ok_or(FoldError::Undecodable { seq: lent.interval.to_seq, why: "the chain is empty".into() })?;
+    if bounds.stopped() {
+        return Err(FoldError::Cancelled { seq: first.seq });
+    }
     let mut world = match &lent.start {
         Some(bytes) => World::restore(&lent.id, false, bytes).map_err(|why| FoldError::Undecodable { seq: first.seq, why })?,
         None => create_root(first, &crate::command::NoBlobs)?.0.with_identity(&lent.id, false),
     };
+    if let Some(max) = bounds.max_work {
+        Price::of(lent, world.object_count()).check(lent, max)?;
+    }
     check_hash(&world, first)?;
     let Interval { from_seq, to_seq } = lent.interval;
     let start = |world: &World, observer: &mut (dyn FnMut(&World, &Moment) -> bool + Send)| {
@@ -520,11 +684,15 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
                     stop.store(!observer(w, &m), Relaxed);
                 }
             };
-            let mut control = |_: u64| !stop.load(Relaxed) && !crate::shutdown::requested();
+            let mut control = |_: u64| !stop.load(Relaxed) && !crate::shutdown::requested() && !bounds.stopped();
             fold_decoded(&mut world, e, cmd.clone(), &limits, false, &mut control, &mut on_step)?;
         }
         if crate::shutdown::requested() {
             return Err(FoldError::Stopped { seq: e.seq });
+        }
+        if bounds.stopped() {
+            tracing::info!(simulation = %lent.id, seq = e.seq, "re-simulation stopped: nobody waits for its answer");
+            return Err(FoldError::Cancelled { seq: e.seq });
         }
         if stop.load(Relaxed) {
             return Ok(world);
@@ -589,8 +757,8 @@ mod tests {
         out
     }
 
-    #[test]
-    fn resimulated_samples_equal_single_steps_and_hashes_hold() {
+    /// A registry in a temporary directory holding one empty simulation `id`.
+    fn one_simulation(id: &str) -> (tempfile::TempDir, Registry) {
         let dir = tempfile::tempdir().unwrap();
         let reg = Registry::open(Config {
             data_dir: dir.path().join("data"),
@@ -599,7 +767,13 @@ mod tests {
             sync: SyncMode::Normal,
         })
         .unwrap();
-        reg.create(Command::CreateSimulation { simulation_id: "s".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) }, &Args::new()).unwrap();
+        reg.create(Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) }, &Args::new()).unwrap();
+        (dir, reg)
+    }
+
+    #[test]
+    fn resimulated_samples_equal_single_steps_and_hashes_hold() {
+        let (_dir, reg) = one_simulation("s");
         let cmds = vec![
             body(-0.5, 0.0),
             body(2.0, 1.0),
@@ -646,5 +820,37 @@ mod tests {
         })
         .unwrap();
         assert_eq!(n, 5);
+    }
+
+    #[test]
+    fn a_re_simulation_is_priced_before_it_runs_and_stopped_when_asked() {
+        let (_dir, reg) = one_simulation("p");
+        let s = reg.get("p").unwrap();
+        let mut sim = lock_sim(&s);
+        let root = sim.log().head_seq();
+        // Two objects, 30 steps (60 body-steps); a third, 45 steps (135).
+        for c in [body(-0.5, 0.0), body(2.0, 1.0), Command::StepSimulation { steps: 30 }, body(4.0, 1.0), Command::StepSimulation { steps: 45 }] {
+            sim.change("t", &Args::new(), Ok(c), &Limits::default(), &mut |_| true).unwrap();
+        }
+        let head = sim.log().head_seq();
+        let lent = lend(sim.log(), sim.id(), Some(root), None).unwrap();
+        drop(sim);
+        let price = Price::of(&lent, 0);
+        assert_eq!(price.total(), 195);
+        let within = |max: u64, stop: Option<tokio_util::sync::CancellationToken>| {
+            bounded(Bounds { stop, max_work: Some(max) }, || resimulate(&lent, 1, &mut |_, _| true).map(|w| w.state_hash()))
+        };
+        assert!(within(195, None).is_ok());
+        let why = within(194, None).unwrap_err().to_string();
+        assert!(why.contains("would cost 195 body-steps") && why.contains(&format!("a to_seq at or before {} fits", head - 1)), "{why}");
+        // Outside the scope, no bound.
+        assert!(resimulate(&lent, 1, &mut |_, _| true).is_ok());
+        // A stop before or during the work.
+        let stop = tokio_util::sync::CancellationToken::new();
+        stop.cancel();
+        assert!(matches!(within(u64::MAX, Some(stop)), Err(FoldError::Cancelled { .. })));
+        // A moment inside the last step event is priced only that far.
+        let inside = Lent { until_step: Some(5), interval: Interval { from_seq: root, to_seq: head }, ..lent.clone() };
+        assert_eq!(Price::of(&inside, 0).total(), 60 + 15);
     }
 }

@@ -1,5 +1,5 @@
 //! The event log: what every backend of it provides ([`EventLog`]), its SQLite storage
-//! (`sqlite`), the data directory (`data_dir`), the one fold routine (`fold`), `replay`, and
+//! (`sqlite`), the data directory (`data_dir`) and where it goes by default (`default_dirs`), the one fold routine (`fold`), `replay`, and
 //! the one-line summary a read event records (`summary`).
 //!
 //! A simulation *is* its log; the world in memory is a cache equal to the fold of it. The
@@ -9,6 +9,7 @@
 //! record that every commit reaches first ([`Replica`], `crate::cluster`, docs/cluster.md).
 
 pub mod data_dir;
+pub mod default_dirs;
 pub mod fold;
 pub mod replay;
 pub mod sqlite;
@@ -27,6 +28,9 @@ pub trait Replica: Send {
     /// fork's copied chain is recorded flagged), the new `head` and the snapshots taken with
     /// it. Refused ([`StoreError::Fenced`]) when another owner wrote since.
     fn append(&mut self, events: &[(&Event, bool)], head: u64, snapshots: &[Snap]) -> Result<(), StoreError>;
+    /// Records in the log of record that the simulation is destroyed, fenced like an append
+    /// (destroy_simulation, before anything of it is removed); nothing is appended after it.
+    fn seal(&mut self) -> Result<(), StoreError>;
 }
 
 /// Why an append was not made.

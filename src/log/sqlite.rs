@@ -760,6 +760,16 @@ impl Log {
         Ok(())
     }
 
+    /// Ends the log in its log of record, if it mirrors one (destroy_simulation in a cluster:
+    /// the replica's fenced `destroyed` marker); a refusal or no answer marks this file behind,
+    /// as a failed append does. Embedded, nothing to do.
+    pub fn seal(&mut self) -> Result<(), StoreError> {
+        match self.replica.as_mut() {
+            Some(replica) => replica.seal().inspect_err(|_| self.stale = true),
+            None => Ok(()),
+        }
+    }
+
     /// Closes the file before it is deleted (destroy_simulation): drops buffered events, waits
     /// for a background checkpoint still holding the file, and leaves the log on an empty
     /// in-memory database, so nothing done afterwards can reach or recreate the deleted files.

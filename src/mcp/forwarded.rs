@@ -147,7 +147,18 @@ async fn serve_one(server: PhysicsServer, cluster: Arc<Cluster>, message: async_
     if answer(&client, &inbox, Kind::Accepted, bytes::Bytes::new()).await.is_err() {
         return;
     }
-    let request: ClientJsonRpcMessage = match serde_json::from_slice(&message.payload) {
+    let payload = match header(&message, calls::STORED) {
+        Some(name) => match cluster.fetch_request(name).await {
+            Ok(bytes) => bytes::Bytes::from(bytes),
+            Err(e) => {
+                let reply = error_reply(ErrorData::internal_error(format!("a forwarded call's request could not be read: {e}"), None));
+                let _ = answer_whole(&client, &inbox, serde_json::to_vec(&reply).unwrap_or_default()).await;
+                return;
+            }
+        },
+        None => message.payload.clone(),
+    };
+    let request: ClientJsonRpcMessage = match serde_json::from_slice(&payload) {
         Ok(r) => r,
         Err(e) => {
             let reply = error_reply(ErrorData::invalid_request(format!("a forwarded call could not be read: {e}"), None));

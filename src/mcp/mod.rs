@@ -82,6 +82,9 @@ pub struct PhysicsServer {
     viewer_base: Option<Arc<str>>,
     /// This session's number (its `resources/subscribe` subscriptions are kept under it).
     session: u64,
+    /// Drops the session's subscriptions when its last server clone goes, i.e. when rmcp
+    /// drops the session's service because the session ended (DELETE, expiry, eviction).
+    _session_end: Arc<subscriptions::SessionEnd>,
     /// This session's logging level (`logging/setLevel`).
     log: logging::SessionLog,
     /// Whether this server runs calls other nodes forwarded (it never forwards them again).
@@ -94,11 +97,14 @@ impl PhysicsServer {
     /// sessions of one process so each hears when simulations come and go.
     pub fn new(reg: Arc<Registry>, sessions: Sessions) -> Self {
         static NEXT_SESSION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+        let session = NEXT_SESSION.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let _session_end = Arc::new(subscriptions::SessionEnd::new(session, sessions.subscriptions().clone()));
         Self {
             reg,
             sessions,
             viewer_base: None,
-            session: NEXT_SESSION.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            session,
+            _session_end,
             log: logging::SessionLog::default(),
             forwarded: false,
             tool_router: Self::tools(),
@@ -132,7 +138,9 @@ impl PhysicsServer {
                 + PhysicsServer::time_router()
                 + PhysicsServer::mjcf_router()
                 + PhysicsServer::batch_router()
-                + PhysicsServer::sweep_router();
+                + PhysicsServer::sweep_router()
+                + PhysicsServer::files_router()
+                + PhysicsServer::models_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::input(&tool.input_schema));
@@ -158,7 +166,7 @@ impl PhysicsServer {
     /// simulation was made with `gui = true`.
     fn viewer_url(&self, id: &str) -> Option<String> {
         let base = self.viewer_base.as_ref()?;
-        let gui = self.reg.get_local(id).is_some_and(|sim| lock_sim(&sim).world().gui());
+        let gui = self.reg.get_local(id).is_some() && self.reg.gui_of(id);
         gui.then(|| format!("{base}/viewer/{id}"))
     }
 
@@ -176,44 +184,85 @@ impl PhysicsServer {
         &self.reg
     }
 
-    /// Runs `f` on the simulation named by `sim_id`, on the blocking pool, holding its lock.
+    /// Runs `f` on the simulation named by `sim_id`, on the blocking pool, holding its lock,
+    /// once it is `tool`'s turn on it (`sim::queue`: waiting is bounded per simulation and
+    /// parks no thread).
     ///
     /// Every call that can move a simulation's head (state-changing tools, undo, redo,
     /// sampled steps) runs through here, so this is the one place that tells the resource
     /// subscribers: when the head moved, `Subscriptions::head_moved` paces the notifications.
     async fn with_sim<T: Send + 'static>(
         &self,
+        tool: &'static str,
         args: Args,
         f: impl FnOnce(&mut Sim, &Args, &Limits) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<T, String> {
-        self.with_sim_prepared(args, |_| (), move |sim, a, limits, ()| f(sim, a, limits)).await
+        let id = value::string(&args, "sim_id")?;
+        let sim = self.sim(&id).await?;
+        self.locked(tool, &id, sim, args, f).await
     }
 
-    /// `with_sim` whose `prepare` runs first, on the blocking pool but *before* the
-    /// simulation is locked: parsing the arguments and reading the files they name (a call
-    /// waiting on a slow or large file holds no simulation), then `f` under the lock with what
-    /// `prepare` made.
+    /// `with_sim` whose `prepare` runs first, on the blocking pool and before the call waits
+    /// for its turn: parsing the arguments and reading the files they name (a call waiting on
+    /// a slow or large file holds no simulation), then `f` under the lock with what `prepare`
+    /// made.
     async fn with_sim_prepared<X: Send + 'static, T: Send + 'static>(
         &self,
+        tool: &'static str,
         args: Args,
         prepare: impl FnOnce(&Args) -> X + Send + 'static,
         f: impl FnOnce(&mut Sim, &Args, &Limits, X) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<T, String> {
         let id = value::string(&args, "sim_id")?;
         let sim = self.sim(&id).await?;
+        let (args, prepared) = tokio::task::spawn_blocking(move || {
+            let prepared = prepare(&args);
+            (args, prepared)
+        })
+        .await
+        .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?;
+        self.locked(tool, &id, sim, args, move |s, a, limits| f(s, a, limits, prepared)).await
+    }
+
+    /// `tool`'s turn on simulation `id` (which must exist: queues are made for the
+    /// simulations callers found), waiting behind the calls before it (`sim::queue`).
+    pub(crate) async fn turn(&self, id: &str, tool: &'static str) -> Result<crate::sim::queue::Turn, String> {
+        self.reg.queues().turn(id, tool, self.reg.limits().max_waiting).await
+    }
+
+    /// `f` on `sim` under its lock on the blocking pool, once `tool` has its turn; tells the
+    /// subscribers when the head moved and keeps the simulation's listing up to date.
+    async fn locked<T: Send + 'static>(
+        &self,
+        tool: &'static str,
+        id: &str,
+        sim: crate::sim::SharedSim,
+        args: Args,
+        f: impl FnOnce(&mut Sim, &Args, &Limits) -> Result<T, Refusal> + Send + 'static,
+    ) -> Result<T, String> {
+        let turn = self.turn(id, tool).await?;
         let reg = self.reg.clone();
         let (out, moved) = tokio::task::spawn_blocking(move || {
-            let prepared = prepare(&args);
+            let _turn = turn;
             let mut guard = lock_sim(&sim);
+            // Cluster mode: the lease is checked again now that the call has waited (a node
+            // paused meanwhile may have lost it); the refusal names the new owner, so routing
+            // resends the call there. Nothing ran, nothing is logged.
+            if let Err(moved) = guard.fenced() {
+                return (Err(moved), false);
+            }
             let before = (guard.log().head_seq(), guard.state_hash().to_string());
-            let out = f(&mut guard, &args, reg.limits(), prepared);
+            let out = f(&mut guard, &args, reg.limits());
             let moved = guard.log().head_seq() != before.0 || guard.state_hash() != before.1;
+            if moved {
+                reg.listed(&guard);
+            }
             (out, moved)
         })
         .await
         .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?;
         if moved {
-            self.sessions.head_moved(&id);
+            self.sessions.head_moved(id);
         }
         out
     }
@@ -235,7 +284,7 @@ impl PhysicsServer {
             params::parse::<P>(tool, a).and_then(|p| decide(p, &mut reader)).and_then(Command::ready)
         };
         let out = self
-            .with_sim_prepared(args, prepare, move |sim, a, limits, decided| {
+            .with_sim_prepared(tool, args, prepare, move |sim, a, limits, decided| {
                 let ctl: StepControl = &mut control;
                 let started = std::time::Instant::now();
                 // A running step shows its progress in the viewer (read-only copies of the
@@ -287,7 +336,7 @@ impl PhysicsServer {
         f: impl FnOnce(&Sim, P) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         let budget = self.reg.limits().max_reply_bytes;
-        self.with_sim(args, move |sim, a, _| sim.read_within(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?)))
+        self.with_sim(tool, args, move |sim, a, _| sim.read_within(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?)))
             .await
             .map(Json)
     }
@@ -303,7 +352,7 @@ impl PhysicsServer {
         let budget = self.reg.limits().max_reply_bytes;
         let measure = move |t: &T, _: &str| crate::sim::budget::bytes_of(&t.reply(tool));
         let out = self
-            .with_sim(args, move |sim, a, _| sim.read_replying(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?), measure))
+            .with_sim(tool, args, move |sim, a, _| sim.read_replying(tool, a, budget, |s| f(s, params::parse::<P>(tool, a)?), measure))
             .await?;
         Ok(out.reply(tool))
     }
@@ -332,10 +381,18 @@ impl PhysicsServer {
         let id = value::string(&args, "sim_id")?;
         let sim = self.sim(&id).await?;
         // In a cluster a read's buffered events are published when many wait: never on the
-        // async worker.
-        if let (false, Ok(mut guard)) = (self.reg.in_cluster(), sim.try_lock()) {
-            let budget = self.reg.limits().max_reply_bytes;
-            return guard.read_within(tool, &args, budget, |s| f(s, params::parse::<P>(tool, &args)?)).map(Json);
+        // async worker. Only when nobody holds or waits for the simulation: a read does not
+        // jump the queue.
+        if !self.reg.in_cluster() {
+            if let Some(turn) = self.reg.queues().try_turn(&id, tool) {
+                if let Ok(mut guard) = sim.try_lock() {
+                    let budget = self.reg.limits().max_reply_bytes;
+                    let out = guard.read_within(tool, &args, budget, |s| f(s, params::parse::<P>(tool, &args)?)).map(Json);
+                    drop(guard);
+                    drop(turn);
+                    return out;
+                }
+            }
         }
         self.read_blocking(tool, args, f).await
     }
@@ -455,10 +512,13 @@ impl ServerHandler for PhysicsServer {
 
     /// resources/subscribe (sessions before 2026-07-28): updates of a `sim://` URI. Any URI
     /// is accepted — one naming no simulation (yet) just never changes, as the protocol's
-    /// conformance suite expects of an unknown URI.
+    /// conformance suite expects of an unknown URI — within the session's bounds
+    /// (`subscriptions::MAX_PER_SESSION`, `MAX_URI_BYTES`).
     async fn subscribe(&self, request: SubscribeRequestParams, cx: RequestContext<RoleServer>) -> Result<(), ErrorData> {
-        self.sessions.subscriptions().subscribe(self.session, cx.peer, request.uri);
-        Ok(())
+        self.sessions
+            .subscriptions()
+            .subscribe(self.session, cx.peer, request.uri)
+            .map_err(|why| ErrorData::invalid_params(why, None))
     }
 
     /// resources/unsubscribe: no more updates of that URI for this session (unknown URIs
@@ -476,7 +536,7 @@ impl ServerHandler for PhysicsServer {
     /// Holds one listen stream open until the client cancels it, delivering its updates.
     async fn listen(&self, cx: SubscriptionContext) -> Result<(), ErrorData> {
         let subs = self.sessions.subscriptions();
-        let n = subs.listen(cx.sink().clone());
+        let n = subs.listen(self.session, cx.sink().clone()).map_err(|why| ErrorData::invalid_params(why, None))?;
         cx.cancelled().await;
         subs.stop_listening(n);
         Ok(())
@@ -521,7 +581,7 @@ impl ServerHandler for PhysicsServer {
                 routing::Routed::Lost(why) => return Err(ErrorData::internal_error(why, Some(json!({"uri": request.uri})))),
             }
         }
-        self.read_sim_resource(request.uri).await.map(Into::into)
+        self.read_sim_resource(request.uri, _cx.ct.clone()).await.map(Into::into)
     }
 
     async fn list_prompts(

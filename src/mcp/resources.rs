@@ -2,7 +2,7 @@
 //! `sim://{id}/info` (get_simulation_info's answer), `sim://{id}/history` (its events as JSON
 //! lines) and `sim://{id}/image` (a PNG from the viewer camera) — and the session list that
 //! lets a simulation created or destroyed in one session tell every session its resource list
-//! changed.
+//! changed; beside them, the viewer app and `models://builtin` (list_models' answer).
 //!
 //! Reading a resource is a look, not a tool call: it is not recorded in the simulation's log
 //! (the README says so), and it never changes the world.
@@ -16,6 +16,7 @@ use rmcp::{Peer, RoleServer};
 use serde_json::{json, Value};
 
 use super::subscriptions::Subscriptions;
+use super::tools::models::MODELS_URI;
 use super::PhysicsServer;
 use crate::seeing::viewer;
 use crate::sim::reads;
@@ -170,7 +171,10 @@ impl PhysicsServer {
         let app = Resource::new(viewer::app::APP_URI, "viewer")
             .with_description("The simulation viewer as an MCP App (3D, timeline, inspector).")
             .with_mime_type(viewer::app::APP_MIME);
-        let resources = std::iter::once(app).chain(resources).collect();
+        let models = Resource::new(MODELS_URI, "built-in models")
+            .with_description("The built-in models load_urdf and load_mjcf take by name (as list_models).")
+            .with_mime_type("application/json");
+        let resources = [app, models].into_iter().chain(resources).collect();
         // Simulations come and go: a client must not serve this list from a cache.
         ListResourcesResult::with_all_items(resources).with_ttl_ms(0)
     }
@@ -189,17 +193,33 @@ impl PhysicsServer {
     }
 
     /// resources/read, on the blocking pool (it waits for a call in flight on the simulation).
-    pub(super) async fn read_sim_resource(&self, uri: String) -> Result<ReadResourceResult, ErrorData> {
+    /// A viewer read stops waiting and re-simulating once `stop` is cancelled (the client
+    /// cancelled the read or its session ended).
+    pub(super) async fn read_sim_resource(&self, uri: String, stop: tokio_util::sync::CancellationToken) -> Result<ReadResourceResult, ErrorData> {
         if uri == viewer::app::APP_URI {
             let html = ResourceContents::text(viewer::app::app_html(), &uri).with_mime_type(viewer::app::APP_MIME);
             return Ok(ReadResourceResult::new(vec![html.with_meta(viewer::app::resource_meta())]));
         }
+        if uri == MODELS_URI {
+            let listed = tokio::task::spawn_blocking(|| crate::files::library::matching(None))
+                .await
+                .map_err(|_| ErrorData::internal_error("Internal error: the models could not be listed", None))?
+                .map_err(|why| ErrorData::internal_error(why, None))?;
+            let text = serde_json::to_string(&crate::outputs::Models { models: listed }).map_err(|e| ErrorData::internal_error(format!("Internal error: {e}"), None))?;
+            return Ok(ReadResourceResult::new(vec![ResourceContents::text(text, &uri).with_mime_type("application/json")]));
+        }
         if let Some((id, kind, query)) = viewer_read(&uri) {
             let (reg, budget) = (self.reg.clone(), self.reg.limits().max_reply_bytes);
             let (id, kind, query) = (id.to_string(), kind.to_string(), query.to_string());
-            let answered = tokio::task::spawn_blocking(move || viewer::ask::answer_text(&reg, &id, &kind, &query))
+            let answered = match viewer::ask::Asking::enter(&id) {
+                Ok(asking) => tokio::task::spawn_blocking(move || {
+                    let _asking = asking;
+                    viewer::ask::answer_text(&reg, &id, &kind, &query, &stop)
+                })
                 .await
-                .map_err(|_| ErrorData::internal_error("Internal error: the viewer could not answer", None))?;
+                .map_err(|_| ErrorData::internal_error("Internal error: the viewer could not answer", None))?,
+                Err(busy) => Err(busy),
+            };
             let text = match answered {
                 Ok(text) => text,
                 // "Ask again" (a call holds the simulation): JSON null, which the app asks again on.
@@ -221,7 +241,11 @@ impl PhysicsServer {
         let sim = self.sim(id).await.map_err(not_found)?;
         let (max_px, budget) = (self.reg.limits().max_image_px, self.reg.limits().max_reply_bytes);
         let at = uri.clone();
-        let read = tokio::task::spawn_blocking(move || contents(&lock_sim(&sim), part, &at, max_px, budget))
+        let turn = self.turn(id, "resources/read").await.map_err(|why| ErrorData::internal_error(why, Some(json!({"uri": uri}))))?;
+        let read = tokio::task::spawn_blocking(move || {
+            let _turn = turn;
+            contents(&lock_sim(&sim), part, &at, max_px, budget)
+        })
             .await
             .map_err(|_| ErrorData::internal_error("Internal error: the resource could not be read", None))?;
         // Live state: never fresh for longer than this reply.

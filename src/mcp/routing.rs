@@ -87,10 +87,17 @@ impl PhysicsServer {
 
     /// `route` on a cluster node, handing the owner's notes to `notes`.
     async fn route_via(&self, cluster: &Arc<Cluster>, out: Outgoing<'_>, notes: &(dyn Fn(&[u8]) + Sync)) -> Routed {
+        // An id that cannot name a simulation names none: the call here says so at once.
+        if !crate::cluster::valid_id(out.sim) {
+            return Routed::Here;
+        }
         let cluster = cluster.clone();
         let call = uuid::Uuid::new_v4().to_string();
         let request = serde_json::json!({"jsonrpc": "2.0", "id": 1, "method": out.method, "params": out.params});
         let payload: bytes::Bytes = serde_json::to_vec(&request).unwrap_or_default().into();
+        // A request too large for a message travels through the object store (stored once,
+        // at the first attempt that goes to another node; deleted when the call is over).
+        let mut stored = StoredRequest { cluster: cluster.clone(), name: None };
         let give_up = Instant::now() + cluster.config().lease + Duration::from_secs(5);
         let mut line: Option<Line> = None;
         // The owner last seen is tried first (no lease read); once it refuses, the lease.
@@ -123,8 +130,18 @@ impl PhysicsServer {
                     Err(_) => return Routed::Here,
                 }
             }
+            if payload.len() > calls::REQUEST_INLINE_MAX && stored.name.is_none() {
+                match cluster.store_request(&call, payload.clone()).await {
+                    Ok(name) => stored.name = Some(name),
+                    Err(why) => return Routed::Lost(format!("Simulation {}'s owner, node {owner}, was not sent the call ({why}); nothing was done", out.sim)),
+                }
+            }
             let l = line.as_mut().expect("opened above");
-            match l.send(&cluster, (out.sim, payload.clone()), &out.ct, notes).await {
+            let body = match &stored.name {
+                Some(name) => Body::Stored(name),
+                None => Body::Inline(payload.clone()),
+            };
+            match l.send(&cluster, (out.sim, body), &out.ct, notes).await {
                 Attempt::Done(routed) => return routed,
                 Attempt::Unserved => cluster.note_owner(out.sim, None),
             }
@@ -144,35 +161,69 @@ impl PhysicsServer {
     /// A tool call for simulation `id` on a cluster node: forwarded to its owner, or run here.
     /// Run here and refused because a lease still shows (the instant a dead owner's lease
     /// lapses, the replicas expire it one by one), it is routed again until the wait ends —
-    /// nothing was recorded of it.
+    /// nothing was recorded of it. Refused, here or by the node it was forwarded to, because
+    /// that node's lease ended while the call waited for the simulation (`sim::cluster::MOVED`:
+    /// nothing was done either), it is routed again to the owner now, a few times.
     pub(super) async fn routed_call(&self, id: &str, request: CallToolRequestParams, cx: RequestContext<RoleServer>) -> Result<CallToolResponse, ErrorData> {
-        let give_up = Instant::now() + self.reg.cluster().map_or(Duration::ZERO, |c| c.config().lease) + Duration::from_secs(5);
+        let wait = self.reg.cluster().map_or(Duration::ZERO, |c| c.config().lease) + Duration::from_secs(5);
+        let mut give_up = Instant::now() + wait;
+        let mut moves = 0;
         loop {
             let out = Outgoing { sim: id, method: "tools/call", params: call_params(&request, &cx), peer: Some(cx.peer.clone()), ct: cx.ct.clone() };
-            match self.route(out).await {
+            let answer = match self.route(out).await {
                 Routed::Here => {
                     let answer = self.tool_router.call(ToolCallContext::new(self, request.clone(), cx.clone())).await?;
-                    if refused_as_owned_elsewhere(&answer) && Instant::now() < give_up {
+                    if refused_with(&answer, crate::sim::cluster::OWNED_BY) && Instant::now() < give_up {
                         tokio::time::sleep(RETRY_PAUSE).await;
                         continue;
                     }
-                    return Ok(answer);
+                    answer
                 }
                 Routed::Answered(answer) => {
                     let result = serde_json::from_value::<CallToolResult>(answer?)
                         .map_err(|e| ErrorData::internal_error(format!("Internal error: the owner's answer could not be read: {e}"), None))?;
-                    return Ok(CallToolResponse::Complete(result));
+                    CallToolResponse::Complete(result)
                 }
                 Routed::Lost(why) => return Ok(CallToolResponse::Complete(CallToolResult::error(vec![ContentBlock::text(why)]))),
+            };
+            if refused_with(&answer, crate::sim::cluster::MOVED) && moves < MOVES && !cx.ct.is_cancelled() {
+                moves += 1;
+                give_up = Instant::now() + wait;
+                tokio::time::sleep(RETRY_PAUSE).await;
+                continue;
             }
+            return Ok(answer);
         }
     }
 }
 
-/// Whether a call run here was refused because another node's lease still shows.
-fn refused_as_owned_elsewhere(answer: &CallToolResponse) -> bool {
+/// How many times a call refused because its node's lease ended while it waited is sent again.
+const MOVES: usize = 5;
+
+/// Whether a call was refused with a sentence holding `words`.
+fn refused_with(answer: &CallToolResponse, words: &str) -> bool {
     let CallToolResponse::Complete(r) = answer else { return false };
-    r.is_error == Some(true) && r.content.iter().filter_map(|c| c.as_text()).any(|t| t.text.contains(crate::sim::cluster::OWNED_BY))
+    r.is_error == Some(true) && r.content.iter().filter_map(|c| c.as_text()).any(|t| t.text.contains(words))
+}
+
+/// What a call's message carries: the request, or the name of the object holding it.
+enum Body<'a> {
+    Inline(bytes::Bytes),
+    Stored(&'a str),
+}
+
+/// A request stored for a call (`Cluster::store_request`), deleted when the call is over.
+struct StoredRequest {
+    cluster: Arc<Cluster>,
+    name: Option<String>,
+}
+
+impl Drop for StoredRequest {
+    fn drop(&mut self) {
+        if let Some(name) = self.name.take() {
+            self.cluster.drop_request(name);
+        }
+    }
 }
 
 /// A tool call's params as forwarded: as the client sent them, with the request's `_meta`
@@ -228,10 +279,17 @@ impl Line {
     }
 
     /// Sends the call once and follows its answer.
-    async fn send(&mut self, cluster: &Cluster, (sim, payload): (&str, bytes::Bytes), ct: &CancellationToken, notes: &(dyn Fn(&[u8]) + Sync)) -> Attempt {
+    async fn send(&mut self, cluster: &Cluster, (sim, body): (&str, Body<'_>), ct: &CancellationToken, notes: &(dyn Fn(&[u8]) + Sync)) -> Attempt {
         let mut headers = HeaderMap::new();
         headers.insert(calls::CALL, self.call.as_str());
         headers.insert(calls::SIM, sim);
+        let payload = match body {
+            Body::Inline(payload) => payload,
+            Body::Stored(name) => {
+                headers.insert(calls::STORED, name);
+                bytes::Bytes::new()
+            }
+        };
         let sent = self
             .client
             .publish_with_reply_and_headers(cluster.calls_subject(&self.owner), self.inbox.clone(), headers, payload)

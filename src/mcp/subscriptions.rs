@@ -10,6 +10,12 @@
 //! a change that falls inside a gap is announced when the gap ends, so the last change is
 //! always followed by one notification (trailing edge). A client stepping in a tight loop
 //! costs its watchers a few messages per second, not one per call.
+//!
+//! Bounded (docs/guarantees.md "Isolation"): a session holds at most `MAX_PER_SESSION` URIs of
+//! at most `MAX_URI_BYTES` each, and `MAX_LISTENS_PER_SESSION` listen streams; everything a
+//! session subscribed is dropped when the session ends (`drop_session`, from the session's
+//! server); and the subscriptions are indexed by simulation, so a change looks up its own
+//! watchers instead of scanning everyone's.
 
 use std::collections::{BTreeSet, HashMap};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -23,6 +29,16 @@ use tokio::time::Instant;
 /// The shortest time between two updates about one simulation (10 per second at most).
 pub const MIN_GAP: Duration = Duration::from_millis(100);
 
+/// Most URIs one session may subscribe to (`resources/subscribe`), and accepted on one listen
+/// stream.
+pub const MAX_PER_SESSION: usize = 64;
+
+/// Longest URI a subscription may name, in bytes (a `sim://` URI is about 50).
+pub const MAX_URI_BYTES: usize = 512;
+
+/// Most `subscriptions/listen` streams one session may hold open at once.
+pub const MAX_LISTENS_PER_SESSION: usize = 4;
+
 /// Who is subscribed to what, and when each simulation last announced a change.
 #[derive(Clone, Default)]
 pub struct Subscriptions(Arc<Mutex<Hub>>);
@@ -31,12 +47,66 @@ pub struct Subscriptions(Arc<Mutex<Hub>>);
 struct Hub {
     /// `resources/subscribe` sessions: session number → its peer and the URIs it asked for.
     sessions: HashMap<u64, (Peer<RoleServer>, BTreeSet<String>)>,
-    /// Open `subscriptions/listen` streams: a number → the stream's sink (its accepted URIs
-    /// are in the sink's filter).
-    listeners: HashMap<u64, SubscriptionSink>,
+    /// Open `subscriptions/listen` streams: a number → its session and the stream's sink (its
+    /// accepted URIs are in the sink's filter).
+    listeners: HashMap<u64, (u64, SubscriptionSink)>,
     next_listener: u64,
+    /// Who watches each simulation (by id): what a change looks up.
+    watchers: HashMap<String, Watchers>,
     /// Per simulation: when it last sent, and whether a trailing send is already scheduled.
     pace: HashMap<String, Pace>,
+}
+
+/// The sessions and listen streams with a URI of one simulation.
+#[derive(Default)]
+struct Watchers {
+    sessions: BTreeSet<u64>,
+    listeners: BTreeSet<u64>,
+}
+
+impl Hub {
+    fn watch(&mut self, uri: &str, session: Option<u64>, listener: Option<u64>) {
+        let Some(sim) = sim_of(uri) else { return };
+        let w = self.watchers.entry(sim.to_string()).or_default();
+        w.sessions.extend(session);
+        w.listeners.extend(listener);
+    }
+
+    /// Forgets that `session` (or `listener`) watches `sim`; a simulation nobody watches any
+    /// more leaves the index (and its pacing, unless a send is scheduled).
+    fn unwatch(&mut self, sim: &str, session: Option<u64>, listener: Option<u64>) {
+        let Some(w) = self.watchers.get_mut(sim) else { return };
+        if let Some(s) = session {
+            w.sessions.remove(&s);
+        }
+        if let Some(l) = listener {
+            w.listeners.remove(&l);
+        }
+        if w.sessions.is_empty() && w.listeners.is_empty() {
+            self.watchers.remove(sim);
+            if self.pace.get(sim).is_some_and(|p| !p.scheduled) {
+                self.pace.remove(sim);
+            }
+        }
+    }
+
+    /// Forgets session `n`'s `resources/subscribe` URIs.
+    fn drop_subscriber(&mut self, n: u64) {
+        if let Some((_, uris)) = self.sessions.remove(&n) {
+            for sim in uris.iter().filter_map(|u| sim_of(u)).collect::<BTreeSet<_>>() {
+                self.unwatch(sim, Some(n), None);
+            }
+        }
+    }
+
+    /// Forgets listen stream `n`.
+    fn drop_listener(&mut self, n: u64) {
+        if let Some((_, sink)) = self.listeners.remove(&n) {
+            for sim in accepted_uris(sink.accepted()).filter_map(|u| sim_of(u)).collect::<BTreeSet<_>>() {
+                self.unwatch(sim, None, Some(n));
+            }
+        }
+    }
 }
 
 #[derive(Default)]
@@ -55,35 +125,78 @@ impl Subscriptions {
         self.0.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// `resources/subscribe` from session `session` (its peer answers the notifications).
-    pub fn subscribe(&self, session: u64, peer: Peer<RoleServer>, uri: String) {
+    /// `resources/subscribe` from session `session` (its peer answers the notifications);
+    /// refused, in one sentence naming `uri`, past `MAX_URI_BYTES` or `MAX_PER_SESSION`.
+    pub fn subscribe(&self, session: u64, peer: Peer<RoleServer>, uri: String) -> Result<(), String> {
+        if uri.len() > MAX_URI_BYTES {
+            return Err(format!("uri is {} bytes; a subscribed URI may have at most {MAX_URI_BYTES} (sim://{{sim_id}}/info, /history or /image)", uri.len()));
+        }
         let mut hub = self.hub();
-        hub.sessions.entry(session).or_insert_with(|| (peer, BTreeSet::new())).1.insert(uri);
+        let uris = &mut hub.sessions.entry(session).or_insert_with(|| (peer, BTreeSet::new())).1;
+        if !uris.contains(&uri) && uris.len() >= MAX_PER_SESSION {
+            return Err(format!("uri: this session already holds {MAX_PER_SESSION} subscriptions, the most one may; unsubscribe from one first"));
+        }
+        if uris.insert(uri.clone()) {
+            hub.watch(&uri, Some(session), None);
+        }
+        Ok(())
     }
 
     /// `resources/unsubscribe`: the session hears nothing more about `uri`.
     pub fn unsubscribe(&self, session: u64, uri: &str) {
         let mut hub = self.hub();
-        if let Some((_, uris)) = hub.sessions.get_mut(&session) {
-            uris.remove(uri);
-            if uris.is_empty() {
-                hub.sessions.remove(&session);
-            }
+        let Some((_, uris)) = hub.sessions.get_mut(&session) else { return };
+        if !uris.remove(uri) {
+            return;
+        }
+        let (still, empty) = (sim_of(uri).is_some_and(|sim| uris.iter().any(|u| sim_of(u) == Some(sim))), uris.is_empty());
+        if empty {
+            hub.sessions.remove(&session);
+        }
+        if let (Some(sim), false) = (sim_of(uri), still) {
+            hub.unwatch(sim, Some(session), None);
         }
     }
 
-    /// Registers an open `subscriptions/listen` stream; the number is for `stop_listening`.
-    pub fn listen(&self, sink: SubscriptionSink) -> u64 {
+    /// Registers an open `subscriptions/listen` stream of session `session`; the number is for
+    /// `stop_listening`. Refused past `MAX_LISTENS_PER_SESSION` open streams.
+    pub fn listen(&self, session: u64, sink: SubscriptionSink) -> Result<u64, String> {
         let mut hub = self.hub();
+        if hub.listeners.values().filter(|(s, _)| *s == session).count() >= MAX_LISTENS_PER_SESSION {
+            return Err(format!("this session already holds {MAX_LISTENS_PER_SESSION} open listen streams, the most one may; cancel one first"));
+        }
         hub.next_listener += 1;
         let n = hub.next_listener;
-        hub.listeners.insert(n, sink);
-        n
+        for uri in accepted_uris(sink.accepted()) {
+            hub.watch(uri, None, Some(n));
+        }
+        hub.listeners.insert(n, (session, sink));
+        Ok(n)
     }
 
     /// Forgets a `subscriptions/listen` stream (the client cancelled it or went away).
     pub fn stop_listening(&self, n: u64) {
-        self.hub().listeners.remove(&n);
+        self.hub().drop_listener(n);
+    }
+
+    /// Forgets everything session `session` subscribed (the session ended).
+    pub fn drop_session(&self, session: u64) {
+        let mut hub = self.hub();
+        let uris = hub.sessions.get(&session).map_or(0, |(_, uris)| uris.len());
+        hub.drop_subscriber(session);
+        let streams: Vec<u64> = hub.listeners.iter().filter(|(_, (s, _))| *s == session).map(|(n, _)| *n).collect();
+        for n in &streams {
+            hub.drop_listener(*n);
+        }
+        if uris > 0 || !streams.is_empty() {
+            tracing::info!(session, uris, streams = streams.len(), "session ended: its subscriptions dropped");
+        }
+    }
+
+    /// URIs subscribed and listen streams open, over every session (for tests and the log).
+    pub fn held(&self) -> (usize, usize) {
+        let hub = self.hub();
+        (hub.sessions.values().map(|(_, uris)| uris.len()).sum(), hub.listeners.len())
     }
 
     /// The listen streams that asked for `notifications/resources/list_changed`.
@@ -91,8 +204,8 @@ impl Subscriptions {
         self.hub()
             .listeners
             .values()
-            .filter(|s| s.accepted().resources_list_changed == Some(true))
-            .cloned()
+            .filter(|(_, s)| s.accepted().resources_list_changed == Some(true))
+            .map(|(_, s)| s.clone())
             .collect()
     }
 
@@ -102,9 +215,7 @@ impl Subscriptions {
         let now = Instant::now();
         let wait = {
             let mut hub = self.hub();
-            let watched = hub.sessions.values().any(|(_, uris)| uris.iter().any(|u| sim_of(u) == Some(id)))
-                || hub.listeners.values().any(|s| accepted_uris(s.accepted()).any(|u| sim_of(u) == Some(id)));
-            if !watched {
+            if !hub.watchers.contains_key(id) {
                 return;
             }
             let pace = hub.pace.entry(id.to_string()).or_default();
@@ -146,18 +257,22 @@ impl Subscriptions {
     fn send(&self, id: &str) {
         let (peers, sinks) = {
             let mut hub = self.hub();
-            hub.sessions.retain(|_, (p, _)| !p.is_transport_closed());
-            let peers: Vec<(Peer<RoleServer>, Vec<String>)> = hub
-                .sessions
-                .values()
-                .map(|(p, uris)| (p.clone(), uris.iter().filter(|u| sim_of(u) == Some(id)).cloned().collect::<Vec<_>>()))
-                .filter(|(_, uris)| !uris.is_empty())
-                .collect();
-            let sinks: Vec<(SubscriptionSink, Vec<String>)> = hub
-                .listeners
-                .values()
-                .map(|s| (s.clone(), accepted_uris(s.accepted()).filter(|u| sim_of(u) == Some(id)).cloned().collect::<Vec<_>>()))
-                .filter(|(_, uris)| !uris.is_empty())
+            let Some(w) = hub.watchers.get(id) else { return };
+            let (sessions, listeners) = (w.sessions.clone(), w.listeners.clone());
+            let mut peers: Vec<(Peer<RoleServer>, Vec<String>)> = Vec::new();
+            for n in sessions {
+                let entry = hub.sessions.get(&n).map(|(p, uris)| (p.clone(), uris.iter().filter(|u| sim_of(u) == Some(id)).cloned().collect()));
+                let Some((p, uris)) = entry else { continue };
+                if p.is_transport_closed() {
+                    hub.drop_subscriber(n);
+                    continue;
+                }
+                peers.push((p, uris));
+            }
+            let sinks: Vec<(SubscriptionSink, Vec<String>)> = listeners
+                .iter()
+                .filter_map(|n| hub.listeners.get(n))
+                .map(|(_, s)| (s.clone(), accepted_uris(s.accepted()).filter(|u| sim_of(u) == Some(id)).cloned().collect()))
                 .collect();
             (peers, sinks)
         };
@@ -182,6 +297,26 @@ impl Subscriptions {
     }
 }
 
+/// Held by every clone of a session's server: when the last goes (rmcp dropped the session's
+/// service), the session's subscriptions and listen streams go with it.
+pub struct SessionEnd {
+    session: u64,
+    subscriptions: Subscriptions,
+}
+
+impl SessionEnd {
+    /// The end of session `session`, whose subscriptions live in `subscriptions`.
+    pub fn new(session: u64, subscriptions: Subscriptions) -> SessionEnd {
+        SessionEnd { session, subscriptions }
+    }
+}
+
+impl Drop for SessionEnd {
+    fn drop(&mut self) {
+        self.subscriptions.drop_session(self.session);
+    }
+}
+
 /// The resource URIs a listen stream was accepted for.
 fn accepted_uris(filter: &SubscriptionFilter) -> impl Iterator<Item = &String> {
     filter.resource_subscriptions.iter().flatten()
@@ -189,7 +324,8 @@ fn accepted_uris(filter: &SubscriptionFilter) -> impl Iterator<Item = &String> {
 
 /// What `subscriptions/listen` accepts of a request: resource-list changes, and updates of
 /// any URI, like `resources/subscribe` (only `sim://{id}/{part}` ones ever change; ids are
-/// never reused, so watching a simulation not made yet is harmless).
+/// never reused, so watching a simulation not made yet is harmless) — the first
+/// `MAX_PER_SESSION` of at most `MAX_URI_BYTES` (the accepted filter tells the client which).
 pub fn accepted_filter(requested: &SubscriptionFilter) -> SubscriptionFilter {
     let mut accepted = SubscriptionFilter::builder();
     if requested.resources_list_changed == Some(true) {
@@ -199,6 +335,8 @@ pub fn accepted_filter(requested: &SubscriptionFilter) -> SubscriptionFilter {
         .resource_subscriptions
         .iter()
         .flatten()
+        .filter(|u| u.len() <= MAX_URI_BYTES)
+        .take(MAX_PER_SESSION)
         .cloned()
         .collect();
     if !uris.is_empty() {
@@ -229,5 +367,10 @@ mod tests {
         assert_eq!(got.resources_list_changed, Some(true));
         assert_eq!(got.tools_list_changed, None);
         assert_eq!(got.resource_subscriptions.map(|u| u.len()), Some(2));
+        // Only URIs that fit, and at most a session's worth.
+        let long = format!("sim://{}/info", "x".repeat(MAX_URI_BYTES));
+        let many: Vec<String> = (0..MAX_PER_SESSION + 10).map(|i| format!("sim://s{i}/info")).chain([long]).collect();
+        let got = accepted_filter(&SubscriptionFilter::builder().resource_subscriptions(many).build());
+        assert_eq!(got.resource_subscriptions.map(|u| u.len()), Some(MAX_PER_SESSION));
     }
 }

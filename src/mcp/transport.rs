@@ -1,8 +1,9 @@
 //! Serving the MCP server: streamable HTTP at `/mcp` (axum) and stdio.
 //!
 //! HTTP binds loopback by default, validates `Host` and `Origin` against DNS rebinding (only
-//! loopback unless `--allow-origin` adds more) and, with `--token`, requires
-//! `Authorization: Bearer <token>` on every request.
+//! loopback unless `--allow-origin` adds more) and, with a token (`--token-file`,
+//! `PHYSICS_MCP_TOKEN` or `--token`), requires `Authorization: Bearer <token>` on every
+//! request; serving another address without one prints a warning.
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -17,7 +18,7 @@ use rmcp::ServiceExt;
 use subtle::ConstantTimeEq;
 use tokio_util::sync::CancellationToken;
 
-use super::session_limit::{limit_sessions, BoundedSessions};
+use super::session_limit::{limit_sessions, tell_clients_apart, BoundedSessions};
 use super::{PhysicsServer, Sessions};
 use crate::sim::Registry;
 
@@ -30,8 +31,12 @@ pub struct HttpOptions {
     pub token: Option<String>,
     /// Extra browser origins allowed besides loopback ones.
     pub allow_origin: Vec<String>,
-    /// Live MCP sessions at most (`--max-sessions`); a new one past it is refused.
+    /// Live MCP sessions at most (`--max-sessions`); past it a new one ends the least
+    /// recently used idle one, and is refused only when none is idle.
     pub max_sessions: usize,
+    /// Live MCP sessions of one client (bearer token, else address) at most
+    /// (`--max-sessions-per-client`), with the same rule among its own.
+    pub max_sessions_per_client: usize,
 }
 
 async fn require_token(State(token): State<Option<Arc<str>>>, req: Request, next: Next) -> Response {
@@ -92,31 +97,33 @@ async fn session_end_no_content(req: Request, next: Next) -> Response {
     response
 }
 
-/// Waits for SIGINT or SIGTERM.
-async fn signalled() {
-    let ctrl_c = tokio::signal::ctrl_c();
+/// SIGINT or SIGTERM, listened for from this call on, not from the first poll: serving calls
+/// it before announcing its address, so a signal sent the moment a client sees the address
+/// ends the server cleanly instead of killing it by the signal's default action (seen: the
+/// cluster ledger test's SIGTERM right after a restart).
+fn signalled() -> impl std::future::Future<Output = ()> {
     #[cfg(unix)]
-    {
-        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(s) => s,
-            Err(_) => {
-                let _ = ctrl_c.await;
-                return;
+    let handlers = {
+        use tokio::signal::unix::{signal, SignalKind};
+        (signal(SignalKind::terminate()).ok(), signal(SignalKind::interrupt()).ok())
+    };
+    async move {
+        #[cfg(unix)]
+        if let (Some(mut term), Some(mut int)) = handlers {
+            tokio::select! {
+                _ = term.recv() => {},
+                _ = int.recv() => {},
             }
-        };
-        tokio::select! {
-            _ = ctrl_c => {},
-            _ = term.recv() => {},
+            return;
         }
+        let _ = tokio::signal::ctrl_c().await;
     }
-    #[cfg(not(unix))]
-    let _ = ctrl_c.await;
 }
 
 /// After a signal: running work is told to stop (`shutdown::begin`) and the sessions are
 /// cancelled.
-async fn shutdown_signal(ct: CancellationToken) {
-    signalled().await;
+async fn shutdown_signal(signal: impl std::future::Future<Output = ()>, ct: CancellationToken) {
+    signal.await;
     crate::shutdown::begin();
     ct.cancel();
 }
@@ -154,11 +161,19 @@ fn sse_retry() -> Option<std::time::Duration> {
 /// MCP sessions (in memory), at most `max` live: priming events as `sse_retry` says, and an
 /// idle session lives for `SESSION_IDLE` instead of rmcp's 5 minutes — an agent often thinks
 /// longer than that between calls, and an expired session makes its client start over.
-fn session_manager(max: usize) -> Arc<BoundedSessions> {
+fn session_manager(max: usize, per_client: usize) -> Arc<BoundedSessions> {
     let mut manager = LocalSessionManager::default();
     manager.session_config.sse_retry = sse_retry();
     manager.session_config.keep_alive = Some(SESSION_IDLE);
-    Arc::new(BoundedSessions::new(manager, max))
+    Arc::new(BoundedSessions::new(manager, max, per_client.max(1)))
+}
+
+/// The HTTP request-body cap: rmcp's 4 MiB, or more when `--max-write-bytes` needs it — a
+/// write_file of that many bytes, sent as base64 (4 bytes for every 3), with 64 KiB for the
+/// request around it — so the flag, not the transport, says how large a file may be.
+fn request_body_cap(max_write_bytes: usize) -> usize {
+    const RMCP_DEFAULT: usize = 4 << 20;
+    RMCP_DEFAULT.max(max_write_bytes.div_ceil(3).saturating_mul(4).saturating_add(64 << 10))
 }
 
 /// How long an idle MCP session is kept.
@@ -168,6 +183,9 @@ const SESSION_IDLE: std::time::Duration = std::time::Duration::from_secs(8 * 360
 pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result<()> {
     let listener = tokio::net::TcpListener::bind(opts.bind).await?;
     let local = listener.local_addr()?;
+    if opts.token.is_none() && !local.ip().is_loopback() {
+        warn_without_token(local);
+    }
     // A reply is several small writes (headers, SSE events, the final chunk): without
     // TCP_NODELAY, Nagle's algorithm can hold them back for a delayed ACK (~40 ms per call,
     // seen with Python's http.client).
@@ -188,6 +206,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let ct = CancellationToken::new();
     // SSE priming events: off unless asked for (see `sse_retry`).
     let config = StreamableHttpServerConfig::default()
+        .with_max_request_body_bytes(request_body_cap(reg.limits().max_write_bytes))
         .with_sse_retry(sse_retry())
         .with_allowed_hosts(hosts)
         .with_allowed_origins(origins)
@@ -195,7 +214,7 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let server_reg = reg.clone();
     let sessions = Sessions::of(&reg);
     let viewer_base: Arc<str> = Arc::from(format!("http://{local}"));
-    let manager = session_manager(opts.max_sessions);
+    let manager = session_manager(opts.max_sessions, opts.max_sessions_per_client);
     if let Some(cluster) = reg.cluster() {
         let template = PhysicsServer::new(reg.clone(), sessions.clone()).with_viewer(viewer_base.clone());
         super::forwarded::start(template, cluster.clone());
@@ -211,15 +230,19 @@ pub async fn serve_http(reg: Arc<Registry>, opts: HttpOptions) -> anyhow::Result
     let mcp = axum::Router::new()
         .nest_service("/mcp", service)
         .layer(middleware::from_fn(session_end_no_content))
-        .layer(middleware::from_fn(limit_sessions));
+        .layer(middleware::from_fn(limit_sessions))
+        .layer(middleware::from_fn(tell_clients_apart));
     let app = mcp
         .merge(viewer)
         .layer(middleware::from_fn_with_state(token, require_token));
+    let signal = signalled();
     announce_address(local);
     // Graceful: no new connection, open ones finish their replies — for at most
     // `shutdown::GRACE` after the signal (a client may hold a stream open for ever), then the
     // flush.
-    let serving = axum::serve(listener, app).with_graceful_shutdown(shutdown_signal(ct.clone()));
+    // Each request knows its peer's address (`tell_clients_apart`).
+    let app = app.into_make_service_with_connect_info::<SocketAddr>();
+    let serving = axum::serve(listener, app).with_graceful_shutdown(shutdown_signal(signal, ct.clone()));
     tokio::select! {
         served = serving => served?,
         _ = async {
@@ -255,6 +278,16 @@ pub async fn serve_stdio(reg: Arc<Registry>) -> anyhow::Result<()> {
     };
     finish(reg).await;
     Ok(())
+}
+
+/// Serving beyond loopback with no token lets anyone who reaches the address drive every
+/// simulation: said once, on stderr, before the address line.
+fn warn_without_token(local: SocketAddr) {
+    use std::io::Write;
+    let line = format!(
+        "physics-mcp: warning: serving on {local}, which is not a loopback address, without a token: anyone who can reach it can call every tool; give one with --token-file PATH or PHYSICS_MCP_TOKEN\n"
+    );
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
 }
 
 /// Prints the line clients wait for — `physics-mcp listening on http://HOST:PORT/mcp` — in

@@ -25,6 +25,8 @@ mod animation;
 mod mjcf;
 mod batch;
 mod sweep;
+mod files;
+mod models;
 
 pub use simulations::*;
 pub use objects::*;
@@ -39,6 +41,8 @@ pub use animation::*;
 pub use mjcf::*;
 pub use batch::*;
 pub use sweep::*;
+pub use files::*;
+pub use models::*;
 
 use std::any::TypeId;
 use std::collections::BTreeMap;
@@ -106,23 +110,44 @@ pub fn schema_of<P: JsonSchema + 'static>() -> Arc<Value> {
         .clone()
 }
 
-/// The refusal of an unknown parameter: its name, the closest known one (edit distance ≤ 2)
-/// and the known ones.
+/// The refusal of an unknown parameter: its name (shortened when long), the closest known one
+/// (edit distance ≤ 2) and the known ones.
+///
+/// Names are at most a few dozen characters, and the edit distance of two names is at least
+/// the difference of their lengths, so a name more than 2 characters longer or shorter than a
+/// known one is not compared with it at all: a 4 MB name costs a length check per known
+/// parameter, not a 4 MB × n distance table on the server's async thread.
 fn unknown_parameter(tool: &str, name: &str, known: &[&str]) -> Refusal {
+    let shown = shown_name(name);
     if known.is_empty() {
-        return format!("Unknown parameter `{name}` for {tool}: it takes no parameters");
+        return format!("Unknown parameter `{shown}` for {tool}: it takes no parameters");
     }
+    let length = name.chars().count();
     let closest = known
         .iter()
+        .filter(|k| k.chars().count().abs_diff(length) <= 2)
         .map(|k| (edit_distance(name, k), *k))
         .filter(|(d, _)| *d <= 2)
         .min();
     let hint = closest.map(|(_, k)| format!(" (did you mean `{k}`?)")).unwrap_or_default();
-    format!("Unknown parameter `{name}` for {tool}{hint}; expected one of: {}", known.join(", "))
+    format!("Unknown parameter `{shown}` for {tool}{hint}; expected one of: {}", known.join(", "))
 }
 
-/// Levenshtein distance between two names.
-fn edit_distance(a: &str, b: &str) -> usize {
+/// Longest name a refusal repeats whole; a longer one is shown by its start and its length.
+const SHOWN_NAME_CHARS: usize = 64;
+
+/// `name` as a refusal shows it: whole when short, else its first characters and its length.
+fn shown_name(name: &str) -> String {
+    let length = name.chars().count();
+    if length <= SHOWN_NAME_CHARS {
+        return name.to_string();
+    }
+    let start: String = name.chars().take(SHOWN_NAME_CHARS / 2).collect();
+    format!("{start}… ({length} characters)")
+}
+
+/// Levenshtein distance between two names (also: the built-in models nearest a missing file).
+pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut row: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {

@@ -214,7 +214,7 @@ pub fn sample_interval_with(lent: &Lent, req: &Request, also: fold::Observer) ->
 
 /// A re-simulation that failed: the log does not fold to what it recorded.
 pub fn resim_error(e: FoldError) -> Refusal {
-    format!("The interval could not be re-simulated: {e}")
+    e.explained("The interval could not be re-simulated")
 }
 
 fn num(out: &mut String, x: Option<f64>) {

@@ -62,6 +62,10 @@ pub enum Mode<'a> {
     },
 }
 
+/// Measures each call's result as it is made (index, tool, result, whether a change): a
+/// batch's running reply size, refusing the first call that would take it past the budget.
+pub type Meter<'a> = &'a mut dyn FnMut(usize, &str, &Value, bool) -> Result<(), Refusal>;
+
 /// What a list of calls did, before its events commit.
 pub struct Carried {
     /// Each call's result (the recorded JSON).
@@ -141,18 +145,40 @@ impl Sim {
         let budget = limits.max_reply_bytes;
         // The reply the MCP layer will send (`budget::shorten` again, the same way) must fit.
         let measure = |c: &Carried| c.results.first().map_or(Ok(()), |v| crate::sim::budget::shorten(tool, v.clone(), budget).map(|_| ()));
-        let (carried, ()) = self.carry_out(vec![call], Mode::Alone(observe), limits, control, measure)?;
+        let (carried, ()) = self.carry_out(vec![call], Mode::Alone(observe), limits, control, &mut |_, _, _, _| Ok(()), measure)?;
         carried.outcome.ok_or_else(|| "Internal error: the call gave no result".to_string())
     }
 
     /// `batch`: applies `calls` all or nothing (module doc). `args` are the batch's own
     /// arguments (for the refused event); the answer must fit `limits.max_reply_bytes`.
+    ///
+    /// Its cost is decided before its work: the reads it holds are priced from the world
+    /// (`budget::batch_reads`) and the copy it works on from the world's size, each refused
+    /// past its budget saying what fits; then each call's result is measured as it is made,
+    /// and the first that would take the reply past the budget refuses the batch, so no
+    /// more than a reply's worth of results is ever built.
     pub fn batch(&mut self, args: &Args, calls: Vec<Call>, limits: &Limits, control: StepControl) -> Result<Batched, Refusal> {
         let budget = limits.max_reply_bytes;
         // Checked by the adapter; a change's echo of its arguments is left out unless "full".
         let full = args.get("detail").and_then(Value::as_str) == Some("full");
+        let priced = crate::sim::budget::batch_reads(&calls, &self.world, budget)
+            .and_then(|()| crate::sim::budget::world_copy(&self.world, limits.max_request_bytes, "batch"));
+        if let Err(why) = priced {
+            return Err(self.refuse("batch", args, why));
+        }
         let changes: Vec<bool> = calls.iter().map(|c| matches!(c.planned, Planned::Change(_))).collect();
-        let (_, out) = self.carry_out(calls, Mode::AllOrNothing { args }, limits, control, |c| {
+        let mut sent = crate::sim::budget::BATCH_ENVELOPE;
+        let mut meter = |i: usize, _: &str, value: &Value, change: bool| {
+            sent += match (change, full) {
+                (true, false) => compact_change(value).to_string().len(),
+                _ => value.to_string().len(),
+            } + 1;
+            if sent > budget {
+                return Err(crate::sim::budget::batch_over_budget(i, budget));
+            }
+            Ok(())
+        };
+        let (_, out) = self.carry_out(calls, Mode::AllOrNothing { args }, limits, control, &mut meter, |c| {
             let results = match full {
                 true => c.results.clone(),
                 false => c.results.iter().zip(&changes).map(|(r, change)| if *change { compact_change(r) } else { r.clone() }).collect(),
@@ -176,6 +202,7 @@ impl Sim {
         mut mode: Mode,
         limits: &Limits,
         control: StepControl,
+        meter: Meter,
         reply: impl FnOnce(&Carried) -> Result<R, Refusal>,
     ) -> Result<(Carried, R), Refusal> {
         self.ensure_live()?;
@@ -202,7 +229,7 @@ impl Sim {
             Some(w) => w,
             None => &mut self.world,
         };
-        let worked = work_out(from, &self.state_hash, world, calls, alone, limits, control, observe);
+        let worked = work_out(from, &self.state_hash, world, calls, alone, limits, control, observe, meter);
         let worked = match worked {
             Ok(w) => w,
             Err(why) => {
@@ -291,6 +318,7 @@ fn work_out(
     limits: &Limits,
     control: StepControl,
     observe: StepObserver,
+    meter: Meter,
 ) -> Result<Worked, Refusal> {
     let (mut work_since, mut changes_since) = since;
     let mut hash = hash.to_string();
@@ -334,12 +362,15 @@ fn work_out(
                 e.result = Some(json);
                 e.state_hash = hash.clone();
                 head = seq;
-                // A snapshot is taken for real work (steps) where it happens; the count of
-                // cheap changes is settled once, after the last call (below).
-                if work_since >= SNAPSHOT_EVERY_BODY_STEPS {
+                // Alone, a snapshot is taken for real work (steps) where it happens. A batch
+                // takes at most one, after its last call (below), as one step of all its
+                // steps would: a snapshot per step call of a 400-call batch was 400 world
+                // copies held in memory until the commit, and as many in the log.
+                if alone && work_since >= SNAPSHOT_EVERY_BODY_STEPS {
                     snapshots.push(snapshot_of(world, seq));
                     (work_since, changes_since) = (0, 0);
                 }
+                meter(i, &call.tool, &value, true).map_err(refused)?;
                 results.push(value);
                 if alone {
                     outcome = Some(result);
@@ -353,12 +384,14 @@ fn work_out(
                 e.result_hash = Some(crate::digest::result_hash(&value.to_string()));
                 e.state_hash = hash.clone();
                 e.summary = Some(crate::log::summary::one_line(&value));
+                meter(i, &call.tool, &value, false).map_err(refused)?;
                 results.push(value);
             }
         }
         events.push(e);
     }
-    if changes_since >= snapshot_every_changes(world.object_count()) && head != head_before {
+    let due = work_since >= SNAPSHOT_EVERY_BODY_STEPS || changes_since >= snapshot_every_changes(world.object_count());
+    if due && head != head_before {
         snapshots.push(snapshot_of(world, head));
         (work_since, changes_since) = (0, 0);
     }

@@ -224,6 +224,102 @@ fn summary(tool: &str, structured: &Value, bytes: usize) -> String {
     )
 }
 
+// ---- What a request costs, estimated before it runs (docs/guarantees.md "Isolation") ----
+
+/// What a batch's reply carries besides its results: the JSON-RPC envelope, `head_seq`,
+/// `time`, `state_hash` and the text copy's framing (the text copy itself is measured at the
+/// end; what is metered as calls run is the structured results, each once).
+pub const BATCH_ENVELOPE: usize = ENVELOPE + 160;
+
+/// The fewest bytes one object takes in get_simulation_info's `objects` (compact JSON: its id,
+/// shape, position, mass, …; measured ≥ 90 on boxes): a lower bound, so pricing never refuses
+/// what would fit.
+pub const INFO_BYTES_PER_OBJECT_MIN: usize = 60;
+
+/// The fewest bytes any other read takes in a batch's reply.
+pub const READ_BYTES_MIN: usize = 40;
+
+/// Memory a world takes per body (rapier's sets, the broad and narrow phase, our tables),
+/// measured on boxes resting in a pile (≈ 4.8 KiB each) and rounded up: what a world copy
+/// (a batch's, a sweep fork's) is priced at.
+pub const WORLD_BYTES_PER_BODY: usize = 6 * 1024;
+
+/// The memory `world` is priced at: its bodies (a robot's links each count) times
+/// [`WORLD_BYTES_PER_BODY`].
+pub fn world_bytes(world: &crate::world::World) -> usize {
+    let bodies: usize = world.objects().map(|(id, _)| 1 + world.link_count(id)).sum();
+    bodies.max(1).saturating_mul(WORLD_BYTES_PER_BODY)
+}
+
+/// Refuses before the work a batch whose reads alone would reply more than `budget`: each
+/// get_simulation_info read at least [`INFO_BYTES_PER_OBJECT_MIN`] per object of the world as
+/// it is, every other read at least [`READ_BYTES_MIN`]. The sentence says how many fit.
+pub fn batch_reads(calls: &[crate::sim::apply::Call], world: &crate::world::World, budget: usize) -> Result<(), Refusal> {
+    use crate::sim::apply::Planned;
+    use crate::sim::reads::Read;
+    let per_info = world.object_count().saturating_mul(INFO_BYTES_PER_OBJECT_MIN).max(READ_BYTES_MIN);
+    let (mut infos, mut others) = (0usize, 0usize);
+    for c in calls {
+        match &c.planned {
+            Planned::Read(Ok(r)) if matches!(**r, Read::SimulationInfo(_)) => infos += 1,
+            Planned::Read(_) => others += 1,
+            Planned::Change(_) => {}
+        }
+    }
+    let least = infos.saturating_mul(per_info).saturating_add(others.saturating_mul(READ_BYTES_MIN)).saturating_add(BATCH_ENVELOPE);
+    if least <= budget || infos == 0 {
+        return Ok(());
+    }
+    let fit = budget.saturating_sub(BATCH_ENVELOPE) / per_info;
+    Err(format!(
+        "calls: the batch's {infos} get_simulation_info reads of {} objects would reply at least {least} bytes, over the reply budget of {budget} bytes (--max-reply-bytes); at most {fit} such reads fit in one batch",
+        world.object_count()
+    ))
+}
+
+/// Refuses a call in a batch whose result would take the batch's reply past `budget` (the
+/// batch then stops there and changes nothing).
+pub fn batch_over_budget(index: usize, budget: usize) -> Refusal {
+    format!(
+        "its result would take the batch's reply past the reply budget of {budget} bytes (--max-reply-bytes); send calls[..{index}] in one batch and the rest in another, or fewer reads per batch"
+    )
+}
+
+/// Refuses before the work a request (`what`) that would copy `world` when the copy would
+/// take more than `max` bytes (`--max-request-bytes`).
+pub fn world_copy(world: &crate::world::World, max: usize, what: &str) -> Result<(), Refusal> {
+    let bytes = world_bytes(world);
+    if bytes <= max {
+        return Ok(());
+    }
+    Err(format!(
+        "the {what} would copy a world of {} objects (about {} MiB), over the {} MiB one request may hold (--max-request-bytes)",
+        world.object_count(),
+        bytes >> 20,
+        max >> 20
+    ))
+}
+
+/// Refuses before the work a sweep whose forks would take more than `max` bytes: the forks in
+/// flight (one per worker) and the kept ones, each priced as a copy of `world`. The sentence
+/// says how many variants (kept) or workers fit.
+pub fn sweep_forks(world: &crate::world::World, variants: usize, workers: usize, keep: bool, max: usize) -> Result<(), Refusal> {
+    let each = world_bytes(world);
+    let held = if keep { variants } else { workers.min(variants) };
+    let bytes = held.saturating_mul(each);
+    if bytes <= max {
+        return Ok(());
+    }
+    let fit = (max / each.max(1)).max(if keep { 0 } else { 1 });
+    Err(format!(
+        "the sweep would hold {held} forks of {} objects in memory (about {} MiB), over the {} MiB one request may hold (--max-request-bytes); {}",
+        world.object_count(),
+        bytes >> 20,
+        max >> 20,
+        if keep { format!("keep at most {fit} variants per sweep, or set keep=false") } else { "sweep a smaller world".to_string() }
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,8 +10,28 @@ use crate::cluster::lease::NotTaken;
 use crate::cluster::replica::SimReplica;
 use crate::cluster::{Cluster, IndexEntry};
 use crate::log::EventLog;
-use crate::sim::{remove_log_files, sim_not_found, Registry, SharedSim, Sim};
+use crate::sim::{lock_sim, remove_log_files, sim_not_found, Registry, SharedSim, Sim};
 use crate::value::Refusal;
+
+/// A simulation's place in a cluster: the cluster, the ownership it is served under, and its
+/// index write under way (the next waits for it; a destroy waits for it before removing the
+/// entry, so no write lands after).
+pub(crate) struct Seat {
+    cluster: Arc<Cluster>,
+    /// The epoch of this node's ownership the simulation was taken (or made) under.
+    epoch: u64,
+    index_write: Option<tokio::task::JoinHandle<()>>,
+}
+
+/// The words of the refusal a call gets that waited for a simulation on a node that, by the
+/// time the call ran, no longer served it (its lease ended while the call waited): nothing was
+/// done or recorded, and routing sends the call again — to the simulation's owner now.
+pub const MOVED: &str = "is no longer served by this node";
+
+/// The "moved" sentence (see [`MOVED`]).
+pub fn moved(id: &str) -> Refusal {
+    format!("Simulation {id} {MOVED} (its lease ended while the call waited); nothing was done: call again")
+}
 
 /// The "owned elsewhere" sentence: what a call gets that reached a node while another node's
 /// lease lived and the owner took none of its attempts (`mcp::routing` forwards calls to live
@@ -32,12 +52,50 @@ pub(crate) fn index_entry(sim: &Sim) -> IndexEntry {
 impl Sim {
     /// In a cluster, rewrites this simulation's index entry after its head moved (a change,
     /// an undo or redo), so list_simulations on other nodes shows what it shows here.
-    pub(crate) fn index_changed(&self) {
-        if let Some(cluster) = &self.cluster {
-            cluster.index_touch(self.id(), &index_entry(self));
+    pub(crate) fn index_changed(&mut self) {
+        let entry = index_entry(self);
+        if let Some(seat) = &mut self.cluster {
+            let after = seat.index_write.take();
+            seat.index_write = seat.cluster.index_touch(self.world.simulation_id(), &entry, after);
+        }
+    }
+
+    /// The lease check every call on a simulation makes once it holds the simulation's lock
+    /// (`Sim::ensure_live` calls it, so reads, changes, forks, saves, sweeps and destroy all
+    /// do): in a cluster, refused with [`moved`] unless this node still serves the simulation
+    /// under the ownership it was taken under. A call that waited for the lock while this node
+    /// was paused past its lease — and another node took over and wrote — can then neither
+    /// answer from the stale state nor act on it. Embedded, nothing to check.
+    ///
+    /// Whoever waits for a busy simulation (the MCP layer's queue) calls this — through
+    /// `ensure_live` — after the wait, never only before it.
+    pub(crate) fn fenced(&self) -> Result<(), Refusal> {
+        match &self.cluster {
+            Some(seat) if !seat.cluster.serves(self.world.simulation_id(), seat.epoch) => Err(moved(self.world.simulation_id())),
+            _ => Ok(()),
+        }
+    }
+
+    /// Destroys this simulation in its cluster's log of record: the fenced `destroyed`
+    /// marker, appended under the lock after the lease check; refused ([`moved`]) when another
+    /// node wrote since. Returns what the removal needs. Embedded, nothing.
+    pub(crate) fn seal(&mut self) -> Result<Option<Sealed>, Refusal> {
+        self.fenced()?;
+        let id = self.id().to_string();
+        if self.cluster.is_none() {
+            return Ok(None);
+        }
+        match self.log.seal() {
+            Ok(()) => Ok(self.cluster.take().map(|seat| (seat.cluster, seat.index_write))),
+            Err(crate::log::StoreError::Fenced(_)) => Err(moved(&id)),
+            Err(e) => Err(format!("Simulation {id} could not be destroyed: {e}")),
         }
     }
 }
+
+/// What removing a sealed (destroyed) simulation from its cluster needs: the cluster, and the
+/// index write still under way (awaited first, so none lands after the removal).
+pub(crate) type Sealed = (Arc<Cluster>, Option<tokio::task::JoinHandle<()>>);
 
 /// The words an "owned elsewhere" refusal holds (routing retries a call refused so in the
 /// instant a dead owner's lease lapses: replicas expire it one by one).
@@ -53,20 +111,23 @@ impl Registry {
         let Some(cluster) = self.cluster.clone() else { return Ok(sim) };
         let id = sim.id().to_string();
         let joined = (|| {
-            let epoch = cluster.acquire(&id).map_err(|e| match e {
+            let epoch = cluster.acquire(&id, true).map_err(|e| match e {
                 NotTaken::Owned(_) => format!("a simulation with id {id} already exists in the cluster"),
                 NotTaken::Failed(why) => format!("the cluster could not record simulation {id}: {why}"),
             })?;
             let seq = cluster.upload(&id, &sim.log, epoch).inspect_err(|_| cluster.release(&id))?;
             cluster.index_put(&id, &index_entry(&sim)).inspect_err(|_| {
-                let _ = cluster.forget(&id);
+                // The subject holds the whole log: ended as a destroy ends it, so no node
+                // takes up a simulation whose creation was refused.
+                let _ = cluster.publish_destroyed(&id, seq, epoch);
+                cluster.remove(&id, None);
             })?;
             Ok::<_, Refusal>((seq, epoch))
         })();
         match joined {
             Ok((seq, epoch)) => {
                 sim.log.attach_replica(Box::new(SimReplica::new(cluster.clone(), &id, seq, epoch)));
-                sim.cluster = Some(cluster);
+                sim.cluster = Some(Seat { cluster, epoch, index_write: None });
                 Ok(sim)
             }
             Err(why) => {
@@ -78,10 +139,16 @@ impl Registry {
 
     /// `get` in a cluster: a simulation this node holds, or one it takes over now.
     pub(crate) fn get_in_cluster(&self, cluster: &Arc<Cluster>, id: &str) -> Result<SharedSim, Refusal> {
+        // An id that cannot name a simulation names none: answered before the cluster is asked.
+        if !crate::cluster::valid_id(id) {
+            return Err(sim_not_found(id));
+        }
         if let Some(sim) = self.held_sim(cluster, id) {
             return Ok(sim);
         }
-        let _one_at_a_time = self.takeovers.lock().unwrap_or_else(|p| p.into_inner());
+        // One takeover of this simulation at a time; other simulations' calls go on.
+        let lock = cluster.one_at_a_time(id);
+        let _one_at_a_time = lock.hold();
         if let Some(sim) = self.held_sim(cluster, id) {
             return Ok(sim);
         }
@@ -104,6 +171,9 @@ impl Registry {
         if cluster.owns(id) && !stale {
             return Some(sim);
         }
+        if stale {
+            cluster.forget_held(id);
+        }
         tracing::warn!("simulation {id} dropped from memory: {}", if stale { "its cache fell behind the cluster's log" } else { "this node's lease on it ended" });
         self.evict(id);
         None
@@ -114,14 +184,24 @@ impl Registry {
     /// and checked. A node of another engine build than the simulation's roots declines.
     fn take_over(&self, cluster: &Arc<Cluster>, id: &str) -> Result<Sim, Refusal> {
         let started = std::time::Instant::now();
-        let epoch = cluster.acquire(id).map_err(|e| match e {
+        let epoch = cluster.acquire(id, false).map_err(|e| match e {
             NotTaken::Owned(node) => owned_elsewhere(id, &node),
             NotTaken::Failed(why) => format!("The cluster could not give this node simulation {id}: {why}"),
         })?;
         let built = (|| {
             let path = self.path_for(id);
             remove_log_files(&path);
-            let seen = cluster.materialize(id, &path, self.config().sync).inspect_err(|_| remove_log_files(&path))?;
+            let seen = cluster.materialize(id, &path, self.config().sync).map_err(|e| {
+                remove_log_files(&path);
+                if e.starts_with(crate::cluster::transfer::NO_LOG) {
+                    // Destroyed (its marker is there, or its subject was purged) and not yet
+                    // removed everywhere: this node finishes the removal.
+                    cluster.finish_removal(id);
+                    sim_not_found(id)
+                } else {
+                    e
+                }
+            })?;
             let refuse = |why: String| {
                 remove_log_files(&path);
                 why
@@ -136,8 +216,8 @@ impl Registry {
             }
             let last = cluster.claim(id, seen, epoch).map_err(|e| refuse(format!("Simulation {id} could not be taken over: {e}")))?;
             sim.log.attach_replica(Box::new(SimReplica::new(cluster.clone(), id, last, epoch)));
-            sim.cluster = Some(cluster.clone());
-            cluster.index_touch(id, &index_entry(&sim));
+            let index_write = cluster.index_touch(id, &index_entry(&sim), None);
+            sim.cluster = Some(Seat { cluster: cluster.clone(), epoch, index_write });
             Ok(sim)
         })();
         match &built {
@@ -147,18 +227,38 @@ impl Registry {
         built
     }
 
-    /// Held by destroy_simulation in a cluster, so no call takes the simulation over between
-    /// its leaving memory and leaving the cluster.
-    pub(crate) fn no_takeovers(&self) -> Option<std::sync::MutexGuard<'_, ()>> {
-        self.cluster.as_ref().map(|_| self.takeovers.lock().unwrap_or_else(|p| p.into_inner()))
-    }
-
-    /// Removes a simulation from the cluster (destroy_simulation on its owner).
-    pub(crate) fn forget_in_cluster(&self, id: &str) -> Result<(), Refusal> {
-        match &self.cluster {
-            Some(cluster) => cluster.forget(id).map_err(|e| format!("Simulation {id} could not be removed from the cluster: {e}")),
-            None => Ok(()),
+    /// destroy_simulation on a cluster node: the simulation is taken (or taken over) here,
+    /// then — holding its takeover lock, so no call takes it over meanwhile, and its own lock,
+    /// after the lease check — destroyed by its fenced `destroyed` marker; only then are its
+    /// files, index entry, subject and ownership removed. A node that lost the lease while the
+    /// call waited refuses with [`moved`] (routing sends the call to the owner) and undoes
+    /// nothing.
+    pub(crate) fn destroy_in_cluster(&self, cluster: &Arc<Cluster>, id: &str) -> Result<(), Refusal> {
+        self.get_in_cluster(cluster, id)?;
+        let lock = cluster.one_at_a_time(id);
+        let _one_at_a_time = lock.hold();
+        let sim = self.lookup(id).ok_or_else(|| sim_not_found(id))?;
+        let (path, sealed) = {
+            let mut guard = lock_sim(&sim);
+            let sealed = match guard.seal() {
+                Ok(sealed) => sealed,
+                Err(why) => {
+                    // Not this node's any more (or unknown): dropped from memory, taken over
+                    // again from the cluster by the next call.
+                    drop(guard);
+                    self.evict(id);
+                    return Err(why);
+                }
+            };
+            guard.mark_destroyed();
+            (guard.log.path().to_path_buf(), sealed)
+        };
+        self.evict(id);
+        remove_log_files(&path);
+        if let Some((cluster, index_write)) = sealed {
+            cluster.remove(id, index_write);
         }
+        Ok(())
     }
 
     /// How many simulations the cluster holds (for --max-sims, counted per cluster).

@@ -10,6 +10,7 @@ pub mod apply;
 pub mod budget;
 pub mod cluster;
 pub mod reads;
+pub mod queue;
 pub mod sampled_step;
 pub mod save_load;
 pub mod sweep;
@@ -123,9 +124,9 @@ pub struct Sim {
     /// Snapshot writes slower than [`stall_ms`] since the MCP layer last took them, as
     /// sentences for logging sessions (an operator wants to know the disk is slow).
     pub(crate) stalls: Vec<String>,
-    /// The cluster this simulation belongs to (cluster mode): its index entry is refreshed
-    /// after each change.
-    pub(crate) cluster: Option<Arc<crate::cluster::Cluster>>,
+    /// Its place in a cluster (cluster mode): the ownership it is served under (checked by
+    /// every call, `fenced`) and its index entry's writes.
+    pub(crate) cluster: Option<cluster::Seat>,
 }
 
 /// A snapshot (serialise, hash, commit) slower than this many milliseconds is a stall worth a
@@ -262,6 +263,7 @@ impl Sim {
     /// Refuses every call on a destroyed simulation with the standard sentence, before
     /// anything is computed or logged.
     pub(crate) fn ensure_live(&self) -> Result<(), Refusal> {
+        self.fenced()?;
         if self.destroyed {
             Err(sim_not_found(self.id()))
         } else if let Some(why) = &self.damaged {
@@ -614,10 +616,13 @@ pub struct Registry {
     mac_key: [u8; 32],
     /// The cluster this node is part of (`serve --cluster`); None: embedded mode.
     cluster: Option<Arc<crate::cluster::Cluster>>,
-    /// Held while a simulation is taken over, so two calls do not both rebuild it.
-    takeovers: Mutex<()>,
     /// This node's sweepers, once started (a cluster node's sweeps then run across the cluster).
     sweeps: std::sync::OnceLock<Arc<sweep_worker::NodeSweeps>>,
+    /// Calls waiting for busy simulations, bounded per simulation (`queue.rs`).
+    queues: queue::Queues,
+    /// What was last seen of each simulation, for listing one that is busy without waiting
+    /// for it (a long step must not hold up list_simulations or a viewer link).
+    listings: Mutex<BTreeMap<String, Listing>>,
     _lock: std::fs::File,
 }
 
@@ -683,8 +688,9 @@ impl Registry {
             sandbox,
             mac_key,
             cluster,
-            takeovers: Mutex::new(()),
             sweeps: std::sync::OnceLock::new(),
+            queues: queue::Queues::default(),
+            listings: Mutex::new(BTreeMap::new()),
             _lock: lock,
         })
     }
@@ -713,6 +719,45 @@ impl Registry {
     /// The limits in force.
     pub fn limits(&self) -> &Limits {
         &self.config.limits
+    }
+
+    /// Notes what `sim` now is, for listing it while a later call holds it.
+    pub(crate) fn listed(&self, sim: &Sim) {
+        self.listings.lock().unwrap_or_else(|p| p.into_inner()).insert(sim.id().to_string(), Listing::of(sim));
+    }
+
+    /// Whether simulation `id` was made with `gui` (from its listing when it is busy).
+    pub fn gui_of(&self, id: &str) -> bool {
+        self.listing(id).is_some_and(|l| l.gui)
+    }
+
+    /// What is known of simulation `id` without waiting for it: the simulation itself when it
+    /// is free, else what was last seen of it, else (it was never seen free) whatever the call
+    /// holding it leaves.
+    fn listing(&self, id: &str) -> Option<Listing> {
+        let sim = self.lookup(id)?;
+        Some(self.listing_of(id, &sim))
+    }
+
+    fn listing_of(&self, id: &str, sim: &SharedSim) -> Listing {
+        if let Ok(guard) = sim.try_lock() {
+            let l = Listing::of(&guard);
+            drop(guard);
+            self.listings.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), l.clone());
+            return l;
+        }
+        if let Some(l) = self.listings.lock().unwrap_or_else(|p| p.into_inner()).get(id) {
+            return l.clone();
+        }
+        let l = Listing::of(&lock_sim(sim));
+        self.listings.lock().unwrap_or_else(|p| p.into_inner()).insert(id.to_string(), l.clone());
+        l
+    }
+
+    /// The queues of calls waiting for busy simulations: a call takes its simulation's turn
+    /// here before it locks it (`queue.rs`).
+    pub fn queues(&self) -> &queue::Queues {
+        &self.queues
     }
 
     /// The table, for a map operation (see the lock order on [`Registry`]).
@@ -810,15 +855,24 @@ impl Registry {
         self.table().sims.insert(id.to_string(), sim);
     }
 
+    /// Drops what this process keeps about a destroyed simulation besides the simulation
+    /// itself: the viewer's cached answers, its waiting queue, its last listing.
+    fn forget_local(&self, id: &str) {
+        crate::seeing::viewer::forget(id);
+        self.queues.forget(id);
+        self.listings.lock().unwrap_or_else(|p| p.into_inner()).remove(id);
+    }
+
     /// Removes a simulation and deletes its log.
     pub fn destroy(&self, id: &str) -> Result<Message, Refusal> {
         if let Some(why) = self.damaged.get(id) {
             return Err(sim_damaged(id, why));
         }
-        if self.cluster.is_some() {
-            self.get(id)?;
+        if let Some(cluster) = &self.cluster {
+            self.destroy_in_cluster(cluster, id)?;
+            self.forget_local(id);
+            return Ok(Message::new(format!("Simulation {id} destroyed")));
         }
-        let _no_takeovers = self.no_takeovers();
         let sim = self.table().sims.remove(id).ok_or_else(|| sim_not_found(id))?;
         // Wait for any call in flight; then, still under the lock, mark it destroyed and close
         // its log before deleting the files, so a request that took the handle earlier finds
@@ -829,31 +883,24 @@ impl Registry {
             guard.log.path().to_path_buf()
         };
         remove_log_files(&path);
-        self.forget_in_cluster(id)?;
+        self.forget_local(id);
         Ok(Message::new(format!("Simulation {id} destroyed")))
     }
 
     /// list_simulations.
     pub fn list(&self) -> SimulationList {
-        let sims = self.all();
+        let sims: Vec<(String, SharedSim)> = self.table().sims.iter().map(|(id, s)| (id.clone(), s.clone())).collect();
         let mut damaged: Vec<DamagedSimulation> = self
             .damaged
             .iter()
             .map(|(id, why)| DamagedSimulation { simulation_id: id.clone(), reason: why.clone() })
             .collect();
         let mut simulations = Vec::new();
-        for s in &sims {
-            let s = lock_sim(s);
-            if let Some(why) = s.damaged() {
-                damaged.push(DamagedSimulation { simulation_id: s.id().to_string(), reason: why.to_string() });
-                continue;
+        for (id, s) in &sims {
+            match self.listing_of(id, s) {
+                Listing { damaged: Some(why), .. } => damaged.push(DamagedSimulation { simulation_id: id.clone(), reason: why }),
+                Listing { summary, .. } => simulations.push(summary),
             }
-            simulations.push(SimulationSummary {
-                simulation_id: s.id().to_string(),
-                name: s.world().name().map(str::to_string),
-                objects: s.world().object_count(),
-                simulation_time: s.world().current_time(),
-            });
         }
         let here: Vec<String> = simulations.iter().map(|s| s.simulation_id.clone()).collect();
         for (id, entry) in self.listed_elsewhere(&here) {
@@ -896,6 +943,30 @@ impl Registry {
     }
 }
 
+/// What list_simulations (and a viewer link) shows of a simulation.
+#[derive(Clone)]
+struct Listing {
+    summary: SimulationSummary,
+    gui: bool,
+    /// Why it is damaged, when it is.
+    damaged: Option<String>,
+}
+
+impl Listing {
+    fn of(s: &Sim) -> Listing {
+        Listing {
+            summary: SimulationSummary {
+                simulation_id: s.id().to_string(),
+                name: s.world().name().map(str::to_string),
+                objects: s.world().object_count(),
+                simulation_time: s.world().current_time(),
+            },
+            gui: s.world().gui(),
+            damaged: s.damaged().map(str::to_string),
+        }
+    }
+}
+
 /// The simulations of a registry and the slots reserved for ones being made.
 struct Table {
     sims: BTreeMap<String, SharedSim>,
@@ -914,6 +985,7 @@ pub(crate) struct Slot<'a> {
 impl Slot<'_> {
     /// Lists `sim` in the slot reserved for it.
     pub(crate) fn fill(mut self, sim: Sim) {
+        self.reg.listed(&sim);
         let shared = Arc::new(Mutex::new(sim));
         let id = lock_sim(&shared).id().to_string();
         let mut t = self.reg.table();

@@ -13,6 +13,7 @@
 //! soon as its variant is done (destroyed again if the sweep is refused); the sweep is decided
 //! from their results here, as ever.
 
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use serde_json::json;
@@ -131,7 +132,9 @@ pub(super) struct Running {
 
 impl Registry {
     /// Runs a sweep of simulation `id` on `workers` threads (module doc). `controls` gives
-    /// each variant its step control; `budget` is the reply budget the answer must fit.
+    /// each variant its step control; `budget` is the reply budget the answer must fit;
+    /// `turn`, the caller's turn on the swept simulation, is given back once the forks'
+    /// source is taken.
     pub fn sweep(
         &self,
         id: &str,
@@ -139,6 +142,7 @@ impl Registry {
         req: Request,
         mut controls: impl FnMut() -> Control,
         (workers, budget): (usize, usize),
+        turn: Option<crate::sim::queue::Turn>,
     ) -> Result<Swept, Refusal> {
         let parent = self.get(id)?;
         let Request { variants, sent, steps, observe, keep, full, rank_by } = req;
@@ -150,6 +154,8 @@ impl Registry {
             // Lock order: the parent, then the table (for the kept variants' slots).
             let ready = self
                 .check_sweep(variants.len(), steps)
+                .and_then(|()| crate::sim::budget::sweep_forks(p.world(), variants.len(), workers, keep, self.limits().max_request_bytes))
+                .and_then(|()| check_samples(p.world(), variants.len(), steps, &observe, budget))
                 .and_then(|()| if keep { self.reserve_many(variants.len()).map_err(|why| format!("keep=true: {why}; keep fewer variants or set keep=false")) } else { Ok(Vec::new()) })
                 .and_then(|slots| Ok((ForkSource::of(&p, None)?, slots)));
             match ready {
@@ -160,16 +166,47 @@ impl Registry {
                 }
             }
         };
+        // The swept simulation is free for other calls while the variants run.
+        drop(turn);
         let how = (keep, full, rank_by);
         if let Some(nodes) = self.sweepers().filter(|_| sent.len() == variants.len()) {
             let controls = (0..sent.len()).map(|_| controls()).collect();
-            let done = self.sweep_across(&nodes, source, crate::sim::sweep_across::Across { sent, steps, observe, keep }, controls);
-            return self.conclude(&parent, args, done, how, (budget, slots));
+            let sweep = uuid::Uuid::new_v4().to_string();
+            let done = self.sweep_across(&nodes, &sweep, source, crate::sim::sweep_across::Across { sent, steps, observe, keep }, controls);
+            let concluded = self.conclude(&parent, args, done, how, (budget, slots));
+            // Every sweep ends with a verdict (a kept one wrote its own in `keep_all`): workers
+            // still waiting for an answer follow it.
+            nodes.decided(&sweep);
+            return concluded;
         }
         let fork_args = fork_arguments(id, source.at());
         let items: Vec<Variant> =
             variants.into_iter().enumerate().map(|(index, calls)| (index, calls, controls())).collect();
-        let done = run_all(items, workers, |variant| self.fork_and_run(&source, &fork_args, variant, steps, &observe));
+        // Memory held stays one fork per worker (plus the kept ones): a variant's fork is
+        // deleted as soon as it has run unless kept, and only its summary stays. The summaries
+        // are measured as they come: once they pass the reply budget, the variants not yet
+        // started are not run.
+        let (sent, over) = (AtomicUsize::new(0), AtomicBool::new(false));
+        let done = run_all(items, workers, |variant| {
+            let index = variant.0;
+            if over.load(Ordering::Relaxed) {
+                return (None, Err(format!("variants[{index}] was not run: {}", over_budget_sweep(budget))));
+            }
+            let (sim, result) = self.fork_and_run(&source, &fork_args, variant, steps, &observe);
+            if let Ok(v) = &result {
+                let bytes = serde_json::to_vec(v).map_or(usize::MAX, |b| b.len());
+                if sent.fetch_add(bytes, Ordering::Relaxed).saturating_add(bytes) > budget {
+                    over.store(true, Ordering::Relaxed);
+                }
+            }
+            match keep {
+                true => (sim, result),
+                false => {
+                    discard(sim);
+                    (None, result)
+                }
+            }
+        });
         self.conclude(&parent, args, done, how, (budget, slots))
     }
 
@@ -195,6 +232,13 @@ impl Registry {
         let keep = how.0;
         let outcome = finish(done, how, budget);
         let mut p = lock_sim(parent);
+        // The lease, checked when the answer is decided (in a cluster the variants ran
+        // meanwhile, and this node may have lost the swept simulation): refused, nothing kept.
+        if let Err(why) = p.ensure_live() {
+            let (Ok((_, sims)) | Err((_, sims))) = outcome;
+            F::discard_all(self, sims);
+            return Err(why);
+        }
         let (swept, sims) = match outcome {
             Ok(ok) => ok,
             Err((why, sims)) => {
@@ -245,6 +289,30 @@ impl Registry {
         }
         Ok(swept)
     }
+}
+
+/// The fewest bytes one sampled pose takes in a sweep's trajectories (three coordinates of a
+/// compact sample and their commas): a lower bound for pricing samples before the work.
+const SAMPLE_BYTES_MIN: u64 = 12;
+
+/// Refuses before the work a sweep whose samples alone could not fit the reply budget:
+/// variants × observed objects × samples × [`SAMPLE_BYTES_MIN`].
+fn check_samples(world: &crate::world::World, variants: usize, steps: u64, observe: &Observe, budget: usize) -> Result<(), Refusal> {
+    let Some(every) = observe.every else { return Ok(()) };
+    let objects = observe.object_ids.as_ref().map_or(world.object_count(), Vec::len).max(1) as u64;
+    let samples = steps / every.max(1) + 2;
+    let least = (variants as u64).saturating_mul(objects).saturating_mul(samples).saturating_mul(SAMPLE_BYTES_MIN);
+    if least <= budget as u64 {
+        return Ok(());
+    }
+    Err(format!(
+        "observe.every: {variants} variants × {objects} objects × {samples} samples would reply at least {least} bytes, over the reply budget of {budget} bytes (--max-reply-bytes); ask for a larger every, fewer object_ids, or fewer variants per sweep"
+    ))
+}
+
+/// Why the variants after the reply budget was passed were not run.
+fn over_budget_sweep(budget: usize) -> String {
+    format!("the variants before it already fill the reply budget of {budget} bytes (--max-reply-bytes); ask for fewer object_ids, a larger every, or fewer variants per sweep")
 }
 
 /// The arguments a variant's root records: those of the fork it is.
@@ -309,9 +377,9 @@ fn variant_work(
 ) -> Result<Report, Refusal> {
     let id = sim.id().to_string();
     if !calls.is_empty() {
-        // A variant's batch answers no client: its reply is not held to the budget.
-        let unbounded_reply = crate::limits::Limits { max_reply_bytes: usize::MAX, ..limits.clone() };
-        sim.batch(&sim_arguments(&id), calls, &unbounded_reply, &mut *control)?;
+        // The caller's reply budget: a variant's batch answers no client, but what it builds
+        // is held to the same bound as any batch, so a sweep cannot build more than a batch can.
+        sim.batch(&sim_arguments(&id), calls, limits, &mut *control)?;
     }
     let mut trajectory = None;
     let ids: Vec<u32> = match &observe.object_ids {

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-use crate::cluster::sweeps::{Heard, WorkItem};
+use crate::cluster::sweeps::{Heard, Verdict, WorkItem};
 use crate::outputs::Swept;
 use crate::sim::sweep::{Control, Observe, Ran, VariantFork};
 use crate::sim::sweep_worker::NodeSweeps;
@@ -23,6 +23,9 @@ const POLL: Duration = Duration::from_millis(100);
 
 /// Progress messages a whole sweep sends, about (as many as a request's progress notifications).
 const PROGRESS_MESSAGES: u64 = 100;
+
+/// How often the sweeping node checks, while it waits, that it still holds the swept simulation.
+const LEASE_CHECK: Duration = Duration::from_secs(1);
 
 /// How long a refused kept sweep waits for live nodes to destroy the forks they kept.
 const GONE_WAIT: Duration = Duration::from_secs(3);
@@ -55,21 +58,34 @@ impl VariantFork for RemoteFork {
     }
 
     /// Already simulations of the nodes that ran them (published before they reported); the
-    /// slots reserved here only kept --max-sims honest meanwhile.
-    fn keep_all(_: &Registry, swept: Swept, _: Vec<RemoteFork>, slots: Vec<Slot<'_>>) -> Result<Swept, Refusal> {
+    /// slots reserved here only kept --max-sims honest meanwhile. The sweep's verdict names
+    /// them before the reply does — unless its workers wrote first that they gave it up (this
+    /// node's lease lapsed meanwhile), and then the sweep is refused: those forks are going.
+    fn keep_all(reg: &Registry, swept: Swept, forks: Vec<RemoteFork>, slots: Vec<Slot<'_>>) -> Result<Swept, Refusal> {
         drop(slots);
-        Ok(swept)
+        let (Some(nodes), Some(first)) = (reg.sweepers(), forks.first()) else { return Ok(swept) };
+        let kept: Vec<String> = forks.iter().map(|f| f.id.clone()).collect();
+        match nodes.queue.decide(&first.sweep, &Verdict { kept: kept.clone(), abandoned: false }) {
+            Ok(v) if v.kept == kept && !v.abandoned => Ok(swept),
+            Ok(_) => Err("the sweep's variants were given up by the nodes that ran them (this node stopped answering past its lease); nothing was kept: call again".to_string()),
+            Err(why) => {
+                RemoteFork::discard_all(reg, forks);
+                Err(format!("the sweep's kept variants could not be recorded ({why}); nothing was kept"))
+            }
+        }
     }
 }
+
 
 impl Registry {
     /// Runs a sweep's variants on the cluster's sweepers (this node's among them, forking from
     /// `source` itself) and collects their outcomes by index; `controls` are the request's,
     /// one per variant. A cancelled request (or a shutdown) stops every variant still running.
-    pub(super) fn sweep_across(&self, nodes: &NodeSweeps, source: ForkSource, across: Across, mut controls: Vec<Control>) -> Vec<Ran<RemoteFork>> {
+    pub(super) fn sweep_across(&self, nodes: &NodeSweeps, sweep: &str, source: ForkSource, across: Across, mut controls: Vec<Control>) -> Vec<Ran<RemoteFork>> {
         let Across { sent, steps, observe, keep } = across;
         let n = sent.len();
-        let sweep = uuid::Uuid::new_v4().to_string();
+        let sweep = sweep.to_string();
+        let (from, token) = nodes.queue.signature();
         let (parent, at) = (source.parent_id().to_string(), source.at());
         let report_every = (n as u64).saturating_mul(steps) / PROGRESS_MESSAGES;
         let items: Vec<WorkItem> = sent
@@ -86,6 +102,8 @@ impl Registry {
                 keep,
                 report_every: report_every.max(1),
                 engine: crate::engine::ENGINE_BUILD.to_string(),
+                from: from.clone(),
+                token: token.clone(),
             })
             .collect();
         nodes.lend(&parent, at, &sweep, Arc::new(source));
@@ -103,7 +121,9 @@ impl Registry {
             return not_sent(n, &why);
         }
         let mut done: Vec<Option<Ran<RemoteFork>>> = (0..n).map(|_| None).collect();
-        let (mut left, mut seen, mut looked) = (n, vec![0u64; n], Instant::now());
+        // The attempt whose result counts, per variant: its repeats are accepted again.
+        let mut counted: Vec<Option<String>> = vec![None; n];
+        let (mut left, mut seen, mut looked, mut lease_checked) = (n, vec![0u64; n], Instant::now(), Instant::now());
         let mut going = true;
         while left > 0 && going {
             match call.next(POLL) {
@@ -111,13 +131,17 @@ impl Registry {
                     seen[i] = taken;
                     going = controls[i](taken);
                 }
-                Some(Heard::Report(report, reply)) => {
-                    let first = done.get(report.index).is_some_and(Option::is_none);
-                    call.answer(reply, first);
-                    if first {
-                        left -= 1;
-                        let fork = report.fork.map(|id| RemoteFork { id, sweep: sweep.clone() });
-                        done[report.index] = Some((fork, report.outcome));
+                Some(Heard::Report(report, reply)) if report.index < n => {
+                    let i = report.index;
+                    match &counted[i] {
+                        None => {
+                            call.answer(reply, true);
+                            left -= 1;
+                            counted[i] = Some(report.attempt.clone());
+                            let fork = report.fork.map(|id| RemoteFork { id, sweep: sweep.clone() });
+                            done[i] = Some((fork, report.outcome));
+                        }
+                        Some(attempt) => call.answer(reply, *attempt == report.attempt),
                     }
                 }
                 _ => {}
@@ -125,6 +149,12 @@ impl Registry {
             if going && looked.elapsed() >= POLL {
                 looked = Instant::now();
                 going = controls[0](seen[0]);
+                // A node that lost the swept simulation (a pause past its lease) stops waiting:
+                // its workers give its items up, and the sweep is refused when it concludes.
+                if going && lease_checked.elapsed() >= LEASE_CHECK {
+                    lease_checked = Instant::now();
+                    going = self.cluster.as_ref().is_none_or(|c| c.owns(&parent));
+                }
             }
         }
         call.end();
@@ -142,6 +172,10 @@ impl Registry {
     /// and a takeover is never waited for under a simulation's lock.
     fn discard_across(&self, forks: Vec<RemoteFork>) {
         let (Some(nodes), Some(cluster), Some(first)) = (self.sweepers(), self.cluster.clone(), forks.first()) else { return };
+        // The verdict first: a worker that never heard its answer destroys its fork by it.
+        if let Err(why) = nodes.queue.decide(&first.sweep, &Verdict::default()) {
+            tracing::warn!("sweep {}'s verdict could not be written: {why}", first.sweep);
+        }
         let mut left: Vec<String> = forks.iter().map(|f| f.id.clone()).collect();
         nodes.queue.tell_over(&first.sweep, left.clone());
         let waiting = Instant::now();

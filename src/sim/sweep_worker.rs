@@ -4,15 +4,18 @@
 //! steps). The swept simulation's state at that seq comes from its log: the sweeping node lends
 //! its own, other nodes materialize the simulation's subject into a temporary file — once per
 //! (simulation, seq), shared by the node's sweepers, deleted once the sweeps that used it are
-//! over. A kept fork is published as a simulation of the node that ran it, and destroyed again
-//! unless the sweeping node accepts it (the first result for its variant).
+//! over. A kept fork is published as a simulation of the node that ran it; it stays only if the
+//! sweep's verdict names it (the sweeping node accepted its result and kept it), and is
+//! destroyed otherwise. A result with no answer is never given up while the sweeping node's
+//! lease lives: the worker asks again (a repeat of an attempt is answered as the first was),
+//! and follows the verdict once there is one.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, MutexGuard, OnceLock, Weak};
 use std::time::{Duration, Instant};
 
-use crate::cluster::sweeps::{Answer, Delivery, Over, Report, SweepQueue, WorkItem};
+use crate::cluster::sweeps::{Answer, Delivery, Over, Report, SweepQueue, Verdict, WorkItem};
 use crate::outputs::SweptVariant;
 use crate::sim::sweep::{discard, fork_arguments, Control, Planner, Ran};
 use crate::sim::timeline::ForkSource;
@@ -25,6 +28,28 @@ const SOURCE_IDLE: Duration = Duration::from_secs(60);
 
 /// How long a node remembers that a sweep is over (its items may still be delivered again).
 const OVER_KEPT: Duration = Duration::from_secs(600);
+
+/// How often a worker without an answer looks at the verdict and the sweeping node's lease,
+/// and how often kept forks awaiting a verdict are looked at.
+const UNANSWERED_PAUSE: Duration = Duration::from_millis(300);
+
+/// A kept fork whose result was accepted, waiting for its sweep's verdict.
+struct Pending {
+    item: WorkItem,
+    fork: String,
+}
+
+/// What a worker learned of its result.
+enum Learned {
+    /// Accepted (the first attempt for its variant, or a repeat of it): the verdict decides.
+    Accepted,
+    /// Another attempt's result counted.
+    Unwanted,
+    /// The sweep's verdict (written by the sweeping node, or "abandoned" once its lease was gone).
+    Decided(Verdict),
+    /// This node is shutting down.
+    Stopped,
+}
 
 /// A swept state as this node's sweepers share it.
 type Made = Arc<OnceLock<Result<Arc<ForkSource>, Refusal>>>;
@@ -51,6 +76,8 @@ pub(crate) struct NodeSweeps {
     pub(super) reg: Weak<Registry>,
     sources: Mutex<BTreeMap<(String, u64), Source>>,
     over: Mutex<BTreeMap<String, Instant>>,
+    /// Kept forks whose results were accepted, until their sweeps' verdicts are known.
+    pending: Mutex<Vec<Pending>>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -65,7 +92,7 @@ impl Registry {
         let Some(cluster) = &self.cluster else { return Ok(()) };
         let queue = SweepQueue::open(cluster).map_err(|e| anyhow::anyhow!("the cluster's sweep queue: {e}"))?;
         let reg = Arc::downgrade(self);
-        let nodes = Arc::new(NodeSweeps { queue, plan, reg, sources: Mutex::default(), over: Mutex::default() });
+        let nodes = Arc::new(NodeSweeps { queue, plan, reg, sources: Mutex::default(), over: Mutex::default(), pending: Mutex::default() });
         if self.sweeps.set(nodes.clone()).is_err() {
             anyhow::bail!("this node's sweepers are already running");
         }
@@ -75,6 +102,8 @@ impl Registry {
             let nodes = nodes.clone();
             std::thread::Builder::new().name(format!("sweeper-{k}")).spawn(move || nodes.pull())?;
         }
+        let settler = nodes.clone();
+        std::thread::Builder::new().name("sweep-verdicts".into()).spawn(move || settler.settle_pending())?;
         Ok(())
     }
 
@@ -117,15 +146,16 @@ impl NodeSweeps {
         }
     }
 
-    /// Runs one delivered variant and reports it. An item of a sweep that is over is dropped;
-    /// one stopped by this node's shutdown, or whose result got no answer, is given back.
+    /// Runs one delivered variant and reports it. An item of a sweep that is over (its
+    /// verdict written, or its sweeping node's lease gone) is dropped; one stopped by this
+    /// node's shutdown is given back.
     fn work_on(self: &Arc<Self>, reg: &Registry, mut d: Delivery<'_>) {
         let item = d.item().clone();
         if item.engine != crate::engine::ENGINE_BUILD {
             return d.decline();
         }
         d.heartbeat();
-        if self.is_over(&item.sweep_id) || !self.queue.listening(&item.sweep_id) {
+        if self.is_over(&item.sweep_id) || self.gone(&item) {
             return d.finish();
         }
         let ran = self.run(reg, &item);
@@ -136,16 +166,95 @@ impl NodeSweeps {
         }
         tracing::info!(target: "physics_mcp::sweep", "variant {} of sweep {} ran on node {}", item.index, item.sweep_id, self.queue.node());
         let (fork, outcome) = settle(reg, item.keep, item.index, ran);
-        let answer = self.queue.report(&item.sweep_id, &Report { index: item.index, node: self.queue.node().to_string(), fork: fork.clone(), outcome });
-        if let Some(id) = fork.filter(|_| answer != Answer::Accepted) {
-            if let Err(why) = reg.destroy(&id) {
-                tracing::warn!("an unwanted kept sweep variant {id} could not be destroyed: {why}");
+        let attempt = uuid::Uuid::new_v4().to_string();
+        let report = Report { index: item.index, attempt, node: self.queue.node().to_string(), fork: fork.clone(), outcome };
+        match (self.learn(&item, &report), fork) {
+            (Learned::Stopped, _) => return d.release(),
+            (Learned::Accepted, Some(fork)) => self.wait_for_verdict(item, fork),
+            (Learned::Unwanted, Some(fork)) => destroy_fork(reg, &fork),
+            (Learned::Decided(v), Some(fork)) if !v.kept.contains(&fork) => destroy_fork(reg, &fork),
+            _ => {}
+        }
+        d.finish()
+    }
+
+    /// Whether `item`'s sweep is over: decided, or its sweeping node's lease is gone.
+    fn gone(&self, item: &WorkItem) -> bool {
+        matches!(self.queue.verdict(&item.sweep_id), Ok(Some(_))) || !self.queue.sweeping_node_alive(item)
+    }
+
+    /// Reports a run's result until the sweeping node answers — or, without an answer, until
+    /// the sweep's verdict is there or the sweeping node's lease is gone (then this worker
+    /// writes the verdict "abandoned", unless the sweeping node wrote one first). "Nobody
+    /// listens" alone decides nothing: a node reconnecting to another NATS server looks so
+    /// for a moment.
+    fn learn(&self, item: &WorkItem, report: &Report) -> Learned {
+        let sweep = &item.sweep_id;
+        let mut packed = None;
+        loop {
+            if crate::shutdown::requested() {
+                return Learned::Stopped;
+            }
+            if packed.is_none() {
+                packed = self.queue.packed(report).inspect_err(|why| tracing::warn!("the result of variant {} of sweep {sweep} could not be sent yet: {why}", report.index)).ok();
+            }
+            match packed.as_deref().map(|p| self.queue.report(sweep, p)) {
+                Some(Answer::Accepted) => return Learned::Accepted,
+                Some(Answer::Unwanted) => return Learned::Unwanted,
+                _ => {}
+            }
+            if let Ok(Some(v)) = self.queue.verdict(sweep) {
+                return Learned::Decided(v);
+            }
+            if !self.queue.sweeping_node_alive(item) {
+                if let Ok(v) = self.queue.decide(sweep, &Verdict { kept: Vec::new(), abandoned: true }) {
+                    return Learned::Decided(v);
+                }
+            }
+            std::thread::sleep(UNANSWERED_PAUSE);
+        }
+    }
+
+    /// Keeps an accepted kept fork until its sweep's verdict says whether it stays.
+    fn wait_for_verdict(&self, item: WorkItem, fork: String) {
+        lock(&self.pending).push(Pending { item, fork });
+    }
+
+    /// The verdict thread: kept forks awaiting their sweeps' verdicts stay if named, and are
+    /// destroyed otherwise; a sweep whose node's lease is gone before it decided is abandoned.
+    fn settle_pending(self: &Arc<Self>) {
+        while !crate::shutdown::requested() {
+            std::thread::sleep(UNANSWERED_PAUSE);
+            let Some(reg) = self.reg.upgrade() else { return };
+            let sweeps: BTreeSet<String> = lock(&self.pending).iter().map(|p| p.item.sweep_id.clone()).collect();
+            for sweep in sweeps {
+                let Some(item) = lock(&self.pending).iter().find(|p| p.item.sweep_id == sweep).map(|p| p.item.clone()) else { continue };
+                let verdict = match self.queue.verdict(&sweep) {
+                    Ok(Some(v)) => v,
+                    Ok(None) if !self.queue.sweeping_node_alive(&item) => match self.queue.decide(&sweep, &Verdict { kept: Vec::new(), abandoned: true }) {
+                        Ok(v) => v,
+                        Err(_) => continue,
+                    },
+                    _ => continue,
+                };
+                let settled: Vec<Pending> = {
+                    let mut pending = lock(&self.pending);
+                    let (mine, rest) = std::mem::take(&mut *pending).into_iter().partition(|p| p.item.sweep_id == sweep);
+                    *pending = rest;
+                    mine
+                };
+                for p in settled.into_iter().filter(|p| !verdict.kept.contains(&p.fork)) {
+                    destroy_fork(&reg, &p.fork);
+                }
             }
         }
-        if answer == Answer::Silent {
-            d.release()
-        } else {
-            d.finish()
+    }
+
+    /// Writes the verdict of a sweep this node ran, if none is there (a kept sweep wrote its
+    /// own): workers still without an answer stop waiting, and destroy their forks.
+    pub(super) fn decided(&self, sweep: &str) {
+        if let Err(why) = self.queue.decide(sweep, &Verdict::default()) {
+            tracing::warn!("sweep {sweep}'s verdict could not be written: {why}");
         }
     }
 
@@ -293,6 +402,16 @@ impl NodeSweeps {
         let mut sources = lock(&self.sources);
         let keys: Vec<(String, u64)> = sources.iter_mut().filter_map(|(k, s)| doomed(s).then(|| k.clone())).collect();
         keys.into_iter().filter_map(|k| sources.remove(&k).and_then(|s| s.file)).collect()
+    }
+}
+
+/// Destroys a kept fork the sweep did not keep.
+fn destroy_fork(reg: &Registry, id: &str) {
+    if reg.get_local(id).is_none() && !reg.cluster().is_some_and(|c| matches!(c.index_get(id), Ok(Some(_)))) {
+        return; // gone already (the sweep's end told this node first)
+    }
+    if let Err(why) = reg.destroy(id) {
+        tracing::warn!("a kept sweep variant the sweep did not keep, {id}, could not be destroyed: {why}");
     }
 }
 

@@ -186,6 +186,25 @@ impl NatsCluster {
         self.members.iter().position(|m| m.name == leader).unwrap_or_else(|| panic!("stream leader {leader} is not one of ours"))
     }
 
+    /// The bytes held by the stream that holds the most messages (one busy simulation's).
+    pub fn busiest_stream_bytes(&self) -> u64 {
+        let m = self.live().next().expect("a running nats server");
+        let (_, body) = http_get(m.monitor_port, "/jsz?streams=true").expect("/jsz?streams=true");
+        let v: Value = serde_json::from_str(&body).expect("/jsz JSON");
+        let streams = v["account_details"].as_array().into_iter().flatten().flat_map(|a| a["stream_detail"].as_array().into_iter().flatten());
+        let busiest = streams.max_by_key(|s| s["state"]["messages"].as_u64().unwrap_or(0)).expect("no JetStream stream");
+        busiest["state"]["bytes"].as_u64().unwrap_or(0)
+    }
+
+    /// The index of the server the client connection named `name` is on, if any.
+    pub fn server_of_connection(&self, name: &str) -> Option<usize> {
+        (0..3).filter(|&i| self.members[i].child.is_some()).find(|&i| {
+            let Some((_, body)) = http_get(self.members[i].monitor_port, "/connz?limit=1024") else { return false };
+            let v: Value = serde_json::from_str(&body).unwrap_or_default();
+            v["connections"].as_array().into_iter().flatten().any(|c| c["name"].as_str() == Some(name))
+        })
+    }
+
     /// Spawns server `i` with its fixed ports and store; its output goes to its log file
     /// (printed if the cluster never becomes ready).
     fn spawn(&mut self, i: usize) {
@@ -274,45 +293,58 @@ fn read_tail(path: &Path, max: usize) -> String {
 /// The namespace the tests' nodes run in (they pass no `--cluster-namespace`: the default).
 pub const NAMESPACE: &str = "pmcp";
 
-/// The lease bucket (`{namespace}_leases`), read from the test's side of NATS: which node holds
-/// a simulation now. A test that must kill "the owner" asks here rather than guessing it.
+/// Who serves a simulation, read from the test's side of NATS: its ownership record
+/// (`{namespace}_owners`: the node and its incarnation) and that node's lease
+/// (`{namespace}_nodes`: its current incarnation, while it lives). A test that must kill "the
+/// owner" asks here rather than guessing it.
 pub struct Leases {
-    store: async_nats::jetstream::kv::Store,
+    owners: async_nats::jetstream::kv::Store,
+    nodes: async_nats::jetstream::kv::Store,
 }
 
 impl Leases {
-    /// Opens the bucket (the first node made it) over the servers `urls` (comma-joined).
+    /// Opens the buckets (the first node made them) over the servers `urls` (comma-joined).
     pub async fn open(urls: &str) -> Leases {
         let addrs: Vec<async_nats::ServerAddr> = urls.split(',').map(|u| u.parse().unwrap_or_else(|e| panic!("NATS url {u}: {e}"))).collect();
         let client = async_nats::connect(addrs).await.expect("connect to NATS");
         let js = async_nats::jetstream::new(client);
-        let bucket = format!("{NAMESPACE}_leases");
-        let store = js.get_key_value(bucket.clone()).await.unwrap_or_else(|e| panic!("open the bucket {bucket}: {e}"));
-        Leases { store }
+        let open = |name: String| {
+            let js = js.clone();
+            async move { js.get_key_value(name.clone()).await.unwrap_or_else(|e| panic!("open the bucket {name}: {e}")) }
+        };
+        Leases { owners: open(format!("{NAMESPACE}_owners")).await, nodes: open(format!("{NAMESPACE}_nodes")).await }
     }
 
-    /// The name of the node whose lease on `sim` lives now; `None` when no node holds it (its
-    /// holder's lease lapsed and nobody took it yet). The entry is the node's name (a JSON
-    /// object's `node` field is read too, should the entry ever carry more).
-    pub async fn holder(&self, sim: &str) -> Option<String> {
+    /// A key's value, asked again for a while when a server was just lost (a direct get may
+    /// find no responders for a moment).
+    async fn get(store: &async_nats::jetstream::kv::Store, key: &str) -> Option<String> {
         let started = Instant::now();
-        let value = loop {
-            match self.store.get(sim).await {
-                Ok(v) => break v?,
-                // Right after a server was lost, a direct get may find no responders for a
-                // moment: asked again.
+        loop {
+            match store.get(key).await {
+                Ok(v) => return v.map(|b| String::from_utf8_lossy(&b).into_owned()),
                 Err(e) if started.elapsed() < Duration::from_secs(10) => {
-                    eprintln!("reading the lease of {sim}: {e}; retrying");
+                    eprintln!("reading {key}: {e}; retrying");
                     tokio::time::sleep(Duration::from_millis(100)).await;
                 }
-                Err(e) => panic!("reading the lease of {sim}: {e}"),
+                Err(e) => panic!("reading {key}: {e}"),
             }
-        };
-        let text = String::from_utf8_lossy(&value).into_owned();
-        match serde_json::from_str::<Value>(&text) {
-            Ok(Value::Object(o)) => Some(o.get("node").and_then(Value::as_str).unwrap_or_else(|| panic!("a lease entry with no node: {text}")).to_string()),
-            _ => Some(text),
         }
+    }
+
+    /// The name of the node that serves `sim` now; `None` when no node does (its owner's lease
+    /// lapsed and nobody took it yet, or nobody ever did).
+    pub async fn holder(&self, sim: &str) -> Option<String> {
+        let record = Self::get(&self.owners, sim).await?;
+        let owner: Value = serde_json::from_str(&record).unwrap_or_else(|e| panic!("an ownership record that is not JSON ({e}): {record}"));
+        let node = owner["node"].as_str().unwrap_or_else(|| panic!("an ownership record with no node: {record}")).to_string();
+        let token = owner["token"].as_str().unwrap_or_default();
+        let live = Self::get(&self.nodes, &node).await;
+        (live.as_deref() == Some(token)).then_some(node)
+    }
+
+    /// Whether `sim` has an ownership record at all (a live owner or not).
+    pub async fn has_record(&self, sim: &str) -> bool {
+        Self::get(&self.owners, sim).await.is_some()
     }
 
     /// Waits (up to `within`) until some node holds `sim`, and returns its name.

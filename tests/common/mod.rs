@@ -370,6 +370,7 @@ pub fn load_fixture(
         fixed_base,
         continuous_limits_from_file: true,
         revolute_prismatic_limits_from_file: true,
+        inertials_as_pybullet: true,
         parsed: Default::default(),
     };
     w.apply(&cmd, &mut |_| true).to_value()["object_id"].as_u64().unwrap() as u32

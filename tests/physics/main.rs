@@ -1,11 +1,13 @@
 //! What the tools compute, against independent references (analytic physics, PyBullet, MuJoCo):
-//! bodies and contacts, sensing, robots from URDF and MJCF, joint limits, inverse kinematics,
-//! values reported as set, and stepping on several threads bit for bit.
+//! bodies and contacts, sensing, robots from URDF and MJCF (the built-in models too), joint
+//! limits, inverse kinematics, values reported as set, and stepping on several threads bit for
+//! bit.
 
 #[path = "../common/mod.rs"]
 mod common;
 
 mod agent_calls;
+mod builtins;
 mod engine_rules;
 mod ik;
 mod link_state;

@@ -2,7 +2,8 @@
 //! scripts/mjcf_reference.py from Gymnasium's models in tests/fixtures/mjcf/): every fixture
 //! loads with its `ignored` list; joint names, types and limits and body masses equal MuJoCo's;
 //! after reset_joint_state to MuJoCo's configurations every body's frame (get_link_state of its
-//! link) equals MuJoCo's xpos/xquat. Bodies are matched by order, not name (MuJoCo names an
+//! link) equals MuJoCo's xpos/xquat — for the workspace copies and for the same models built
+//! in (`mujoco/<model>.xml`). Bodies are matched by order, not name (MuJoCo names an
 //! unnamed body ""). Also: refusals naming the problem and changing nothing; undo/redo, fork,
 //! save → load and replay of an MJCF robot; a hinge pendulum's period against theory.
 
@@ -18,15 +19,18 @@ fn reference() -> Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
-fn floats(v: &Value) -> Vec<f64> {
+/// A JSON array of numbers (shared with builtins.rs).
+pub(crate) fn floats(v: &Value) -> Vec<f64> {
     v.as_array().unwrap_or_else(|| panic!("array expected, got {v}")).iter().map(|x| x.as_f64().unwrap()).collect()
 }
 
-fn vec_diff(a: &[f64], b: &[f64]) -> f64 {
+/// Largest difference between two vectors.
+pub(crate) fn vec_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
-fn quat_diff(a: &[f64], b: &[f64]) -> f64 {
+/// Largest difference between two quaternions up to sign.
+pub(crate) fn quat_diff(a: &[f64], b: &[f64]) -> f64 {
     let d = |s: f64| a.iter().zip(b).map(|(x, y)| (x - s * y).abs()).fold(0.0, f64::max);
     d(1.0).min(d(-1.0))
 }
@@ -66,8 +70,34 @@ async fn fixtures_load_and_match_mujoco() {
     let c = server.client().await;
     let r = reference();
     for (model, m) in r["models"].as_object().unwrap() {
+        matches_mujoco(&c, model, m, &format!("mjcf/{model}.xml")).await;
+    }
+}
+
+/// Gymnasium's models built in (`mujoco/<model>.xml`), loaded by name on a server whose
+/// workspace holds no file, equal MuJoCo as the workspace copies do: the library ships the
+/// very files the reference was computed from.
+#[tokio::test(flavor = "multi_thread")]
+async fn builtin_gymnasium_models_load_by_name_and_match_mujoco() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let r = reference();
+    let mut matched = 0;
+    for (model, m) in r["models"].as_object().unwrap().iter().filter(|(model, _)| *model != "mesh_robot") {
+        matches_mujoco(&c, model, m, &format!("mujoco/{model}.xml")).await;
+        matched += 1;
+    }
+    assert_eq!(matched, 11, "Gymnasium's eleven models");
+}
+
+/// Loads `file_path` (MJCF model `model` of the reference, whose entry is `m`) and checks it
+/// against MuJoCo: its `ignored` notes, joints, masses, and body frames at MuJoCo's
+/// configurations.
+async fn matches_mujoco(c: &Client, model: &str, m: &Value, file_path: &str) {
+    {
         let sim = c.new_sim(json!({})).await;
-        let loaded = load(&c, &sim, model).await;
+        let loaded = c.call("load_mjcf", json!({"sim_id": sim, "file_path": file_path})).await;
         let id = loaded["object_id"].as_u64().unwrap();
         // ignored: every expected note is there.
         let ignored: Vec<String> = loaded["ignored"].as_array().unwrap().iter().map(|s| s.as_str().unwrap().to_string()).collect();
@@ -179,7 +209,7 @@ async fn fixtures_load_and_match_mujoco() {
         let framed = own.iter().filter(|o| **o).count();
         assert!(framed >= joints.len().min(1), "{model}: no body compared");
         assert_eq!(compared, framed * m["configurations"].as_array().unwrap().len(), "{model}");
-        eprintln!("REPORT {model}: {framed} body frames x {} configurations equal MuJoCo's", m["configurations"].as_array().unwrap().len());
+        eprintln!("REPORT {file_path}: {framed} body frames x {} configurations equal MuJoCo's", m["configurations"].as_array().unwrap().len());
     }
 }
 

@@ -94,7 +94,7 @@ fn every_world_the_server_makes_steps_on_the_threads_pool() {
             full: true,
             rank_by: None,
         };
-        let swept = reg.sweep("a", &Args::new(), request, || Box::new(|_| true) as Control, (2, usize::MAX)).expect("sweep");
+        let swept = reg.sweep("a", &Args::new(), request, || Box::new(|_| true) as Control, (2, usize::MAX), None).expect("sweep");
         for v in &swept.variants {
             let kept = reg.get(v.simulation_id.as_deref().unwrap()).unwrap();
             assert_eq!(stepping_threads("kept from a sweep", &kept), expect);

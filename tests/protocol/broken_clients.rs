@@ -1,7 +1,7 @@
 //! Slow and broken clients: a client that sends half a request and stalls, clients
 //! that never read their (large) replies, 1,000 idle sessions, a 100 MB body — the server keeps
-//! serving a well-behaved client throughout, and its peak memory is reported. `--max-sessions`
-//! refuses a session past the bound with one sentence until one ends.
+//! serving a well-behaved client throughout, and its peak memory is reported. At
+//! `--max-sessions` a new session ends the least recently used idle one.
 
 use crate::common;
 
@@ -31,7 +31,7 @@ fn peak_rss_mib(pid: u32) -> f64 {
 }
 
 #[tokio::test(flavor = "multi_thread")]
-async fn sessions_past_the_bound_are_refused_until_one_ends() {
+async fn at_the_bound_the_least_recently_used_idle_session_makes_room() {
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start(dir.path(), &["--max-sessions", "3"]);
     let http = reqwest::Client::new();
@@ -39,17 +39,19 @@ async fn sessions_past_the_bound_are_refused_until_one_ends() {
     for _ in 0..3 {
         sids.push(raw_session(&http, &server.url).await.expect("within the bound"));
     }
-    let (status, why) = raw_session(&http, &server.url).await.expect_err("past the bound");
-    assert_eq!(status, 503, "{why}");
-    assert!(why.starts_with("Session limit reached: 3 live MCP sessions (--max-sessions 3)"), "{why}");
-    // A session that exists goes on.
+    // The first is used again: the second is now the least recently used.
     let list = json!({"jsonrpc": "2.0", "id": 2, "method": "tools/list"});
-    let r = http.post(&server.url).header("Accept", ACCEPT).header("mcp-session-id", &sids[0]).json(&list).send().await.unwrap();
-    assert!(r.status().is_success());
-    // Ending one makes room.
-    let r = http.delete(&server.url).header("mcp-session-id", sids.pop().unwrap()).send().await.unwrap();
-    assert!(r.status().is_success(), "{}", r.status());
-    raw_session(&http, &server.url).await.expect("room again after DELETE");
+    let used = |sid: String| {
+        let http = http.clone();
+        let url = server.url.clone();
+        let list = list.clone();
+        async move { http.post(&url).header("Accept", ACCEPT).header("mcp-session-id", sid).json(&list).send().await.unwrap().status().as_u16() }
+    };
+    assert_eq!(used(sids[0].clone()).await, 200);
+    raw_session(&http, &server.url).await.expect("an idle session makes room");
+    assert_eq!(used(sids[1].clone()).await, 404, "the least recently used idle session was ended");
+    assert_eq!(used(sids[0].clone()).await, 200);
+    assert_eq!(used(sids[2].clone()).await, 200);
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -129,6 +129,10 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     let mj = id(&c.call("create_simulation", json!({})).await, "simulation_id");
     c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await;
     c.call("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "cylinder", "parent_dimensions": [0.1, 0.1, 0.1], "child_dimensions": [0.05, 0.3]})).await;
+    // Built-in models and workspace files.
+    c.call("list_models", json!({"filter": "kuka"})).await;
+    c.call("write_file", json!({"path": "agent/box.urdf", "content": "<robot name=\"b\"><link name=\"l\"/></robot>"})).await;
+    c.call("list_files", json!({"path": "agent"})).await;
 
     // Constraints, then sensing on the settled scene.
     let k = id(&c.call("create_constraint", json!({"sim_id": sim, "parent_id": can, "child_id": -1, "joint_type": "fixed"})).await, "constraint_id");

@@ -470,6 +470,13 @@ pub enum Command {
         /// Omitted when false, so such events re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         revolute_prismatic_limits_from_file: bool,
+        /// Which links have an inertial is read as PyBullet 3.2.7 reads it (`UrdfRules`): past
+        /// the XML declaration, so pybullet_data's objects (`<?xml version="0.0" ?>`) get their
+        /// own masses, not 1 kg each; a `world` link without one has mass 0. Set by every
+        /// load_urdf since; older events decode as false and fold to the robot they always did.
+        /// Omitted when false, so such events re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        inertials_as_pybullet: bool,
         /// The robot parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::urdf::RobotModel>,
@@ -766,16 +773,17 @@ impl Command {
         self.as_taken(result.get("steps_taken").and_then(serde_json::Value::as_u64))
     }
 
-    /// How a URDF load reads joint limits (its two recorded flags; default rules otherwise).
-    pub fn urdf_rules(&self) -> crate::world::urdf::LimitsFromFile {
+    /// How a URDF load reads joint limits and inertials (its recorded flags; today's rules otherwise).
+    pub fn urdf_rules(&self) -> crate::world::urdf::UrdfRules {
         match self {
-            Command::LoadUrdf { continuous_limits_from_file, revolute_prismatic_limits_from_file, .. } => {
-                crate::world::urdf::LimitsFromFile {
+            Command::LoadUrdf { continuous_limits_from_file, revolute_prismatic_limits_from_file, inertials_as_pybullet, .. } => {
+                crate::world::urdf::UrdfRules {
                     continuous: *continuous_limits_from_file,
                     revolute_prismatic: *revolute_prismatic_limits_from_file,
+                    pybullet_inertials: *inertials_as_pybullet,
                 }
             }
-            _ => crate::world::urdf::LimitsFromFile { continuous: true, revolute_prismatic: true },
+            _ => crate::world::urdf::UrdfRules { continuous: true, revolute_prismatic: true, pybullet_inertials: true },
         }
     }
 
@@ -792,7 +800,7 @@ impl Command {
         let rules = self.urdf_rules();
         match &mut self {
             Command::LoadUrdf { urdf, meshes, parsed, .. } => {
-                let key = model_key(urdf, meshes, &format!("{} {}", rules.continuous, rules.revolute_prismatic));
+                let key = model_key(urdf, meshes, &format!("{} {} {}", rules.continuous, rules.revolute_prismatic, rules.pybullet_inertials));
                 let model = match models.urdf.get(&key) {
                     Some(m) => m.clone(),
                     None => {

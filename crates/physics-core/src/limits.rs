@@ -20,6 +20,19 @@ pub struct Limits {
     /// Bytes per tool reply (the serialized JSON-RPC message): the Python MCP SDK drops SSE
     /// events over 1 MiB, so a larger reply would be lost, not just slow.
     pub max_reply_bytes: usize,
+    /// Calls that may wait for one busy simulation (docs/guarantees.md "Isolation"): a call past
+    /// it is refused at once, so callers queue on a simulation without each holding a thread.
+    pub max_waiting: usize,
+    /// Re-simulated work one request may ask for, in body-steps (steps × bodies): what
+    /// get_trajectory, render_animation, the report and every viewer ask re-simulate is
+    /// estimated from the log before any of it runs, and refused past this.
+    pub max_work: u64,
+    /// Bytes of memory one request may hold beyond the live world, estimated before it runs:
+    /// a batch's results and world copy, a sweep's forks in flight and kept.
+    pub max_request_bytes: usize,
+    /// Bytes per file write_file writes: the default, 3,000,000, sent as base64 (a third more)
+    /// with its envelope, fits the HTTP transport's 4 MiB request-body cap.
+    pub max_write_bytes: usize,
 }
 
 /// the documented defaults: one table for the CLI flags and `Default`.
@@ -31,6 +44,10 @@ pub const DEFAULT: Limits = Limits {
     max_rays: 16_384,
     max_image_px: 1_048_576,
     max_reply_bytes: 1_048_576,
+    max_waiting: 64,
+    max_work: 200_000_000,
+    max_request_bytes: 512 * 1024 * 1024,
+    max_write_bytes: 3_000_000,
 };
 
 impl Default for Limits {
@@ -51,6 +68,10 @@ impl Limits {
             max_rays: usize::MAX,
             max_image_px: usize::MAX,
             max_reply_bytes: usize::MAX,
+            max_waiting: usize::MAX,
+            max_work: u64::MAX,
+            max_request_bytes: usize::MAX,
+            max_write_bytes: usize::MAX,
         }
     }
 }

@@ -666,6 +666,67 @@ pub struct GeneratedUrdf {
     pub joint_limits: [f64; 2],
 }
 
+/// One built-in model of list_models (the catalog's line and what a load of it builds).
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct ModelListing {
+    /// The name load_urdf / load_mjcf take as `file_path`.
+    pub name: String,
+    /// "urdf" (load_urdf) or "mjcf" (load_mjcf).
+    pub format: String,
+    /// Joints as get_num_joints counts them.
+    pub joints: usize,
+    /// Joints that move (one degree of freedom each).
+    pub dofs: usize,
+    /// Mass of the moving bodies in kg (a fixed base and an MJCF floor excluded).
+    pub mass: f64,
+    /// Whether the base stands fixed when loaded as is.
+    pub fixed_base: bool,
+    /// What it is, in one line.
+    pub description: String,
+    /// Its licence (NOTICE has the texts).
+    pub license: String,
+}
+
+/// Result of list_models.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct Models {
+    /// The built-in models that match the filter, in the library's order.
+    pub models: Vec<ModelListing>,
+}
+
+/// Result of write_file.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct FileWritten {
+    /// The file written, relative to the workspace.
+    pub path: String,
+    /// Its size in bytes.
+    pub bytes: u64,
+}
+
+/// One entry of list_files.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct FileEntry {
+    /// Relative to the workspace (folders end with "/").
+    pub path: String,
+    /// Size in bytes (0 for a folder).
+    pub bytes: u64,
+    /// "file", "dir", "symlink" (not followed) or "other" (FIFO, socket, device).
+    pub kind: String,
+}
+
+/// Result of list_files.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Files {
+    /// The entries under the path, depth first in name order.
+    pub entries: Vec<FileEntry>,
+    /// Present and true when entries were left out (the listing's bound); `total` then says how many there are.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub truncated: bool,
+    /// How many entries there are in all, when truncated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub total: Option<u64>,
+}
+
 /// Result of create_constraint.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct ConstraintCreated {

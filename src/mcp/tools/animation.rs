@@ -8,6 +8,7 @@ use rmcp::model::{CallToolResult, ContentBlock, JsonObject, Resource};
 use rmcp::{tool, tool_router};
 use schemars::JsonSchema;
 use serde::Serialize;
+use tokio_util::sync::CancellationToken;
 
 use crate::outputs::CameraUsed;
 use crate::params::lenient::{int_or, Int, Positive, Text};
@@ -181,13 +182,13 @@ impl PhysicsServer {
         output_schema = schema_for_output::<AnimationSummary>(),
         annotations(read_only_hint = true)
     )]
-    async fn render_animation(&self, args: JsonObject) -> Result<CallToolResult, String> {
+    async fn render_animation(&self, args: JsonObject, ct: CancellationToken) -> Result<CallToolResult, String> {
         let (max_px, sandbox) = (self.reg.limits().max_image_px, self.reg.sandbox().clone());
         let workspace = sandbox.workspace.clone();
         let measure = move |s: &AnimationSummary, gif: &Option<Vec<u8>>| budget::bytes_of(&reply(s, gif.as_deref(), &workspace));
         let for_parse = sandbox.clone();
         let parse = move |a: &Args| parse(a, &for_parse);
-        let (summary, gif) = self.look_back_with(TOOL, args, parse, move |asked, lent| run(asked, lent, max_px, &sandbox), measure).await?;
+        let (summary, gif) = self.look_back_with(TOOL, args, ct, parse, move |asked, lent| run(asked, lent, max_px, &sandbox), measure).await?;
         Ok(reply(&summary, gif.as_deref(), &self.reg.sandbox().workspace))
     }
 }

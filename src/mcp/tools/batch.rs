@@ -164,7 +164,7 @@ impl PhysicsServer {
         let mut control = watch.control();
         let sandbox = self.reg.sandbox().clone();
         let out = self
-            .with_sim_prepared(args, move |a| batch_calls(&sandbox, a), move |sim, a, limits, calls| match calls {
+            .with_sim_prepared("batch", args, move |a| batch_calls(&sandbox, a), move |sim, a, limits, calls| match calls {
                 Ok(calls) => sim.batch(a, calls, limits, &mut control),
                 Err(why) => Err(sim.refuse("batch", a, why)),
             })

@@ -4,7 +4,9 @@
 pub(crate) mod animation;
 pub(crate) mod batch;
 pub(crate) mod constraints;
+pub(crate) mod files;
 pub(crate) mod mjcf;
+pub(crate) mod models;
 pub(crate) mod objects;
 pub(crate) mod persistence;
 pub(crate) mod robots;

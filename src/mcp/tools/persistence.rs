@@ -15,7 +15,7 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::Save>())]
     async fn save_simulation(&self, args: JsonObject) -> Result<Json<Saved>, String> {
         let reg = self.reg.clone();
-        self.with_sim(args, move |sim, a, _| sim.save(a, &reg)).await.map(Json)
+        self.with_sim("save_simulation", args, move |sim, a, _| sim.save(a, &reg)).await.map(Json)
     }
 
     /// Load a saved JSON file (ours or the PyBullet server's) as a new simulation.

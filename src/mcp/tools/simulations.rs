@@ -77,7 +77,12 @@ impl PhysicsServer {
     async fn destroy_simulation(&self, args: JsonObject) -> Result<Json<Message>, String> {
         let id = params::parse::<SimRef>("destroy_simulation", &args)?.sim_id.0;
         let reg = self.reg.clone();
-        let out = tokio::task::spawn_blocking(move || reg.destroy(&id))
+        self.sim(&id).await?;
+        let turn = self.turn(&id, "destroy_simulation").await?;
+        let out = tokio::task::spawn_blocking(move || {
+            let _turn = turn;
+            reg.destroy(&id)
+        })
             .await
             .map_err(|_| "Internal error: the simulation was not destroyed".to_string())?
             .map(Json);

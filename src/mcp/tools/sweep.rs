@@ -104,19 +104,27 @@ impl PhysicsServer {
         let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
         let budget = self.reg.limits().max_reply_bytes;
         let sandbox = self.reg.sandbox().clone();
-        let out = tokio::task::spawn_blocking(move || match sweep_request(&sandbox, &args) {
-            Ok(req) => {
-                let next = move || controls.pop().unwrap_or_else(|| Box::new(|_| true));
-                reg.sweep(&id, &args, req, next, (workers, budget))
-            }
-            Err(why) => {
-                let mut s = lock_sim(&sim);
-                s.ensure_live()?;
-                Err(s.refuse("run_sweep", &args, why))
-            }
-        })
-        .await
-        .map_err(|_| "Internal error: the sweep failed and changed nothing".to_string());
+        let failed = || "Internal error: the sweep failed and changed nothing".to_string();
+        // The variants' files are read before the sweep waits for its turn on the simulation,
+        // which it holds only while the forks' source is taken (`Registry::sweep`).
+        let (req, args) = tokio::task::spawn_blocking(move || (sweep_request(&sandbox, &args), args)).await.map_err(|_| failed())?;
+        let out = match self.turn(&id, "run_sweep").await {
+            Ok(turn) => tokio::task::spawn_blocking(move || match req {
+                Ok(req) => {
+                    let next = move || controls.pop().unwrap_or_else(|| Box::new(|_| true));
+                    reg.sweep(&id, &args, req, next, (workers, budget), Some(turn))
+                }
+                Err(why) => {
+                    let _turn = turn;
+                    let mut s = lock_sim(&sim);
+                    s.ensure_live()?;
+                    Err(s.refuse("run_sweep", &args, why))
+                }
+            })
+            .await
+            .map_err(|_| failed()),
+            Err(busy) => Ok(Err(busy)),
+        };
         watch.finish().await;
         let out = out?.map(Json);
         if keep {

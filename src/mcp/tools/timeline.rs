@@ -63,7 +63,7 @@ impl PhysicsServer {
     /// Undo the last count state-changing calls exactly (ids too); reads skipped.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn undo(&self, args: JsonObject) -> Result<Json<Undone>, String> {
-        self.with_sim(args, |sim, a, limits| match params::parse("undo", a).and_then(count) {
+        self.with_sim("undo", args, |sim, a, limits| match params::parse("undo", a).and_then(count) {
             Ok(n) => sim.undo_within(a, n, limits.max_reply_bytes),
             Err(why) => Err(sim.refuse("undo", a, why)),
         })
@@ -74,7 +74,7 @@ impl PhysicsServer {
     /// Redo the count most recently undone calls.
     #[tool(input_schema = schema_for_type::<params::Count>())]
     async fn redo(&self, args: JsonObject) -> Result<Json<Redone>, String> {
-        self.with_sim(args, |sim, a, limits| match params::parse("redo", a).and_then(count) {
+        self.with_sim("redo", args, |sim, a, limits| match params::parse("redo", a).and_then(count) {
             Ok(n) => sim.redo_within(a, n, limits.max_reply_bytes),
             Err(why) => Err(sim.refuse("redo", a, why)),
         })
@@ -108,7 +108,12 @@ impl PhysicsServer {
         let (parent, at, name) = (p.sim_id.0, seq("at_seq", p.at_seq)?, crate::params::lenient::label(p.name)?);
         let new_id = uuid::Uuid::new_v4().to_string();
         let reg = self.reg.clone();
-        let out = tokio::task::spawn_blocking(move || reg.fork(&parent, at, (new_id, name), &args))
+        self.sim(&parent).await?;
+        let turn = self.turn(&parent, "fork_simulation").await?;
+        let out = tokio::task::spawn_blocking(move || {
+            let _turn = turn;
+            reg.fork(&parent, at, (new_id, name), &args)
+        })
             .await
             .map_err(|_| "Internal error: the fork was not created".to_string())?
             .map(|mut forked| {

@@ -7,6 +7,7 @@ use rmcp::handler::server::wrapper::Json;
 use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 use serde::Serialize;
+use tokio_util::sync::CancellationToken;
 
 use crate::params::lenient::{Int, ObjectId};
 use crate::params::{self, GetTrajectory, Step};
@@ -111,7 +112,7 @@ impl PhysicsServer {
         mut control: impl FnMut(u64) -> bool + Send + 'static,
     ) -> Result<Json<crate::outputs::Stepped>, String> {
         let out = self
-            .with_sim(args, move |sim, a, limits| {
+            .with_sim("step_simulation", args, move |sim, a, limits| {
                 let parsed = params::parse::<Step>("step_simulation", a).and_then(|p| {
                     let steps = match super::simulations::decide_step(&p)? {
                         crate::command::Command::StepSimulation { steps } => steps,
@@ -136,21 +137,25 @@ impl PhysicsServer {
         &self,
         tool: &'static str,
         args: Args,
+        stop: CancellationToken,
         parse: impl FnOnce(&Args) -> Result<(Asked, P), Refusal> + Send + 'static,
         f: impl FnOnce(P, &Lent) -> Result<T, Refusal> + Send + 'static,
     ) -> Result<Json<T>, String> {
         let measure = move |t: &T, _: &()| crate::sim::budget::reply_bytes(tool, serde_json::to_value(t).unwrap_or_default());
-        self.look_back_with(tool, args, parse, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
+        self.look_back_with(tool, args, stop, parse, move |p, lent| f(p, lent).map(|t| (t, ())), measure).await.map(|(t, ())| Json(t))
     }
 
     /// `look_back` whose `f` also returns a payload `E` that goes to the client but not into
     /// the log (render_animation's GIF bytes): the log records the result `T` only, once
     /// `measure` (the reply's bytes as it will be sent) has found it within the budget. The
     /// arguments are parsed by `parse` on the blocking pool (an output path is resolved there).
+    /// The re-simulation is held to `--max-work` (priced before it runs) and stopped when
+    /// `stop` is cancelled (the client cancelled the request or its session ended).
     pub(crate) async fn look_back_with<P: Send + 'static, T: Serialize + Send + 'static, E: Send + 'static>(
         &self,
         tool: &'static str,
         args: Args,
+        stop: CancellationToken,
         parse: impl FnOnce(&Args) -> Result<(Asked, P), Refusal> + Send + 'static,
         f: impl FnOnce(P, &Lent) -> Result<(T, E), Refusal> + Send + 'static,
         measure: impl FnOnce(&T, &E) -> usize + Send + 'static,
@@ -158,19 +163,33 @@ impl PhysicsServer {
         let id = value::string(&args, "sim_id")?;
         let sim = self.sim(&id).await?;
         let budget = self.reg.limits().max_reply_bytes;
-        tokio::task::spawn_blocking(move || {
+        let failed = || "Internal error: the call failed and changed nothing".to_string();
+        // The chain is lent in the call's turn on the simulation; the re-simulation holds no
+        // turn; the read is recorded in a second turn, which it waits for without the
+        // --max-waiting bound (its work is done: it only has an answer to record).
+        let turn = self.turn(&id, tool).await?;
+        let held = sim.clone();
+        let (lent, args) = tokio::task::spawn_blocking(move || {
+            let _turn = turn;
             let parsed = parse(&args);
-            let lent = {
-                let mut s = lock_sim(&sim);
-                s.ensure_live()?;
-                let lent = parsed.and_then(|((from, to), p)| Ok((fold::lend(s.log(), s.id(), from, to)?, p)));
-                match lent {
-                    Ok(l) => l,
-                    Err(why) => return Err(s.refuse(tool, &args, why)),
-                }
-            };
-            let (lent, p) = lent;
-            let out = f(p, &lent);
+            let mut s = lock_sim(&held);
+            if let Err(why) = s.ensure_live() {
+                return (Err(why), args);
+            }
+            let lent = parsed.and_then(|((from, to), p)| Ok((fold::lend(s.log(), s.id(), from, to)?, p)));
+            match lent {
+                Ok(l) => (Ok(l), args),
+                Err(why) => (Err(s.refuse(tool, &args, why)), args),
+            }
+        })
+        .await
+        .map_err(|_| failed())?;
+        let (lent, p) = lent?;
+        let bounds = fold::Bounds { stop: Some(stop), max_work: Some(self.reg.limits().max_work) };
+        let out = tokio::task::spawn_blocking(move || fold::bounded(bounds, || f(p, &lent))).await.map_err(|_| failed())?;
+        let turn = self.reg.queues().turn(&id, tool, usize::MAX).await?;
+        tokio::task::spawn_blocking(move || {
+            let _turn = turn;
             let mut s = lock_sim(&sim);
             match out {
                 Ok((v, extra)) => s.read_replying(tool, &args, budget, |_| Ok(v), |t, _| measure(t, &extra)).map(|v| (v, extra)),
@@ -178,7 +197,7 @@ impl PhysicsServer {
             }
         })
         .await
-        .map_err(|_| "Internal error: the call failed and changed nothing".to_string())?
+        .map_err(|_| failed())?
     }
 }
 
@@ -186,9 +205,9 @@ impl PhysicsServer {
 impl PhysicsServer {
     /// Poses sampled over a past interval, re-simulated from the log (columnar).
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
-    async fn get_trajectory(&self, args: JsonObject) -> Result<Json<Trajectory>, String> {
+    async fn get_trajectory(&self, args: JsonObject, ct: CancellationToken) -> Result<Json<Trajectory>, String> {
         let sandbox = self.reg.sandbox().clone();
-        self.look_back("get_trajectory", args, trajectory_args, move |asking, lent| sample_and_deliver(asking, lent, &sandbox)).await
+        self.look_back("get_trajectory", args, ct, trajectory_args, move |asking, lent| sample_and_deliver(asking, lent, &sandbox)).await
     }
 }
 

@@ -143,7 +143,7 @@ pub fn capture(lent: &Lent, every: u64, progress: &mut (dyn FnMut(u64) + Send)) 
         }
         true
     })
-    .map_err(|e| format!("The interval could not be re-simulated: {e}"))?;
+    .map_err(|e| e.explained("The interval could not be re-simulated"))?;
     Ok(shots)
 }
 
@@ -191,6 +191,10 @@ pub fn animate(lent: &Lent, every: u64, cam: &Camera, pacing: Pacing) -> Result<
 /// `animate`, telling `progress` the steps re-simulated so far.
 pub fn animate_with(lent: &Lent, every: u64, cam: &Camera, pacing: Pacing, progress: &mut (dyn FnMut(u64) + Send)) -> Result<Animation, String> {
     let shots = capture(lent, every, progress)?;
+    // Rendering the frames is work too: not for a client that has gone.
+    if fold::current_bounds().stopped() {
+        return Err(fold::CANCELLED.to_string());
+    }
     if shots.is_empty() {
         return Err("Nothing to show: no object exists in this interval; give a later to_seq".into());
     }

@@ -13,13 +13,21 @@
 //!
 //! Never "busy": while a call holds the simulation, the present is the newest moment a
 //! running step published, or else the last one a page was shown.
+//!
+//! Bounded (docs/guarantees.md "Isolation"): at most `ASKS_PER_SIMULATION` asks of one
+//! simulation are answered at once (more are told "ask again" at once, so asks cannot hold
+//! the blocking pool's threads); every re-simulation is held to `--max-work`, priced before it
+//! runs, and stopped when nobody waits for the answer (`answer_text`'s `stop`); answers that
+//! re-simulate, refusals included, are kept per (simulation, head), so asking again costs
+//! nothing; and an object id the simulation never had is refused without re-simulating.
 
 use std::collections::BTreeMap;
-use std::sync::{Arc, MutexGuard};
+use std::sync::{Arc, LazyLock, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use axum::http::StatusCode;
 use serde::Serialize;
+use tokio_util::sync::CancellationToken;
 
 use super::live::{self, Progress};
 use super::moment::{Captured, Moment, Shown};
@@ -49,12 +57,51 @@ pub enum Present<'a> {
     Running(Arc<Progress>),
 }
 
+/// Asks of one simulation answered at once; more are told "ask again" (202) at once, so asks
+/// waiting for a busy simulation (or re-simulating its past) hold at most this many of the
+/// blocking pool's threads per simulation.
+pub const ASKS_PER_SIMULATION: usize = 4;
+
+/// The asks being answered, by simulation.
+static ASKING: LazyLock<Mutex<BTreeMap<String, usize>>> = LazyLock::new(Default::default);
+
+/// One ask's place among its simulation's `ASKS_PER_SIMULATION`, taken on the async side
+/// before the ask goes to the blocking pool (so a refused ask takes no thread); given back
+/// when dropped.
+pub struct Asking(String);
+
+impl Asking {
+    /// A place for an ask of simulation `id`, or "ask again" (202) when all are taken.
+    pub fn enter(id: &str) -> Result<Asking, Failed> {
+        let mut asking = ASKING.lock().unwrap_or_else(|p| p.into_inner());
+        let n = asking.entry(id.to_string()).or_default();
+        if *n >= ASKS_PER_SIMULATION {
+            return Err(ask_again());
+        }
+        *n += 1;
+        Ok(Asking(id.to_string()))
+    }
+}
+
+impl Drop for Asking {
+    fn drop(&mut self) {
+        let mut asking = ASKING.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(n) = asking.get_mut(&self.0) {
+            *n -= 1;
+            if *n == 0 {
+                asking.remove(&self.0);
+            }
+        }
+    }
+}
+
 /// The last present each simulation's page was shown, by id: what a page gets while a call
 /// that publishes nothing (a load, a batch) holds the simulation.
-static SHOWN: Recent<String, Arc<Progress>> = Recent::new(64);
+static SHOWN: Recent<String, Arc<Progress>> = Recent::new(64, 8 << 20);
 
 fn remember_shown(id: &str, p: Arc<Progress>) {
-    SHOWN.put(id.to_string(), p);
+    let bytes = p.seen.bytes();
+    SHOWN.put(id.to_string(), p, bytes);
 }
 
 fn last_shown(id: &str) -> Option<Arc<Progress>> {
@@ -66,12 +113,26 @@ fn ask_again() -> Failed {
     (StatusCode::ACCEPTED, "a call is running on this simulation; ask again".to_string())
 }
 
-/// The simulation's lock, waiting up to `WAIT_FOR_LOCK` for a call in flight.
+/// Nobody waits for the answer any more (`answer_text`'s `stop`): never remembered.
+fn stopped() -> Failed {
+    (StatusCode::SERVICE_UNAVAILABLE, fold::CANCELLED.to_string())
+}
+
+/// Whether the ask being answered on this thread was given up by its asker.
+fn given_up() -> bool {
+    fold::current_bounds().stopped()
+}
+
+/// The simulation's lock, waiting up to `WAIT_FOR_LOCK` for a call in flight (and no longer
+/// than the asker waits).
 pub fn lock_within(sim: &SharedSim) -> Result<MutexGuard<'_, Sim>, Failed> {
     let start = Instant::now();
     loop {
         if let Ok(guard) = sim.try_lock() {
             return Ok(guard);
+        }
+        if given_up() {
+            return Err(stopped());
         }
         if start.elapsed() >= WAIT_FOR_LOCK {
             return Err(ask_again());
@@ -94,6 +155,9 @@ pub fn present<'a>(sim: &'a SharedSim, id: &str) -> Result<Present<'a>, Failed> 
             if let Some(p) = last_shown(id) {
                 return Ok(Present::Running(p));
             }
+        }
+        if given_up() {
+            return Err(stopped());
         }
         if start.elapsed() >= WAIT_FOR_LOCK {
             return Err(ask_again());
@@ -118,7 +182,9 @@ pub struct PoseFrame {
     pub scene: Option<wire::SceneJson>,
 }
 
-/// What a page asked, parsed.
+/// What a page asked, parsed (its `Debug` form, free of parameters the viewer does not read,
+/// is what answers are remembered by).
+#[derive(Debug)]
 enum Ask {
     Timeline,
     Poses { seq: Option<u64>, step: Option<u64>, have: Option<String> },
@@ -273,7 +339,7 @@ pub struct Inspected {
 
 /// Inspections lately answered, by (simulation, head, object): a second click on an object is
 /// not a second re-simulation of the whole chain.
-static INSPECTED: Recent<(String, u64, u32), Arc<Inspected>> = Recent::new(16);
+static INSPECTED: Recent<(String, u64, u32), Arc<Inspected>> = Recent::new(16, 4 << 20);
 
 fn object(sim: &SharedSim, id: u32) -> Result<Arc<Inspected>, Failed> {
     let bad = |e: String| (StatusCode::BAD_REQUEST, e);
@@ -283,6 +349,11 @@ fn object(sim: &SharedSim, id: u32) -> Result<Arc<Inspected>, Failed> {
         if let Some(done) = INSPECTED.get(&key) {
             return Ok(done);
         }
+        // Ids are given in order and never reused: one at or past the next is no object's.
+        let next = guard.world().next_object_id();
+        if id >= next {
+            return Err(bad(format!("id: simulation {} never had an object {id} (the ids it gave so far are below {next})", guard.id())));
+        }
         let summary = guard.world().object_summaries().into_iter().find(|s| s.object_id == id);
         let root = past::timeline(&guard).map_err(bad)?.events.first().map(|e| e.seq);
         (key, summary, fold::lend(guard.log(), guard.id(), root, None).map_err(bad)?)
@@ -290,7 +361,9 @@ fn object(sim: &SharedSim, id: u32) -> Result<Arc<Inspected>, Failed> {
     let req = trajectory::Request { every: None, object_ids: Some(vec![id]), include_velocities: true };
     let t = trajectory::sample_interval(&lent, &req).map_err(|e| (StatusCode::BAD_REQUEST, e.replace("object_ids", "id")))?;
     let done = Arc::new(Inspected { object_id: id, summary, times: t.times, track: t.objects.into_iter().find(|o| o.object_id == id) });
-    INSPECTED.put(key, done.clone());
+    // About what it costs as JSON (the samples' numbers).
+    let bytes = serde_json::to_string(&*done).map_or(0, |j| j.len());
+    INSPECTED.put(key, done.clone(), bytes);
     Ok(done)
 }
 
@@ -298,6 +371,41 @@ fn clip(sim: &SharedSim, from: u64, to: Option<u64>, every: u64, after: Option<(
     let bad = |e: String| (StatusCode::BAD_REQUEST, e);
     let req = past::clip_request(&*lock_within(sim)?, from, to, every, after, have).map_err(bad)?;
     past::clip(req, budget).map_err(bad)
+}
+
+/// Answers of re-simulating asks lately refused, by (simulation, head, ask): asking again what
+/// was refused at this head is refused again without re-pricing or re-simulating anything.
+static REFUSED: Recent<(String, u64, String), Failed> = Recent::new(1024, 1 << 20);
+
+/// Clips lately answered, by (simulation, head, ask).
+static CLIPS: Recent<(String, u64, String), Arc<String>> = Recent::new(16, 8 << 20);
+
+/// Drops what the viewer keeps of simulation `id` (it was destroyed).
+pub fn forget(id: &str) {
+    SHOWN.forget(|k| k == id);
+    INSPECTED.forget(|(k, _, _)| k == id);
+    REFUSED.forget(|(k, _, _)| k == id);
+    CLIPS.forget(|(k, _, _)| k == id);
+    past::forget(id);
+}
+
+/// `answer` of an ask that re-simulates (a past moment, a clip, an inspection), refused again
+/// at once when it was refused at the simulation's current head; a refusal is remembered
+/// unless the asker gave up (a stopped answer says nothing about the ask).
+fn remembered(sim: &SharedSim, id: &str, ask: &str, answer: impl FnOnce(u64) -> Result<String, Failed>) -> Result<String, Failed> {
+    let head = lock_within(sim)?.log().head_seq();
+    let key = (id.to_string(), head, ask.to_string());
+    if let Some(refused) = REFUSED.get(&key) {
+        return Err(refused);
+    }
+    let out = answer(head);
+    if let Err((StatusCode::BAD_REQUEST, why)) = &out {
+        if !given_up() {
+            let bytes = why.len() + key.0.len() + key.2.len();
+            REFUSED.put(key, (StatusCode::BAD_REQUEST, why.clone()), bytes);
+        }
+    }
+    out
 }
 
 fn timeline(sim: &SharedSim, id: &str) -> Result<Arc<past::Timeline>, Failed> {
@@ -311,20 +419,42 @@ fn timeline(sim: &SharedSim, id: &str) -> Result<Arc<past::Timeline>, Failed> {
 }
 
 /// Answers `kind?query` for simulation `id` as JSON text (blocking: run it off the async
-/// threads).
-pub fn answer_text(reg: &Registry, id: &str, kind: &str, query: &str) -> Result<String, Failed> {
+/// threads, holding the ask's place, `Asking::enter`). `stop` is cancelled when nobody waits
+/// for the answer any more (the page went away, the app's read was cancelled): the ask then
+/// stops waiting and re-simulating.
+pub fn answer_text(reg: &Registry, id: &str, kind: &str, query: &str, stop: &CancellationToken) -> Result<String, Failed> {
     let ask = parse(kind, query)?;
     let sim = reg.get(id).map_err(|why| (StatusCode::NOT_FOUND, why))?;
+    let bounds = fold::Bounds { stop: Some(stop.clone()), max_work: Some(reg.limits().max_work) };
+    fold::bounded(bounds, || answer(reg, sim, id, ask))
+}
+
+fn answer(reg: &Registry, sim: SharedSim, id: &str, ask: Ask) -> Result<String, Failed> {
     let text = |v: Result<String, serde_json::Error>| v.map_err(|e| (StatusCode::INTERNAL_SERVER_ERROR, format!("Internal error: {e}")));
+    let asked = format!("{ask:?}");
     match ask {
         Ask::Timeline => text(serde_json::to_string(&*timeline(&sim, id)?)),
-        Ask::Poses { seq, step, have } => text(serde_json::to_string(&pose_frame(&held(&sim, id, seq, step)?.moment(), have.as_deref()))),
+        Ask::Poses { seq: None, step, have } => text(serde_json::to_string(&pose_frame(&held(&sim, id, None, step)?.moment(), have.as_deref()))),
+        Ask::Poses { seq, step, have } => remembered(&sim, id, &asked, |_| {
+            text(serde_json::to_string(&pose_frame(&held(&sim, id, seq, step)?.moment(), have.as_deref())))
+        }),
         // Half the reply budget: a clip's last frame and scenes may go past its budget.
-        Ask::Clip { from, to, every, after, have } => {
+        Ask::Clip { from, to, every, after, have } => remembered(&sim, id, &asked, |head| {
+            let key = (id.to_string(), head, asked.clone());
+            if let Some(done) = CLIPS.get(&key) {
+                return Ok(String::clone(&done));
+            }
             let budget = CLIP_BUDGET.min(reg.limits().max_reply_bytes / 2);
-            text(serde_json::to_string(&clip(&sim, from, to, every, after, have, budget)?))
+            let done = text(serde_json::to_string(&clip(&sim, from, to, every, after, have, budget)?))?;
+            let bytes = done.len() + key.2.len();
+            CLIPS.put(key, Arc::new(done.clone()), bytes);
+            Ok(done)
+        }),
+        Ask::Object { id: object_id } => remembered(&sim, id, &asked, |_| text(serde_json::to_string(&*object(&sim, object_id)?))),
+        Ask::Frame(q) if q.seq.is_none() => text(serde_json::to_string(&png::answer(sim, id, &q, reg.limits().max_image_px)?)),
+        Ask::Frame(q) => {
+            let max_px = reg.limits().max_image_px;
+            remembered(&sim.clone(), id, &asked, move |_| text(serde_json::to_string(&png::answer(sim, id, &q, max_px)?)))
         }
-        Ask::Object { id: object_id } => text(serde_json::to_string(&*object(&sim, object_id)?)),
-        Ask::Frame(q) => text(serde_json::to_string(&png::answer(sim, id, &q, reg.limits().max_image_px)?)),
     }
 }

@@ -121,6 +121,12 @@ fn body_frames(w: &World) -> Vec<BodyFrame> {
     out
 }
 
+/// Drops everything the viewer keeps of simulation `id` — its timeline, past moments, the last
+/// moment shown, inspections, clips and refusals — once it is destroyed (`Registry::destroy`).
+pub fn forget(id: &str) {
+    ask::forget(id);
+}
+
 /// Shared state of the viewer's HTTP routes (not `world::Viewer`, the recorded camera).
 #[derive(Clone)]
 struct Routes {
@@ -143,9 +149,21 @@ async fn page(State(v): State<Routes>, Path(sim_id): Path<String>) -> Response {
 }
 
 /// `/viewer/{sim_id}/{kind}?…`: the same answers the MCP App reads as `sim://{sim_id}/viewer/{kind}?…`.
+/// When the browser goes away before the answer, hyper drops this future, and with it the
+/// guard that tells the blocking work to stop (its waiting and re-simulating).
 async fn asked(State(v): State<Routes>, Path((sim_id, kind)): Path<(String, String)>, RawQuery(query): RawQuery) -> Response {
     let reg = v.reg.clone();
-    let out = tokio::task::spawn_blocking(move || ask::answer_text(&reg, &sim_id, &kind, query.as_deref().unwrap_or(""))).await;
+    let asking = match ask::Asking::enter(&sim_id) {
+        Ok(a) => a,
+        Err((status, why)) => return (status, why).into_response(),
+    };
+    let stop = tokio_util::sync::CancellationToken::new();
+    let _stop_when_dropped = stop.clone().drop_guard();
+    let out = tokio::task::spawn_blocking(move || {
+        let _asking = asking;
+        ask::answer_text(&reg, &sim_id, &kind, query.as_deref().unwrap_or(""), &stop)
+    })
+    .await;
     match out {
         Ok(Ok(json)) => ([(header::CACHE_CONTROL, "no-store"), (header::CONTENT_TYPE, "application/json")], json).into_response(),
         Ok(Err((status, why))) => (status, why).into_response(),

@@ -26,6 +26,30 @@ impl Captured {
     pub fn of(w: &World, contacts_asked: bool) -> Captured {
         Captured { scene: Scene::capture(w), objects: w.object_count(), overlays: Overlays::of(w, contacts_asked) }
     }
+
+    /// Bytes this moment holds, for the viewer's byte-bounded caches (`recent.rs`): its parts,
+    /// the points and faces of the meshes they point to (a re-simulated moment holds the only
+    /// copy of its scratch world's meshes; a shape shared by several parts is counted for
+    /// each, an upper bound) and its overlays.
+    pub fn bytes(&self) -> usize {
+        let parts: usize = self.scene.parts.iter().map(|p| std::mem::size_of_val(p) + shape_bytes(&*p.shape)).sum();
+        parts + self.overlays.contacts.len() * 24 + self.overlays.frames.len() * std::mem::size_of::<BodyFrame>()
+    }
+}
+
+/// The heap bytes of a shape's points and faces (meshes, hulls, compounds of them); a
+/// primitive's are none.
+fn shape_bytes(shape: &dyn rapier3d::parry::shape::Shape) -> usize {
+    if let Some(m) = shape.as_trimesh() {
+        return m.vertices().len() * 12 + m.indices().len() * 12;
+    }
+    if let Some(c) = shape.as_convex_polyhedron() {
+        return c.points().len() * 12 * 4;
+    }
+    if let Some(c) = shape.as_compound() {
+        return c.shapes().iter().map(|(_, s)| 64 + shape_bytes(&**s)).sum();
+    }
+    0
 }
 
 /// A captured moment and where it is: what every viewer answer describes.

@@ -15,8 +15,11 @@ use crate::seeing::viewer::recent::Recent;
 use crate::seeing::viewer::moment::Captured;
 use crate::seeing::viewer::wire;
 
-/// Past states kept rendered-ready (scenes are small: poses and shape handles).
+/// Past states and timelines kept, each cache at most this many…
 const CACHED: usize = 64;
+/// …and this many bytes (a timeline is about 80 bytes an event; a past state its parts'
+/// poses and the meshes it holds).
+const CACHED_BYTES: usize = 16 << 20;
 
 /// One state-changing event of the head's chain, as the timeline shows it.
 #[derive(Serialize, Debug, Clone)]
@@ -143,7 +146,7 @@ impl Timeline {
 
 /// The latest timeline read of recently watched simulations, by id: re-read only when the
 /// head moved, and what a page is answered while a call holds the simulation.
-static TIMELINES: Recent<String, Arc<Timeline>> = Recent::new(CACHED);
+static TIMELINES: Recent<String, Arc<Timeline>> = Recent::new(CACHED, CACHED_BYTES);
 
 /// The timeline of `sim` at its head (cached until the head moves).
 pub fn timeline(sim: &Sim) -> Result<Arc<Timeline>, String> {
@@ -152,8 +155,21 @@ pub fn timeline(sim: &Sim) -> Result<Arc<Timeline>, String> {
         return Ok(t);
     }
     let t = Arc::new(read_timeline(sim, last_timeline(sim.id()).as_deref())?);
-    TIMELINES.put(sim.id().to_string(), t.clone());
+    TIMELINES.put(sim.id().to_string(), t.clone(), t.bytes());
     Ok(t)
+}
+
+impl Timeline {
+    /// Bytes it holds (for `TIMELINES`' budget).
+    fn bytes(&self) -> usize {
+        self.events.iter().map(|m| std::mem::size_of::<Mark>() + m.tool.len()).sum::<usize>() + self.simulation_id.len()
+    }
+}
+
+/// Drops what this module keeps of simulation `id` (it was destroyed).
+pub fn forget(id: &str) {
+    TIMELINES.forget(|k| k == id);
+    CACHE.forget(|(k, _, _)| k == id);
 }
 
 /// The timeline last read of simulation `id`, without its lock.
@@ -177,14 +193,15 @@ pub struct Past {
 type Key = (String, u64, Option<u64>);
 
 /// Recently re-simulated states.
-static CACHE: Recent<Key, Arc<Past>> = Recent::new(CACHED);
+static CACHE: Recent<Key, Arc<Past>> = Recent::new(CACHED, CACHED_BYTES);
 
 fn cached(key: &Key) -> Option<Arc<Past>> {
     CACHE.get(key)
 }
 
 fn remember(key: Key, past: Arc<Past>) {
-    CACHE.put(key, past);
+    let bytes = past.seen.bytes() + past.state_hash.len();
+    CACHE.put(key, past, bytes);
 }
 
 /// What to lend for the state after `seq` (and `step` steps into it), decided under the lock.
@@ -217,7 +234,8 @@ pub fn request(sim: &Sim, seq: u64, step: Option<u64>) -> Result<Request, String
                 return Err(format!("step must be from 1 to {steps} (the steps event {seq} took); got {k}"));
             }
             let parent = e.parent.ok_or_else(|| format!("seq {seq} has no parent"))?;
-            fold::lend(sim.log(), sim.id(), Some(parent), Some(seq))?
+            // Re-simulated (and priced) only as far as step k.
+            fold::Lent { until_step: Some(k), ..fold::lend(sim.log(), sim.id(), Some(parent), Some(seq))? }
         }
     };
     Ok(Request { key, lent: Some(lent), found: None, step, contacts })
@@ -242,7 +260,7 @@ pub fn resolve(req: Request) -> Result<Arc<Past>, String> {
         }
         !here
     })
-    .map_err(|e| format!("the state could not be re-simulated: {e}"))?;
+    .map_err(|e| e.explained("the state could not be re-simulated"))?;
     let past = Arc::new(found.ok_or_else(|| format!("seq {seq} step {step:?} was not reached"))?);
     remember(req.key, past.clone());
     Ok(past)
@@ -326,6 +344,6 @@ pub fn clip(req: ClipRequest, budget: usize) -> Result<Clip, String> {
         }
         true
     })
-    .map_err(|e| format!("the interval could not be re-simulated: {e}"))?;
+    .map_err(|e| e.explained("the interval could not be re-simulated"))?;
     Ok(out)
 }

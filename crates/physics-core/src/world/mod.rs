@@ -8,6 +8,7 @@
 
 mod bodies;
 pub mod constraints;
+pub mod facts;
 pub mod filters;
 mod hash;
 mod hash_tree;
@@ -38,11 +39,11 @@ pub use hash::{HashRules, STATE_HASH_V2, STATE_HASH_VERSION};
 pub use robot::{Robot, RobotLink, DEFAULT_MOTOR_FORCE};
 
 /// The robot model a LoadUrdf command's blobs describe (the check and the fold share it);
-/// `rules` come from the event's own flags (see `urdf::LimitsFromFile`).
+/// `rules` come from the event's own flags (see `urdf::UrdfRules`).
 pub fn urdf_model(
     urdf: &crate::command::Blob,
     meshes: &std::collections::BTreeMap<String, crate::command::Blob>,
-    rules: urdf::LimitsFromFile,
+    rules: urdf::UrdfRules,
 ) -> Result<urdf::RobotModel, crate::value::Refusal> {
     if !urdf.is_loaded() || meshes.values().any(|m| !m.is_loaded()) {
         return Err("the URDF or one of its meshes is missing from the event".into());
@@ -480,6 +481,13 @@ impl World {
     /// Number of objects.
     pub fn object_count(&self) -> usize {
         self.tables.objects.len()
+    }
+
+    /// The id the next object will get: ids are given in order and never reused, so an id at
+    /// or past it never named an object of this world's chain (the viewer refuses such an
+    /// inspection without re-simulating the chain).
+    pub fn next_object_id(&self) -> u32 {
+        self.tables.next_object_id
     }
 
     /// Current timestep in seconds.

@@ -68,7 +68,7 @@ pub struct JointSpec {
     pub axis: [f64; 3],
     /// Lower limit (rad or m). PyBullet's "none" is lower 0 with upper −1: fixed joints, and
     /// joints whose `<limit>` lacks the attribute (for robots loaded by an old event, the rule
-    /// of its era — see `LimitsFromFile`).
+    /// of its era — see `UrdfRules`).
     pub lower: f64,
     /// Upper limit.
     pub upper: f64,
@@ -171,32 +171,110 @@ pub fn mesh_names(urdf: &str) -> Result<Vec<String>, Refusal> {
 
 fn parse(urdf: &str) -> Result<urdf_rs::Robot, Refusal> {
     super::xml_guard::check(urdf, "file_path")?;
-    urdf_rs::read_from_string(urdf).map_err(|e| {
-        let msg = e.to_string();
-        let first = msg.lines().next().unwrap_or("").trim();
-        format!("file_path is not a valid URDF: {first}")
-    })
+    // A file urdf-rs reads is read as it always was; only one it refuses is read again the
+    // way PyBullet does (`pybullet_tolerated`), so every load accepted before reads the same.
+    urdf_rs::read_from_string(urdf)
+        .or_else(|first| match pybullet_tolerated(urdf) {
+            Some(tolerated) => urdf_rs::read_from_string(&tolerated).map_err(|_| first),
+            None => Err(first),
+        })
+        .map_err(|e| {
+            let msg = e.to_string();
+            let first = msg.lines().next().unwrap_or("").trim();
+            format!("file_path is not a valid URDF: {first}")
+        })
 }
 
-/// Which joints read `lower`/`upper` attribute by attribute from their `<limit>`, as PyBullet's
-/// parser does: each on its own, a missing lower as 0 and a missing upper as −1 — so a limit
-/// with only effort/velocity, or only a lower above −1, leaves lower > upper: no limit,
-/// reported as such and not enforced. Each flag is the load_urdf event's own: events recorded
-/// before a flag existed fold with it false, to the robot they always did (limits are hashed
-/// state): continuous joints at 0 / −1 always, revolute and prismatic joints at urdf-rs's
-/// reading, which takes a missing attribute as 0 (so effort/velocity alone locked the joint).
+/// The URDF text as PyBullet's parser reads it, where that differs from urdf-rs's reading in
+/// two ways that pybullet_data's own files rely on: an element inside `<geometry>` after its
+/// shape is ignored (racecar.urdf has a `<material>` there), and an `<origin>` `xyz` or `rpy`
+/// that is not three numbers is read as PyBullet's `parseVector3` reads it (`pybullet_vector3`;
+/// husky.urdf has xacro leftovers, `xyz="$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)"`, which
+/// pybullet 3.2.7 reads as 0 0 0.19). None when neither occurs (or the text is not XML).
+fn pybullet_tolerated(urdf: &str) -> Option<String> {
+    let doc = roxmltree::Document::parse(urdf).ok()?;
+    // (range of the text, what replaces it)
+    let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
+    for node in doc.descendants().filter(|n| n.is_element()) {
+        match node.tag_name().name() {
+            "geometry" => edits.extend(node.children().filter(|c| c.is_element()).skip(1).map(|c| (c.range(), String::new()))),
+            "origin" => {
+                let three_numbers = |v: &str| {
+                    let parts: Vec<&str> = v.split_whitespace().collect();
+                    parts.len() == 3 && parts.iter().all(|p| p.parse::<f64>().is_ok())
+                };
+                for a in node.attributes().filter(|a| matches!(a.name(), "xyz" | "rpy") && !three_numbers(a.value())) {
+                    let replacement = match pybullet_vector3(a.value()) {
+                        Some([x, y, z]) => format!("{}=\"{x:?} {y:?} {z:?}\"", a.name()),
+                        None => String::new(),
+                    };
+                    edits.push((a.range(), replacement));
+                }
+            }
+            _ => {}
+        }
+    }
+    if edits.is_empty() {
+        return None;
+    }
+    edits.sort_by_key(|(r, _)| r.start);
+    let mut out = String::with_capacity(urdf.len());
+    let mut at = 0;
+    for (r, replacement) in edits {
+        if r.start >= at {
+            out.push_str(&urdf[at..r.start]);
+            out.push_str(&replacement);
+            at = r.end;
+        }
+    }
+    out.push_str(&urdf[at..]);
+    Some(out)
+}
+
+/// A vector as bullet3's URDF parser (`parseVector3`) reads it: the value split at spaces,
+/// each piece read as C's `atof` (its longest leading number, else 0), the first three kept;
+/// None (the attribute left out: 0 0 0) when there are fewer than three pieces.
+fn pybullet_vector3(value: &str) -> Option<[f64; 3]> {
+    let atof = |piece: &str| {
+        let numeric = piece.find(|c: char| !(c.is_ascii_digit() || matches!(c, '+' | '-' | '.' | 'e' | 'E'))).unwrap_or(piece.len());
+        (1..=numeric).rev().find_map(|n| piece[..n].parse::<f64>().ok().filter(|x| x.is_finite())).unwrap_or(0.0)
+    };
+    let pieces: Vec<f64> = value.split(' ').filter(|p| !p.is_empty()).map(atof).collect();
+    (pieces.len() >= 3).then(|| [pieces[0], pieces[1], pieces[2]])
+}
+
+/// How a URDF is read where the rules changed over releases. Each flag is the load_urdf event's
+/// own: events recorded before a flag existed fold with it false, to the robot they always did
+/// (limits and masses are hashed state).
+///
+/// `continuous`, `revolute_prismatic`: which joints read `lower`/`upper` attribute by
+/// attribute from their `<limit>`, as PyBullet's parser does: each on its own, a missing lower
+/// as 0 and a missing upper as −1 — so a limit with only effort/velocity, or only a lower above
+/// −1, leaves lower > upper: no limit, reported as such and not enforced. False: continuous
+/// joints at 0 / −1 always, revolute and prismatic joints at urdf-rs's reading, which takes a
+/// missing attribute as 0 (so effort/velocity alone locked the joint).
+///
+/// `pybullet_inertials`: which links have an inertial is read as PyBullet 3.2.7 reads it. The
+/// scans of which links have an `<inertial>` (and which `<limit>` attributes are written) start
+/// after the XML declaration: pybullet_data's objects declare `<?xml version="0.0" ?>`, which
+/// the scanning XML reader refuses, so it found no `<inertial>` and every link got the 1 kg
+/// stand-in (cube_small.urdf weighed 1 kg, not 0.1); a file whose declaration the reader
+/// accepts scans the same either way. And a link named `world` without one has PyBullet's
+/// mass 0 instead of the stand-in (a root `world` link is static: table_square.urdf's).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LimitsFromFile {
+pub struct UrdfRules {
     /// Continuous joints (their limits are reported, never enforced).
     pub continuous: bool,
     /// Revolute and prismatic joints (enforced when lower ≤ upper).
     pub revolute_prismatic: bool,
+    /// Inertials found past the XML declaration; a `world` link without one has mass 0.
+    pub pybullet_inertials: bool,
 }
 
 /// Builds the model: checks the tree (one root, known links, no loops, supported joint types),
 /// numbers it as PyBullet does, and turns every mesh into a hull from its bytes. `rules`: how
-/// joint limits are read (see `LimitsFromFile`).
-pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>, rules: LimitsFromFile) -> Result<RobotModel, Refusal> {
+/// joint limits and inertials are read (see `UrdfRules`).
+pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>, rules: UrdfRules) -> Result<RobotModel, Refusal> {
     let robot = parse(urdf)?;
     if robot.links.is_empty() {
         return Err("file_path is not a valid URDF: it has no links".into());
@@ -242,11 +320,15 @@ pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>, rules: LimitsFromFi
         .iter()
         .filter_map(|m| Some((m.name.as_str(), f32s(m.color.as_ref()?.rgba.0))))
         .collect();
-    let inertials = child_attributes(urdf, "link", "inertial");
-    let limit_attributes = child_attributes(urdf, "joint", "limit");
+    let scanned = if rules.pybullet_inertials { after_xml_declaration(urdf) } else { urdf };
+    let inertials = child_attributes(scanned, "link", "inertial");
+    let limit_attributes = child_attributes(scanned, "joint", "limit");
     let no_attributes = BTreeSet::new();
     let root_link = &robot.links[root];
-    let mut links = vec![link_model(root_link, None, &materials, meshes, true, inertials.contains_key(&root_link.name))?];
+    // PyBullet gives a `world` link without an inertial mass 0 (see `UrdfRules`): as if it had
+    // urdf-rs's default one, which says 0 kg.
+    let has_inertial = |name: &str| inertials.contains_key(name) || (rules.pybullet_inertials && name == "world");
+    let mut links = vec![link_model(root_link, None, &materials, meshes, true, has_inertial(&root_link.name))?];
     for (j, parent) in order {
         let joint = &robot.joints[j];
         let by_attribute = match joint.joint_type {
@@ -257,14 +339,14 @@ pub fn build(urdf: &str, meshes: &BTreeMap<String, Vec<u8>>, rules: LimitsFromFi
         let given = by_attribute.then(|| limit_attributes.get(&joint.name).unwrap_or(&no_attributes));
         let spec = joint_spec(joint, parent, given)?;
         let child = &robot.links[index[joint.child.link.as_str()]];
-        links.push(link_model(child, Some(spec), &materials, meshes, false, inertials.contains_key(&child.name))?);
+        links.push(link_model(child, Some(spec), &materials, meshes, false, has_inertial(&child.name))?);
     }
     Ok(RobotModel { name: robot.name, links })
 }
 
 /// `limit_given`: the attributes the joint's `<limit>` element writes, when its limits are read
 /// attribute by attribute (urdf-rs reads a missing `lower`/`upper` as 0, PyBullet as 0 / −1);
-/// None keeps the rule of old events (see `LimitsFromFile`).
+/// None keeps the rule of old events (see `UrdfRules`).
 fn joint_spec(joint: &urdf_rs::Joint, parent: i32, limit_given: Option<&BTreeSet<String>>) -> Result<JointSpec, Refusal> {
     use urdf_rs::JointType as T;
     let kind = match joint.joint_type {
@@ -321,6 +403,15 @@ fn joint_spec(joint: &urdf_rs::Joint, parent: i32, limit_given: Option<&BTreeSet
 /// of that child's attributes (the first such child's), by the parent's name. urdf-rs reads a
 /// missing element or attribute as zeros, but PyBullet tells them apart: a link without
 /// `<inertial>` gets 1 kg, a continuous joint without `lower`/`upper` reports 0 / −1.
+/// The text after its `<?xml …?>` declaration, if it starts with one (see `UrdfRules`).
+fn after_xml_declaration(urdf: &str) -> &str {
+    let start = urdf.trim_start_matches(['\u{feff}', ' ', '\t', '\r', '\n']);
+    match start.strip_prefix("<?xml").and_then(|rest| rest.find("?>").map(|end| &rest[end + 2..])) {
+        Some(rest) => rest,
+        None => urdf,
+    }
+}
+
 fn child_attributes(urdf: &str, parent_tag: &str, child_tag: &str) -> BTreeMap<String, BTreeSet<String>> {
     use xml::reader::{EventReader, XmlEvent};
     let mut out = BTreeMap::new();
@@ -554,5 +645,57 @@ pub fn within_extent(name: &str, points: impl IntoIterator<Item = [f64; 3]>) -> 
     match points.into_iter().find(|p| p.iter().any(|x| x.is_nan() || x.abs() > bound)) {
         Some(p) => Err(format!("mesh {name} has a vertex at {p:?}, farther than {bound} from its origin")),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ROBOT: &str = r#"<robot name="r"><link name="a"><visual><geometry><box size="1 1 1"/>EXTRA</geometry></visual></link>
+<link name="b"/><joint name="j" type="fixed"><parent link="a"/><child link="b"/><origin ORIGIN/></joint></robot>"#;
+
+    fn robot(extra: &str, origin: &str) -> String {
+        ROBOT.replace("EXTRA", extra).replace("ORIGIN", origin)
+    }
+
+    #[test]
+    fn what_pybullet_ignores_is_ignored_and_files_urdf_rs_reads_are_untouched() {
+        // A clean file: nothing to tolerate, read by urdf-rs as ever.
+        assert_eq!(pybullet_tolerated(&robot("", r#"xyz="1 2 3" rpy="0 0 1""#)), None);
+        // A material after the shape, and a xacro leftover: both dropped, the rest kept.
+        let quirky = robot(r#"<material name="grey"/>"#, r#"rpy="$(optenv X_RPY 0 -1.5708 3.1416)" xyz="1 2 3""#);
+        assert!(urdf_rs::read_from_string(&quirky).is_err(), "urdf-rs alone refuses it");
+        let tolerated = pybullet_tolerated(&quirky).unwrap();
+        assert!(!tolerated.contains("material") && !tolerated.contains("optenv") && tolerated.contains(r#"xyz="1 2 3""#), "{tolerated}");
+        let read = parse(&quirky).unwrap();
+        assert_eq!(read.joints[0].origin.xyz.0, [1.0, 2.0, 3.0]);
+        assert_eq!(read.joints[0].origin.rpy.0, [0.0, 0.0, 0.0], "the first three pieces read as atof: 0 0 0, as in PyBullet");
+        // husky.urdf's IMU: the first three pieces are "$(optenv", "HUSKY_IMU_XYZ", "0.19".
+        let husky = robot("", r#"xyz="$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)""#);
+        assert_eq!(parse(&husky).unwrap().joints[0].origin.xyz.0, [0.0, 0.0, 0.19]);
+        assert_eq!(pybullet_vector3("1.5x -2e1 .25 9"), Some([1.5, -20.0, 0.25]));
+        assert_eq!(pybullet_vector3("$(a b)"), None, "fewer than three pieces: left out");
+        // Something else wrong still says what urdf-rs said.
+        assert!(parse("<robot name=\"r\"><link/></robot>").unwrap_err().starts_with("file_path is not a valid URDF"));
+    }
+
+    #[test]
+    fn inertials_are_read_as_pybullet_reads_them_under_todays_rule() {
+        // pybullet_data's cube_small.urdf, in short: version 0.0, a <contact> before the inertial.
+        let cube = r#"<?xml version="0.0" ?><robot name="c"><link name="b"><contact><lateral_friction value="1"/></contact>
+<inertial><origin xyz="0 0 0"/><mass value=".1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
+<collision><geometry><box size=".05 .05 .05"/></geometry></collision></link></robot>"#;
+        let today = UrdfRules { continuous: true, revolute_prismatic: true, pybullet_inertials: true };
+        let before = UrdfRules { pybullet_inertials: false, ..today };
+        assert_eq!(build(cube, &BTreeMap::new(), today).unwrap().links[0].mass, 0.1);
+        assert_eq!(build(cube, &BTreeMap::new(), before).unwrap().links[0].mass, 1.0, "events before the rule fold as they did");
+        let plain = cube.replace("0.0\" ?>", "1.0\" ?>");
+        assert_eq!(build(&plain, &BTreeMap::new(), before).unwrap().links[0].mass, 0.1, "an accepted declaration scans the same either way");
+        // A root link named world without an inertial: static (mass 0) as in PyBullet, 1 kg before.
+        let world = r#"<robot name="t"><link name="world"/><link name="top"><inertial><mass value="2"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+<joint name="j" type="fixed"><parent link="world"/><child link="top"/></joint></robot>"#;
+        assert_eq!(build(world, &BTreeMap::new(), today).unwrap().links[0].mass, 0.0);
+        assert_eq!(build(world, &BTreeMap::new(), before).unwrap().links[0].mass, 1.0);
     }
 }
