@@ -46,6 +46,7 @@ fn main() {
                 fixed_base: true,
                 continuous_limits_from_file: true,
                 revolute_prismatic_limits_from_file: true,
+                inertials_as_pybullet: true,
                 parsed: Default::default(),
             };
             let id = apply(&mut w, &load)["object_id"].as_u64().unwrap() as u32;
