@@ -30,7 +30,7 @@ use gymnasium::{fixture, model_timestep, MODELS};
 mod mjcf_command;
 
 fn world_with(name: &str, bytes: &[u8]) -> World {
-    let root = Command::CreateSimulation { simulation_id: "mjcf".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: "mjcf".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     let (mut w, _) = World::create(&root).unwrap();
     let load = mjcf_command::load_mjcf(name, bytes, std::env::var("MJCF_BENCH_USE_MODEL_OPTIONS").is_ok_and(|v| v == "1"));
     let out = w.apply(&load, &mut |_| true);

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 use physics_mcp::command::{Blob, Command, ControlMode, MotorSpec, Shape};
+use physics_mcp::engine::EngineRule;
 use physics_mcp::world::World;
 use rand::{Rng, SeedableRng};
 use serde_json::json;
@@ -58,13 +59,25 @@ pub fn raw_pile() -> Vec<Command> {
     cmds
 }
 
+/// create_simulation as the server records it today (under `engine::ENGINE_RULE`).
 pub fn root(id: &str) -> Command {
-    Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }
+    root_under(id, physics_mcp::engine::ENGINE_RULE)
+}
+
+/// create_simulation under the engine rule `rule` (rule 1: as recorded before rules were).
+pub fn root_under(id: &str, rule: EngineRule) -> Command {
+    let engine_rule = (rule != EngineRule::Upstream).then_some(rule);
+    Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule }
 }
 
 /// The pile, built through `World::create` and `World::apply` as the server builds it.
 pub fn pile_world() -> World {
-    let (mut w, _) = World::create(&root("pile")).unwrap();
+    pile_world_under(physics_mcp::engine::ENGINE_RULE)
+}
+
+/// The pile in a world under the engine rule `rule`.
+pub fn pile_world_under(rule: EngineRule) -> World {
+    let (mut w, _) = World::create(&root_under("pile", rule)).unwrap();
     for c in pile_commands() {
         w.apply(&c, &mut |_| true);
     }
@@ -79,7 +92,12 @@ fn yaw(a: f32) -> [f32; 4] {
 /// 64 free-floating two-link arms (multibodies) in 8 stacks of 8, each turned against the one
 /// below, falling onto the ground and each other; every other arm's shoulder is velocity-driven.
 pub fn arms_world() -> World {
-    let mut w = World::create(&root("arms")).unwrap().0;
+    arms_world_under(physics_mcp::engine::ENGINE_RULE)
+}
+
+/// The 64 arms in a world under the engine rule `rule`.
+pub fn arms_world_under(rule: EngineRule) -> World {
+    let mut w = World::create(&root_under("arms", rule)).unwrap().0;
     w.apply(&raw_pile()[0], &mut |_| true);
     let urdf = std::fs::read(std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/two_link_arm.urdf")).unwrap();
     for s in 0..8 {

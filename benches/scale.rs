@@ -118,7 +118,7 @@ fn bench_pile_build_over_http(c: &mut Criterion) {
 fn sweep_scene(dir: &std::path::Path) -> (Registry, String) {
     let reg = Registry::open(common::config(dir)).unwrap();
     let id = "sweep-scene".to_string();
-    reg.create(Command::CreateSimulation { simulation_id: id.clone(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }, &Args::new()).unwrap();
+    reg.create(Command::CreateSimulation { simulation_id: id.clone(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) }, &Args::new()).unwrap();
     let sim = reg.get(&id).unwrap();
     let mut s = lock_sim(&sim);
     let add = |s: &mut physics_mcp::sim::Sim, half: [f32; 3], position: [f32; 3], mass: f32| {

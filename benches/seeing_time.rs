@@ -70,7 +70,7 @@ fn dropped_100() -> Lent {
     Lent {
         id: "anim".into(),
         start: Some(start),
-        chain: vec![(first, Command::CreateSimulation { simulation_id: "anim".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }), (last, step)],
+        chain: vec![(first, Command::CreateSimulation { simulation_id: "anim".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) }), (last, step)],
         interval: Interval { from_seq: 1, to_seq: 2 },
         until_step: None,
         snapshots: Vec::new(),

@@ -20,7 +20,7 @@ use physics_mcp::value::Args;
 use rand::{Rng, SeedableRng};
 
 fn pile(reg: &Registry, id: &str) {
-    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     reg.create(root, &Args::new()).unwrap();
     let s = reg.get(id).unwrap();
     let mut sim = lock_sim(&s);

@@ -472,7 +472,7 @@ pub fn commands_from_readable(
         Some(g) => value::gravity("gravity", g).map_err(bad)?,
         None => [0.0, 0.0, -9.81],
     };
-    emit("load_simulation", Command::CreateSimulation { simulation_id: id.into(), gravity, gui: false, name: None })?;
+    emit("load_simulation", Command::CreateSimulation { simulation_id: id.into(), gravity, gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) })?;
     if let Some(t) = &r.timestep {
         let (timestep, given) = value::positive_given("timestep", t).map_err(bad)?;
         emit("set_timestep", Command::SetTimestep { timestep, timestep_given: Some(given) })?;

@@ -753,7 +753,7 @@ mod tests {
 
     /// Positions of object 1 after each of `n` single steps on a fresh fold of `cmds`.
     fn stepwise(cmds: &[Command]) -> Vec<[f64; 3]> {
-        let mut w = World::create(&Command::CreateSimulation { simulation_id: "r".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }).unwrap().0;
+        let mut w = World::create(&Command::CreateSimulation { simulation_id: "r".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) }).unwrap().0;
         let mut out = vec![];
         for c in cmds {
             match c {
@@ -781,7 +781,7 @@ mod tests {
             sync: SyncMode::Normal,
         })
         .unwrap();
-        reg.create(Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None }, &Args::new()).unwrap();
+        reg.create(Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) }, &Args::new()).unwrap();
         (dir, reg)
     }
 

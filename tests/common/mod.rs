@@ -392,7 +392,7 @@ pub fn pile_calls() -> Vec<Value> {
 
 /// An empty in-process world with PyBullet's gravity.
 pub fn empty_world(id: &str) -> physics_mcp::world::World {
-    let root = physics_mcp::command::Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = physics_mcp::command::Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     physics_mcp::world::World::create(&root).unwrap().0
 }
 /// Hardening helpers: seeds, fingerprints, list_simulations parts.

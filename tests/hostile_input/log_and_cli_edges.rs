@@ -29,7 +29,7 @@ fn sphere() -> Command {
 /// returns the log's path once the registry has closed it.
 fn make_log(dir: &Path, id: &str) -> PathBuf {
     let reg = Registry::open(config(dir)).unwrap();
-    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     reg.create(root, &Args::new()).unwrap();
     let shared = reg.get(id).unwrap();
     {
@@ -98,7 +98,7 @@ fn an_unknown_event_kind_is_corruption_and_the_file_is_skipped() {
 fn a_destroyed_simulation_refuses_late_writers_and_stays_deleted() {
     let dir = tempfile::tempdir().unwrap();
     let reg = std::sync::Arc::new(Registry::open(config(dir.path())).unwrap());
-    let root = Command::CreateSimulation { simulation_id: "gone".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: "gone".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     reg.create(root, &Args::new()).unwrap();
     let (a, l) = (Args::new(), Limits::default());
     // A handle taken before the destroy, as a request in flight holds one.

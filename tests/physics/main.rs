@@ -8,6 +8,7 @@ mod common;
 
 mod agent_calls;
 mod builtins;
+mod engine_rules;
 mod ik;
 mod link_state;
 mod mjcf;

@@ -44,7 +44,7 @@ fn load_command(model: &str, bytes: &[u8], use_model_options: bool) -> Command {
 
 /// A fresh simulation (gravity −G along z) for `model`.
 fn root(model: &str) -> Command {
-    Command::CreateSimulation { simulation_id: model.into(), gravity: [0.0, 0.0, -G], gui: false, name: None }
+    Command::CreateSimulation { simulation_id: model.into(), gravity: [0.0, 0.0, -G], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) }
 }
 
 fn loaded(model: &str, bytes: &[u8], dt: f64) -> World {

@@ -10,6 +10,12 @@
 //! hashes the single-threaded build (before `parallel` was enabled) recorded. Every `replays/`
 //! log is refolded on 1, 2 and 4 threads too. A divergence is reported by scene, thread count
 //! and the first hash that differs.
+//!
+//! The reference was recorded before engine rules existed, so the scenes are built under rule
+//! 1 for it (`engine::EngineRule::Upstream`, whose arithmetic the vendored rapier keeps bit for
+//! bit). Rule 2 changes only multibodies' arithmetic, so its own reference
+//! (`tests/fixtures/threads_reference_rule2.json`, recorded by the build that introduced it
+//! and never re-recorded either) holds the arms scene, on 1, 2 and 4 threads alike.
 
 // A test may read its fixture and the environment; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -21,6 +27,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use physics_mcp::command::{Command, ConstraintSpec, ConstraintType, Shape};
+use physics_mcp::engine::EngineRule;
 use physics_mcp::world::World;
 
 /// Steps per chunk; a hash is taken after each.
@@ -29,14 +36,14 @@ const CHUNK: u64 = 50;
 /// One scene: how it is built and how many steps it runs.
 struct Scene {
     name: &'static str,
-    build: fn() -> World,
+    build: fn(EngineRule) -> World,
     steps: u64,
 }
 
 fn scenes() -> Vec<Scene> {
     vec![
-        Scene { name: "pile_1000_boxes", build: pile::pile_world, steps: 500 },
-        Scene { name: "urdf_arms_64", build: pile::arms_world, steps: 400 },
+        Scene { name: "pile_1000_boxes", build: pile::pile_world_under, steps: 500 },
+        Scene { name: "urdf_arms_64", build: pile::arms_world_under, steps: 400 },
         Scene { name: "constraints_64_pairs_and_chains", build: constraints, steps: 400 },
     ]
 }
@@ -96,8 +103,8 @@ fn joint(w: &mut World, parent: u32, child: Option<u32>, kind: ConstraintType, a
 /// 64 box pairs joined by revolute constraints tumbling onto the ground in a heap, and 8
 /// chains of 8 boxes hanging from the world by spherical joints, linked by fixed, spherical
 /// and prismatic constraints, swinging into the heap.
-fn constraints() -> World {
-    let mut w = World::create(&pile::root("constraints")).unwrap().0;
+fn constraints(rule: EngineRule) -> World {
+    let mut w = World::create(&pile::root_under("constraints", rule)).unwrap().0;
     ground(&mut w);
     for n in 0..64u32 {
         let (i, j, k) = ((n % 4) as f32, ((n / 4) % 4) as f32, (n / 16) as f32);
@@ -145,7 +152,12 @@ fn pool_of(threads: usize) -> std::sync::Arc<rapier3d::rayon::ThreadPool> {
 /// half-way chunk, then after every chunk continued from that snapshot restored. Under state
 /// hash v1, which the reference was recorded with (its snapshots are then written as then).
 fn run(scene: &Scene, pool: &Pool) -> Vec<String> {
-    let mut w = (scene.build)().with_hash_rules(physics_mcp::world::HashRules::V1);
+    run_under(scene, pool, EngineRule::Upstream)
+}
+
+/// [`run`] with the scene built under the engine rule `rule`.
+fn run_under(scene: &Scene, pool: &Pool, rule: EngineRule) -> Vec<String> {
+    let mut w = (scene.build)(rule).with_hash_rules(physics_mcp::world::HashRules::V1);
     with_pool(&mut w, pool);
     let mut hashes = vec![format!("built {}", w.state_hash())];
     let chunks = scene.steps / CHUNK;
@@ -255,4 +267,44 @@ fn every_replay_log_refolds_on_1_2_and_4_threads() {
         }
     }
     physics_mcp::world::set_step_threads(1);
+}
+
+/// The scene rule 2 changes (multibodies) and its reference, recorded by the build that
+/// introduced the rule: written when missing (then the test says so and passes), never
+/// re-recorded.
+fn rule2_reference_path() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/threads_reference_rule2.json")
+}
+
+/// Rule 2 (the tree-sparse multibody path) is as thread-independent as rule 1: the 64 arms on
+/// 1, 2 and 4 threads, snapshot → restore → continue included, reproduce its recorded
+/// reference, and they differ from rule 1's (the rule is in effect).
+#[test]
+fn rule_2_reproduces_its_reference_on_1_2_and_4_threads() {
+    let scene = scenes().into_iter().find(|s| s.name == "urdf_arms_64").unwrap();
+    let path = rule2_reference_path();
+    let runs: Vec<Vec<String>> = [1usize, 2, 4].iter().map(|t| run_under(&scene, &Some(pool_of(*t)), EngineRule::TreeMultibody)).collect();
+    for (hashes, threads) in runs.iter().zip([1, 2, 4]) {
+        if let Some(i) = first_difference(&runs[0], hashes) {
+            panic!("rule 2 on {threads} threads differs from 1 thread at {:?} vs {:?}", hashes.get(i), runs[0].get(i));
+        }
+        for h in hashes.iter().filter(|h| h.starts_with("restored ")) {
+            assert!(hashes.contains(&h["restored ".len()..].to_string()), "rule 2, {threads} threads: {h} differs from the uninterrupted run");
+        }
+    }
+    let rule1 = &reference()[scene.name];
+    assert_ne!(rule1.last(), runs[0].last(), "rule 2 steps the arms exactly as rule 1: the rule is not in effect");
+    let now = BTreeMap::from([(scene.name.to_string(), runs[0].clone())]);
+    match std::fs::read(&path) {
+        Ok(bytes) => {
+            let recorded: BTreeMap<String, Vec<String>> = serde_json::from_slice(&bytes).unwrap();
+            if let Some(i) = first_difference(&recorded[scene.name], &runs[0]) {
+                panic!("rule 2 differs from its reference at {:?} vs {:?}", runs[0].get(i), recorded[scene.name].get(i));
+            }
+        }
+        Err(_) => {
+            std::fs::write(&path, serde_json::to_string_pretty(&now).unwrap() + "\n").unwrap();
+            println!("RECORDED {}", path.display());
+        }
+    }
 }

@@ -66,7 +66,7 @@ fn every_world_the_server_makes_steps_on_the_threads_pool() {
     let expect = THREADS;
     {
         let reg = registry(dir.path());
-        let root = Command::CreateSimulation { simulation_id: "a".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+        let root = Command::CreateSimulation { simulation_id: "a".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
         reg.create(root, &Args::new()).expect("create");
         let a = reg.get("a").unwrap();
         add_box(&a, -0.1, 0.0);
@@ -210,7 +210,7 @@ fn steps_called_from_rayon_workers_at_once_all_finish() {
     use physics_mcp::world::World;
     physics_mcp::cli::step_on_threads(THREADS).unwrap();
     let falling = |seed: usize| {
-        let root = Command::CreateSimulation { simulation_id: format!("f{seed}"), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+        let root = Command::CreateSimulation { simulation_id: format!("f{seed}"), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
         let (mut w, _) = World::create(&root).unwrap();
         for i in 0..30 {
             let position = [(i % 6) as f32 * 0.3, (i / 6) as f32 * 0.3, seed as f32];

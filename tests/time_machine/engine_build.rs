@@ -26,7 +26,7 @@ fn args(v: Value) -> Args {
 
 /// Creates `id` with a sphere, stepped 20 times.
 fn simulation(reg: &Registry, id: &str) {
-    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     reg.create(root, &Args::new()).unwrap();
     let shared = reg.get(id).unwrap();
     let mut sim = lock_sim(&shared);
@@ -185,8 +185,14 @@ fn a_root_recording_another_version_of_one_crate_warns_naming_that_crate() {
 
 #[test]
 fn an_old_recorded_string_reads_as_the_frozen_map_and_does_not_warn() {
-    // Today's lock is the frozen one, so rapier3d alone reads as exactly this build.
-    assert_eq!(build_map(UNRECORDED_ENGINE_BUILD), build_map(ENGINE_BUILD));
+    // Today's lock is the frozen one, so rapier3d alone reads as this build: every crate the
+    // same but rapier3d, the release this build's vendored patch level covers.
+    let (mut old, mut now) = (build_map(UNRECORDED_ENGINE_BUILD), build_map(ENGINE_BUILD));
+    let (old_rapier, now_rapier) = (old.remove("rapier3d").unwrap(), now.remove("rapier3d").unwrap());
+    assert_eq!(old, now);
+    assert!(physics_mcp::engine::rapier_covers(&old_rapier, &now_rapier), "{old_rapier} → {now_rapier}");
+    assert!(now_rapier.starts_with("0.36.1+pmcp."), "the vendored rapier: {now_rapier}");
+    assert_eq!(physics_mcp::engine::differences(UNRECORDED_ENGINE_BUILD, ENGINE_BUILD), vec![]);
     for engine in [Some(UNRECORDED_ENGINE_BUILD), None] {
         let (_dir, log) = log_recording(engine);
         let (ok, out) = replay(&log, &[]);

@@ -66,7 +66,7 @@ fn old_chains_keep_v1_and_new_ones_record_v2() {
     assert_eq!(old.state_hash(), root.state_hash);
     // Its snapshots keep v1 too; a new world's carry v2.
     assert_eq!(World::restore("x", false, &old.snapshot()).unwrap().hash_rules(), HashRules::V1);
-    let create = Command::CreateSimulation { simulation_id: "n".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let create = Command::CreateSimulation { simulation_id: "n".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     let (new, _) = World::create(&create).unwrap();
     assert_eq!(new.hash_rules(), HashRules::V2);
     assert_ne!(new.state_hash(), old.state_hash(), "the same empty world hashes differently under v1 and v2");

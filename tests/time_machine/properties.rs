@@ -60,7 +60,7 @@ fn registry(dir: &Path) -> Registry {
 }
 
 fn new_sim(reg: &Registry, id: &str) -> SharedSim {
-    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     reg.create(root, &Args::new()).expect("create");
     let sim = reg.get(id).expect("get");
     let ground = Command::AddBody {

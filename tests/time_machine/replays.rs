@@ -77,3 +77,38 @@ fn a_tampered_log_fails_naming_the_event_and_diff_finds_it() {
     let (ok, stdout, _) = cli(&["history", src.to_str().unwrap()]);
     assert!(ok && stdout.lines().count() >= 10 && stdout.contains("apply_force"), "{stdout}");
 }
+
+/// `engine_rule_v6*.sqlite` (recorded by the release that introduced engine rules) step their
+/// robots under rule 2 at every event — the created world, its fork and the saved file loaded
+/// again — while every log recorded before rules folds under rule 1 throughout. A load or a
+/// fork that fell back to rule 1 would still replay to its own hashes; this test tells them
+/// apart.
+#[test]
+fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() {
+    use physics_mcp::command::BlobSource;
+    use physics_mcp::engine::EngineRule;
+    use physics_mcp::log::{fold, sqlite::Log};
+    let limits = physics_mcp::limits::Limits::default();
+    let (mut rule_2_roots, mut rule_1_roots) = (0, 0);
+    for path in recorded() {
+        let expected = if path.file_name().unwrap().to_string_lossy().starts_with("engine_rule_v6") { EngineRule::TreeMultibody } else { EngineRule::Upstream };
+        let log = Log::open_read_only(&path).unwrap();
+        let blobs: &dyn BlobSource = &log;
+        let mut after = std::collections::BTreeMap::new();
+        for e in physics_mcp::log::replay::events(&path).unwrap().iter().filter(|e| e.kind.is_state_changing() && e.ok) {
+            let mut world = match e.parent.and_then(|p| after.get(&p)) {
+                Some(parent) => physics_mcp::world::World::duplicate(parent),
+                None => fold::create_root(e, blobs).unwrap().0,
+            };
+            if e.kind == physics_mcp::log::sqlite::Kind::Change || e.parent.is_some() {
+                fold::fold_event(&mut world, e, blobs, &limits, false).unwrap();
+            }
+            assert_eq!(world.engine_rule(), expected, "{} seq {} ({})", path.display(), e.seq, e.tool);
+            if e.kind == physics_mcp::log::sqlite::Kind::Root {
+                *if expected == EngineRule::Upstream { &mut rule_1_roots } else { &mut rule_2_roots } += 1;
+            }
+            after.insert(e.seq, world);
+        }
+    }
+    assert!(rule_2_roots >= 5 && rule_1_roots >= 10, "{rule_2_roots} rule-2 roots, {rule_1_roots} rule-1 roots");
+}

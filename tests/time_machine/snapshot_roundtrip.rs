@@ -22,11 +22,17 @@ impl Lcg {
 }
 
 fn pile() -> World {
+    pile_under(Some(physics_mcp::engine::ENGINE_RULE))
+}
+
+/// The pile under the engine rule a root records (`None`: a root recorded before rules, rule 1).
+fn pile_under(engine_rule: Option<physics_mcp::engine::EngineRule>) -> World {
     let root = Command::CreateSimulation {
         simulation_id: "pile".into(),
         gravity: [0.0, 0.0, -9.81],
         gui: false,
         name: None,
+        engine_rule,
     };
     let (mut w, _) = World::create(&root).unwrap();
     apply(&mut w, Command::AddBody {
@@ -205,18 +211,27 @@ fn robots_with_motors_restore_bit_identically() {
 /// Filtered worlds of both kinds restore and continue bit for bit: in a chain of state hash v1
 /// the first release's filters (tested both ways, `pybullet_test` absent) are still written as
 /// snapshot version 4 with the hash they always had, PyBullet's test as version 5; a world of
-/// state hash v2 is written as version 6; each restores to its own rules.
+/// state hash v2 and engine rule 1 is written as version 6, one of engine rule 2 (every new
+/// world) as version 7; each restores to its own rules.
 #[test]
 fn filtered_worlds_of_both_rules_restore_and_continue_bit_identically() {
+    use physics_mcp::engine::EngineRule;
     let mut hashes = Vec::new();
-    for (rules, pybullet_test, version) in [(HashRules::V1, false, 4u32), (HashRules::V1, true, 5), (HashRules::V2, true, 6)] {
-        let mut w = pile().with_hash_rules(rules);
+    let cases = [
+        (HashRules::V1, None, false, 4u32),
+        (HashRules::V1, None, true, 5),
+        (HashRules::V2, None, true, 6),
+        (HashRules::V2, Some(EngineRule::TreeMultibody), true, 7),
+    ];
+    for (rules, engine_rule, pybullet_test, version) in cases {
+        let mut w = pile_under(engine_rule).with_hash_rules(rules);
         apply(&mut w, Command::SetCollisionFilter { object_id: 1, link_index: -1, group: 2, mask: 1, pybullet_test });
         apply(&mut w, Command::SetCollisionPair { a: (2, -1), b: (3, -1), enable: false });
         let bytes = w.snapshot();
         assert_eq!(bytes[0] as u32, version, "pybullet_test {pybullet_test}: snapshot version");
         let mut r = World::restore("pile", false, &bytes).unwrap();
         assert_eq!(r.hash_rules(), rules);
+        assert_eq!(r.engine_rule(), EngineRule::of_root(engine_rule));
         assert_eq!(r.state_hash(), w.state_hash());
         assert_eq!(r.snapshot(), bytes, "re-serialised");
         for k in 0..3 {

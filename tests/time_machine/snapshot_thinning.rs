@@ -11,7 +11,7 @@ fn a_long_history_keeps_a_logarithmic_number_of_snapshots() {
     let dir = tempfile::tempdir().unwrap();
     let config = crate::common::config(dir.path());
     let reg = Registry::open(config.clone()).unwrap();
-    let root = Command::CreateSimulation { simulation_id: "long".into(), gravity: [0.0, 0.0, 0.0], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: "long".into(), gravity: [0.0, 0.0, 0.0], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
     reg.create(root, &Args::new()).unwrap();
     let shared = reg.get("long").unwrap();
     let mut sim = lock_sim(&shared);

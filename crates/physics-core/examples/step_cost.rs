@@ -24,7 +24,7 @@ fn add_box(w: &mut World, half: f32, position: [f32; 3], orientation: [f32; 4], 
 }
 
 fn ground() -> World {
-    let root = Command::CreateSimulation { simulation_id: "cost".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: "cost".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_core::engine::ENGINE_RULE) };
     let (mut w, _) = World::create(&root).unwrap();
     let ground = Command::AddBody {
         shape: Shape::Box { half_extents: [20.0, 20.0, 0.5] },

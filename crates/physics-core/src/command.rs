@@ -26,8 +26,11 @@ use crate::world::World;
 /// 5: a simulation created under it records state hash v2 (`world::HashRules`: a Merkle tree
 /// over objects, so a change to one object costs the same at any world size); results are as
 /// version 4's.
-/// 6: get_camera_image's depth gives the background (the far plane) as the f32 it is, like
-/// every other depth value (`100.0`, not `99.99999999997188`).
+/// 6: create_simulation records the engine rule the world steps under (`engine::EngineRule`:
+/// rule 2 computes robots' dynamics over their tree), so step results of new simulations
+/// differ from rule 1's in the last bits; get_camera_image's depth gives the background (the
+/// far plane) as the f32 it is, like every other depth value (`100.0`, not
+/// `99.99999999997188`); results are otherwise as version 5's.
 pub const EVENT_VERSION: u32 = 6;
 
 /// The event version from which a chain's root records state hash v2.
@@ -320,6 +323,11 @@ pub enum Command {
         /// An optional label shown beside the id (`value::label`); not part of the state.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         name: Option<String>,
+        /// The engine rule the world steps under for its life (`engine::EngineRule`), chosen by
+        /// the server (`engine::ENGINE_RULE`); absent in roots recorded before event version 6,
+        /// which step under rule 1.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        engine_rule: Option<crate::engine::EngineRule>,
     },
     /// Root event of a fork: the world is the parent's at `at_seq` (the inherited chain
     /// before this event in the log folds to it), under a new id. Applying it changes nothing.

@@ -14,8 +14,63 @@
 
 pub mod lock;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+
+/// Which arithmetic a world's engine steps with, chosen when the simulation is created and
+/// kept for its life: recorded in its root (`Command::CreateSimulation`'s `engine_rule`, absent
+/// before rule 2 existed), carried by its snapshots, inherited by its forks and loads (which
+/// fold or restore the parent's chain). A new rule may change results in the last bits; every
+/// older rule stays in this build, bit for bit, so every recorded log folds as it did
+/// (docs/log-format.md "The engine rule"). Recorded as its number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(try_from = "u32", into = "u32")]
+pub enum EngineRule {
+    /// rapier3d 0.36.1's own arithmetic, unpatched: every simulation created before rule 2
+    /// (roots without `engine_rule`).
+    Upstream = 1,
+    /// Multibodies' joint-space dynamics over their tree (the vendored rapier's
+    /// `MultibodyDynamics::TreeSparse`, crates/rapier3d/PATCHES.md patch 1); everything else as
+    /// rule 1. Since event version 6.
+    TreeMultibody = 2,
+}
+
+/// The rule new simulations are created under.
+pub const ENGINE_RULE: EngineRule = EngineRule::TreeMultibody;
+
+impl EngineRule {
+    /// The rule of a root that recorded `recorded` (None: recorded before rules were, rule 1).
+    pub fn of_root(recorded: Option<EngineRule>) -> EngineRule {
+        recorded.unwrap_or(EngineRule::Upstream)
+    }
+
+    /// How the engine computes multibodies under this rule.
+    pub fn multibody_dynamics(self) -> rapier3d::dynamics::MultibodyDynamics {
+        match self {
+            EngineRule::Upstream => rapier3d::dynamics::MultibodyDynamics::Dense,
+            EngineRule::TreeMultibody => rapier3d::dynamics::MultibodyDynamics::TreeSparse,
+        }
+    }
+}
+
+impl TryFrom<u32> for EngineRule {
+    type Error = String;
+
+    /// A recorded rule number; one this build does not know is refused, naming it.
+    fn try_from(n: u32) -> Result<EngineRule, String> {
+        match n {
+            1 => Ok(EngineRule::Upstream),
+            2 => Ok(EngineRule::TreeMultibody),
+            n => Err(format!("engine_rule {n} is not known to this build (it knows 1 and 2)")),
+        }
+    }
+}
+
+impl From<EngineRule> for u32 {
+    fn from(rule: EngineRule) -> u32 {
+        rule as u32
+    }
+}
 
 /// The engine build of this binary, as recorded in `engine` of every new root event: the
 /// text [`lock::encode`] makes of [`lock::engine_map`] of the workspace's `Cargo.lock`,
@@ -140,8 +195,35 @@ impl std::fmt::Display for CrateDifference {
     }
 }
 
+/// Whether this build's rapier3d (`version (features)` as recorded) computes everything a build
+/// recording `recorded` computed, bit for bit: the same release and features, and a patch
+/// level at least as high. The vendored rapier is versioned `<release>+pmcp.<N>`
+/// (crates/rapier3d/PATCHES.md): patch level N of that release; the release itself is level 0.
+/// Every patch keeps the arithmetic of the levels before it as an engine rule
+/// ([`EngineRule`]), so a log recorded by an older level folds here exactly as it did there —
+/// the rule beside the map (docs/log-format.md "The engine build").
+pub fn rapier_covers(recorded: &str, this: &str) -> bool {
+    // "0.36.1+pmcp.2 (serde-serialize, …)" → ("0.36.1", 2, "(serde-serialize, …)").
+    let parse = |v: &str| -> Option<(String, u32, String)> {
+        let (version, features) = v.split_once(' ').unwrap_or((v, ""));
+        let (release, level) = match version.split_once("+pmcp.") {
+            Some((release, level)) => (release, level.parse().ok()?),
+            None if !version.contains('+') => (version, 0),
+            None => return None,
+        };
+        Some((release.to_owned(), level, features.to_owned()))
+    };
+    match (parse(recorded), parse(this)) {
+        (Some((r_release, r_level, r_features)), Some((t_release, t_level, t_features))) => {
+            r_release == t_release && r_features == t_features && r_level <= t_level
+        }
+        _ => recorded == this,
+    }
+}
+
 /// The crates whose versions differ between two recorded builds, read as maps
-/// ([`build_map`]), sorted by name; empty when they are the same build.
+/// ([`build_map`]), sorted by name; empty when they are the same build. rapier3d counts as
+/// the same when `this` covers `recorded` ([`rapier_covers`]).
 pub fn differences(recorded: &str, this: &str) -> Vec<CrateDifference> {
     let (mut recorded, mut this) = (build_map(recorded), build_map(this));
     let mut names: Vec<String> = recorded.keys().chain(this.keys()).cloned().collect();
@@ -151,7 +233,11 @@ pub fn differences(recorded: &str, this: &str) -> Vec<CrateDifference> {
         .into_iter()
         .filter_map(|name| {
             let (r, t) = (recorded.remove(&name), this.remove(&name));
-            (r != t).then_some(CrateDifference { name, recorded: r, this: t })
+            let same = match (&r, &t) {
+                (Some(r), Some(t)) if name == "rapier3d" => rapier_covers(r, t),
+                _ => r == t,
+            };
+            (!same).then_some(CrateDifference { name, recorded: r, this: t })
         })
         .collect()
 }
@@ -301,6 +387,28 @@ version = "1.0.0"
         assert_eq!(engine_build_of(Some("x")), "x");
         assert_eq!(build_map(UNRECORDED_ENGINE_BUILD).len(), PRE_MAP_LOCK.len() + 1);
         assert_eq!(differences(UNRECORDED_ENGINE_BUILD, ENGINE_BUILD), vec![]);
+    }
+
+    /// A patched rapier (`<release>+pmcp.<N>`) reads builds of the release and of lower patch
+    /// levels as its own — it keeps their arithmetic as engine rules — but not the reverse,
+    /// nor another release or other features.
+    #[test]
+    fn a_patched_rapier_covers_the_release_and_lower_levels() {
+        let f = "(serde-serialize, enhanced-determinism)";
+        let v = |v: &str| format!("{v} {f}");
+        assert!(rapier_covers(&v("0.36.1"), &v("0.36.1+pmcp.1")));
+        assert!(rapier_covers(&v("0.36.1+pmcp.1"), &v("0.36.1+pmcp.2")));
+        assert!(rapier_covers(&v("0.36.1+pmcp.1"), &v("0.36.1+pmcp.1")));
+        assert!(!rapier_covers(&v("0.36.1+pmcp.1"), &v("0.36.1")));
+        assert!(!rapier_covers(&v("0.36.1+pmcp.2"), &v("0.36.1+pmcp.1")));
+        assert!(!rapier_covers(&v("0.35.0"), &v("0.36.1+pmcp.1")));
+        assert!(!rapier_covers("0.36.1 (serde-serialize)", &v("0.36.1+pmcp.1")));
+        assert!(!rapier_covers(&v("0.36.1+other.1"), &v("0.36.1+pmcp.1")));
+        // In the map: no difference from a log of the release, one for a newer patch level.
+        let this = format!("rapier3d {}; a 1.0.0", v("0.36.1+pmcp.1"));
+        assert_eq!(differences(&format!("rapier3d {}; a 1.0.0", v("0.36.1")), &this), vec![]);
+        let newer = differences(&format!("rapier3d {}; a 1.0.0", v("0.36.1+pmcp.2")), &this);
+        assert_eq!(newer.len(), 1, "{newer:?}");
     }
 
     /// Builds are compared as maps: a difference names the crate with both versions, a crate

@@ -43,6 +43,7 @@ impl PhysicsServer {
             gravity,
             gui,
             name,
+            engine_rule: Some(crate::engine::ENGINE_RULE),
         };
         let reg = self.reg.clone();
         let out = tokio::task::spawn_blocking(move || reg.create(root, &args))

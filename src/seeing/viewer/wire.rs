@@ -182,7 +182,7 @@ mod tests {
     use crate::world::World;
 
     fn world_with(shape: Shape, color: Option<[f32; 4]>) -> World {
-        let create = Command::CreateSimulation { simulation_id: "s".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+        let create = Command::CreateSimulation { simulation_id: "s".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) };
         let (mut w, _) = World::create(&create).unwrap();
         let add = Command::AddBody { shape, position: [0.0, 0.0, 1.0], orientation: [0.0, 0.0, 0.0, 1.0], mass: 1.0, color, collides: true };
         w.apply(&add, &mut |_| true);

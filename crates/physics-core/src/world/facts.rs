@@ -30,7 +30,7 @@ pub fn model_facts(load: &Command) -> Result<ModelFacts, Refusal> {
     if !matches!(load, Command::LoadUrdf { .. } | Command::LoadMjcf { .. }) {
         return Err("model facts are read from a load_urdf or load_mjcf command".into());
     }
-    let root = Command::CreateSimulation { simulation_id: "model-facts".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+    let root = Command::CreateSimulation { simulation_id: "model-facts".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) };
     let (mut world, _) = World::create(&root).ok_or("Internal error: no world for the model")?;
     let load = load.clone().ready()?;
     load.validate(&world, &Limits::unbounded())?;

@@ -31,6 +31,7 @@ use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::command::{Command, Shape};
+use crate::engine::EngineRule;
 use crate::outputs::{Created, Message, Outcome, Stepped, TimestepSet};
 use crate::value::r32s;
 
@@ -369,6 +370,9 @@ pub struct World {
     /// The v2 hash's Merkle tree over the objects, kept between calls: a cache of a pure
     /// function of the state, neither hashed nor snapshotted.
     digests: hash::Digests,
+    /// Which arithmetic the engine steps with, for the world's life (`engine::EngineRule`):
+    /// from its root, carried by snapshots of version 7.
+    engine_rule: EngineRule,
 }
 
 /// Hook called during long steps with the steps done so far; returning false stops early.
@@ -381,22 +385,26 @@ pub type StepObserver<'a> = &'a mut (dyn FnMut(&World) + Send);
 
 impl World {
     /// Builds the world a root `CreateSimulation` command describes, under today's state hash
-    /// (v2); a root recorded before event version 5 is folded `with_hash_rules(HashRules::V1)`.
+    /// (v2) and the engine rule the root records (rule 1 when it records none); a root
+    /// recorded before event version 5 is folded `with_hash_rules(HashRules::V1)`.
     pub fn create(cmd: &Command) -> Option<(World, Outcome)> {
         let Command::CreateSimulation {
             simulation_id,
             gravity,
             gui,
             name,
+            engine_rule,
         } = cmd
         else {
             return None;
         };
+        let engine_rule = EngineRule::of_root(*engine_rule);
         let mut physics = PhysicsWorld {
             gravity: Vector::from_array(*gravity),
             ..Default::default()
         };
         physics.integration_parameters.dt = DEFAULT_TIMESTEP;
+        physics.integration_parameters.multibody_dynamics = engine_rule.multibody_dynamics();
         let world = World {
             simulation_id: simulation_id.clone(),
             gui: *gui,
@@ -406,6 +414,7 @@ impl World {
             scene: OnceLock::new(),
             hash_rules: HashRules::V2,
             digests: Default::default(),
+            engine_rule,
         };
         let out = Created {
             landed: None,
@@ -428,6 +437,12 @@ impl World {
     /// The state hash rules this world records.
     pub fn hash_rules(&self) -> HashRules {
         self.hash_rules
+    }
+
+    /// The engine rule this world steps under (from its root; forks and loads keep their
+    /// parent's).
+    pub fn engine_rule(&self) -> EngineRule {
+        self.engine_rule
     }
 
     /// The same state under another identity (a fork's root in replay).
@@ -695,6 +710,9 @@ impl World {
         const CHECK_EVERY: u64 = 64;
         let mut taken = 0;
         let excluded = filters::ContactFilter::of(self);
+        // The rule's arithmetic, whatever the parameters were restored or copied with (rapier
+        // does not serialise this choice).
+        self.physics.integration_parameters.multibody_dynamics = self.engine_rule.multibody_dynamics();
         while taken < n {
             let watches = self.drive_motors();
             if excluded.is_empty() {
@@ -728,9 +746,13 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if self.hash_rules == HashRules::V2 {
+        let encoded = if self.engine_rule != EngineRule::Upstream {
+            // Version 7: the engine rule (and the state hash rules) travel with the snapshot.
+            let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
+            postcard::to_extend(&(7u32, &self.physics, t, rules), out)
+        } else if self.hash_rules == HashRules::V2 {
             // Version 6 is version 5's encoding in a world whose chain records state hash v2.
-            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t), out)
+            postcard::to_extend(&(6u32, &self.physics, t), out)
         } else if t.filters.is_empty() {
             let v3 = self.tables_v3_ref();
             postcard::to_extend(&(3u32, &self.physics, v3), out)
@@ -787,6 +809,7 @@ impl World {
             scene: OnceLock::new(),
             hash_rules: self.hash_rules,
             digests: self.digests.duplicate(),
+            engine_rule: self.engine_rule,
         }
     }
 
@@ -795,8 +818,15 @@ impl World {
     pub fn restore(simulation_id: &str, gui: bool, bytes: &[u8]) -> Result<World, String> {
         let bad = |e: postcard::Error| format!("snapshot does not decode: {e}");
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
-        let (physics, tables) = match version {
-            5 | SNAPSHOT_VERSION => {
+        let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
+        let (mut physics, tables) = match version {
+            7 => {
+                let (_, physics, tables, recorded): (u32, PhysicsWorld, Tables, SnapshotRules) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                rules = recorded;
+                (physics, tables)
+            }
+            5 | 6 => {
                 let (_, physics, tables): (u32, PhysicsWorld, Tables) =
                     postcard::from_bytes(bytes).map_err(bad)?;
                 (physics, tables)
@@ -828,6 +858,7 @@ impl World {
             }
             v => return Err(format!("snapshot version {v} is not supported")),
         };
+        physics.integration_parameters.multibody_dynamics = rules.engine_rule.multibody_dynamics();
         Ok(World {
             simulation_id: simulation_id.to_string(),
             gui,
@@ -835,8 +866,9 @@ impl World {
             physics,
             tables,
             scene: OnceLock::new(),
-            hash_rules: if version == SNAPSHOT_VERSION { HashRules::V2 } else { HashRules::V1 },
+            hash_rules: if rules.hash_v2 { HashRules::V2 } else { HashRules::V1 },
             digests: Default::default(),
+            engine_rule: rules.engine_rule,
         })
     }
 
@@ -868,8 +900,21 @@ impl World {
 /// worlds with the first release's filters are written as 4; 6 is 5's encoding in a world
 /// whose chain records state hash v2 (every world created from event version 5 on), so the
 /// rules travel with forks and loads; worlds of older chains are still written as 3, 4 or 5;
-/// 1 to 5 still restore, under state hash v1).
-pub const SNAPSHOT_VERSION: u32 = 6;
+/// 7 is 5's encoding followed by [`SnapshotRules`], written for worlds of an engine rule after
+/// rule 1 (every world created from event version 6 on), so the rule travels with forks,
+/// loads and restarts; rule-1 worlds are written as before, byte for byte; 1 to 5 still
+/// restore, under state hash v1 and engine rule 1, 6 under v2 and rule 1).
+pub const SNAPSHOT_VERSION: u32 = 7;
+
+/// The rules a version-7 snapshot carries after the tables: the world's state hash rules and
+/// engine rule, which older versions imply (`SNAPSHOT_VERSION`).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug)]
+struct SnapshotRules {
+    /// State hash v2 (else v1).
+    hash_v2: bool,
+    /// The engine rule.
+    engine_rule: EngineRule,
+}
 
 impl From<bodies::BodyOutcome> for Outcome {
     fn from(o: bodies::BodyOutcome) -> Outcome {

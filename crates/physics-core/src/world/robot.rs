@@ -577,6 +577,11 @@ impl World {
         let v = mb.generalized_velocity();
         let a = mb.generalized_acceleration();
         let x = rapier3d::na::DVector::<f32>::from_fn(n, |i, _| (v[i] - w.before[i]) / dt - a[i]);
+        if self.engine_rule() != crate::engine::EngineRule::Upstream {
+            // The tree path keeps the augmented mass matrix itself, in degree-of-freedom order.
+            let m = mb.augmented_mass();
+            return (m.nrows() == n && m.ncols() == n).then(|| m * x);
+        }
         let lu = mb.inv_augmented_mass();
         let mut y = lu.l() * (lu.u() * x);
         lu.p().inv_permute_rows(&mut y);

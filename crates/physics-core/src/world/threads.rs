@@ -130,7 +130,7 @@ mod tests {
     #[test]
     fn restored_worlds_step_on_the_step_threads() {
         set_step_threads(3);
-        let root = Command::CreateSimulation { simulation_id: "t".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None };
+        let root = Command::CreateSimulation { simulation_id: "t".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) };
         let (mut w, _) = World::create(&root).unwrap();
         w.apply(&Command::StepSimulation { steps: 3 }, &mut |_| true);
         let mut r = World::restore("t", false, &w.snapshot()).unwrap();

@@ -1,0 +1,107 @@
+#!/usr/bin/env python3
+"""Robots at engine speed (issue 42) counted in instructions: callgrind's instruction counts per
+step are repeatable on a shared machine where seconds are not. In one run, for each scene:
+physics-mcp's step under engine rule 1 (rapier 0.36.1's arithmetic) and rule 2 (the tree path,
+crates/rapier3d/PATCHES.md patch 1), and the reference engine on the same model:
+
+- `iiwa14`, `panda`: tests/fixtures/iiwa14.urdf and panda_dynamics.urdf (meshless), fixed base,
+  no ground, every movable joint on a position motor holding 0.3 with force 100 (position gain
+  0.1, velocity gain 1), steps of 1/240 s. Reference: PyBullet 3.2.7 (DIRECT), the same URDF
+  and motors (setJointMotorControlArray), `stepSimulation`: instructions of N steps minus those
+  of none, over N.
+- Gymnasium models (tests/fixtures/mjcf): steps at the model's own timestep from qpos0, nothing
+  driving them. Reference: MuJoCo, `mj_step` counted alone (`--toggle-collect=mj_step`); the
+  same simulated time per step, so the ratio per step is the ratio per simulated second.
+
+Ours: `crates/physics-core/examples/rule_steps.rs`, counted inside `World::step_here` (the
+step loop, one thread). Dev-only (valgrind, pybullet, mujoco are not project dependencies):
+
+    cargo build --release -p physics-core --example rule_steps
+    python3 -m venv /tmp/rb && /tmp/rb/bin/pip install pybullet mujoco
+    /tmp/rb/bin/python scripts/robot_callgrind.py [--steps 480] [scene ...]
+
+Prints one markdown table row per scene: instructions per step under each rule, rule 2 / rule
+1, the reference's instructions per step and ours (rule 2) / reference.
+"""
+
+import argparse
+import os
+import pathlib
+import re
+import subprocess
+import sys
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+FIXTURES = ROOT / "tests" / "fixtures"
+EXAMPLE = ROOT / "target" / "release" / "examples" / "rule_steps"
+ROBOTS = {"iiwa14": "iiwa14.urdf", "panda": "panda_dynamics.urdf"}
+DEFAULT_SCENES = ["iiwa14", "panda", "half_cheetah", "pusher", "humanoid"]
+
+
+def callgrind(cmd, toggle=None):
+    """Instructions callgrind counts for `cmd` (inside `toggle` only, when given)."""
+    with tempfile.TemporaryDirectory() as d:
+        out = os.path.join(d, "cg.out")
+        args = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}"]
+        if toggle:
+            args.append(f"--toggle-collect={toggle}")
+        subprocess.run(args + cmd, check=True, capture_output=True, text=True)
+        text = open(out).read()
+    return int(re.search(r"^totals: (\d+)", text, re.M).group(1))
+
+
+def ours(scene, steps, rule):
+    return callgrind([str(EXAMPLE), scene, str(steps), str(rule)], "*step_here*") / steps
+
+
+PYBULLET = """
+import sys, pybullet as p
+steps = int(sys.argv[2])
+p.connect(p.DIRECT)
+p.setGravity(0, 0, -9.81)
+p.setTimeStep(1 / 240)
+robot = p.loadURDF(sys.argv[1], useFixedBase=True)
+joints = [j for j in range(p.getNumJoints(robot)) if p.getJointInfo(robot, j)[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC)]
+n = len(joints)
+p.setJointMotorControlArray(robot, joints, p.POSITION_CONTROL, targetPositions=[0.3] * n, forces=[100] * n,
+                            positionGains=[0.1] * n, velocityGains=[1.0] * n)
+for _ in range(steps):
+    p.stepSimulation()
+"""
+
+MUJOCO = """
+import sys, mujoco
+m = mujoco.MjModel.from_xml_path(sys.argv[1])
+d = mujoco.MjData(m)
+for _ in range(int(sys.argv[2])):
+    mujoco.mj_step(m, d)
+"""
+
+
+def pybullet(scene, steps):
+    urdf = str(FIXTURES / ROBOTS[scene])
+    run = lambda n: callgrind([sys.executable, "-c", PYBULLET, urdf, str(n)])
+    return (run(steps) - run(0)) / steps
+
+
+def mujoco(scene, steps):
+    xml = str(FIXTURES / "mjcf" / f"{scene}.xml")
+    return callgrind([sys.executable, "-c", MUJOCO, xml, str(steps)], "mj_step") / steps
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--steps", type=int, default=480)
+    ap.add_argument("scenes", nargs="*", default=DEFAULT_SCENES)
+    a = ap.parse_args()
+    print("| scene | rule 1 Ir/step | rule 2 Ir/step | rule 2 / rule 1 | reference | reference Ir/step | rule 2 / reference |")
+    print("|---|---|---|---|---|---|---|")
+    for scene in a.scenes:
+        r1, r2 = ours(scene, a.steps, 1), ours(scene, a.steps, 2)
+        name, ref = ("PyBullet", pybullet(scene, a.steps)) if scene in ROBOTS else ("MuJoCo", mujoco(scene, a.steps))
+        print(f"| {scene} | {r1:,.0f} | {r2:,.0f} | {r2 / r1:.2f} | {name} | {ref:,.0f} | {r2 / ref:.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
