@@ -13,6 +13,7 @@ mod link_state;
 mod mjcf;
 mod mjcf_rest;
 mod physical_facts;
+mod robot_dynamics;
 mod robots;
 mod sensing;
 mod threads;

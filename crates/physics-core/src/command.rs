@@ -26,7 +26,9 @@ use crate::world::World;
 /// 5: a simulation created under it records state hash v2 (`world::HashRules`: a Merkle tree
 /// over objects, so a change to one object costs the same at any world size); results are as
 /// version 4's.
-pub const EVENT_VERSION: u32 = 5;
+/// 6: enable_joint_force_torque_sensor: get_joint_state reports a sensed joint's reaction
+/// wrench (`reaction_forces`, zeros as before on every other joint).
+pub const EVENT_VERSION: u32 = 6;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;
@@ -599,6 +601,17 @@ pub enum Command {
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,
     },
+    /// Turn a joint's force/torque sensor on or off (enable_joint_force_torque_sensor,
+    /// PyBullet's enableJointForceTorqueSensor): while on, get_joint_state reports the joint's
+    /// reaction wrench. Event version 6.
+    EnableJointForceTorqueSensor {
+        /// The robot.
+        object_id: u32,
+        /// PyBullet joint index.
+        joint_index: u32,
+        /// On (true) or off.
+        enable: bool,
+    },
 }
 
 /// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
@@ -925,7 +938,9 @@ impl Command {
                 }
                 motors.iter().try_for_each(|(_, m)| motor_values(m))
             }
-            Command::SetCollisionFilter { .. } | Command::SetCollisionPair { .. } => Ok(()),
+            Command::SetCollisionFilter { .. }
+            | Command::SetCollisionPair { .. }
+            | Command::EnableJointForceTorqueSensor { .. } => Ok(()),
             Command::ResetJointState { target_value, target_velocity, .. } => {
                 finite("target_value", &[*target_value])?;
                 finite("target_velocity", &[*target_velocity])
@@ -1059,6 +1074,10 @@ impl Command {
             Command::ResetJointState { object_id, joint_index, .. } => {
                 exists(*object_id)?;
                 world.check_reset_joint(*object_id, *joint_index)
+            }
+            Command::EnableJointForceTorqueSensor { object_id, joint_index, .. } => {
+                exists(*object_id)?;
+                world.check_joint(*object_id, *joint_index as i64).map(|_| ())
             }
             Command::AddBody { .. } => room_for_object(world, limits),
             Command::CreateConstraint { spec } => {

@@ -8,6 +8,7 @@
 
 mod bodies;
 pub mod constraints;
+pub mod dynamics;
 pub mod facts;
 pub mod filters;
 mod hash;
@@ -234,6 +235,11 @@ pub struct Tables {
     pub as_given: AsGiven,
     /// Collision filters, pairs and markers the agent set (hashed when any).
     pub filters: filters::Filters,
+    /// Joints whose force/torque sensor is on, as (object id, joint index): get_joint_state
+    /// reports their reaction wrench. Not in the v3–v6 table encodings: snapshot version 7
+    /// carries it beside the tables, written only when a sensor is on.
+    #[serde(skip)]
+    pub joint_sensors: BTreeSet<(u32, u32)>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -278,6 +284,7 @@ impl From<TablesV3> for Tables {
             constraints: t.constraints,
             as_given: t.as_given,
             filters: filters::Filters::default(),
+            joint_sensors: BTreeSet::new(),
         }
     }
 }
@@ -315,6 +322,7 @@ impl TablesV2 {
             viewer: self.viewer,
             constraints: self.constraints,
             filters: filters::Filters::default(),
+            joint_sensors: BTreeSet::new(),
         }
     }
 }
@@ -649,6 +657,17 @@ impl World {
             Command::ResetJointState { object_id, joint_index, target_value, target_velocity } => {
                 Outcome::Message(Message::new(self.reset_joint(*object_id, *joint_index, *target_value, *target_velocity)))
             }
+            Command::EnableJointForceTorqueSensor { object_id, joint_index, enable } => {
+                let key = (*object_id, *joint_index);
+                let state = if *enable {
+                    self.tables.joint_sensors.insert(key);
+                    "on"
+                } else {
+                    self.tables.joint_sensors.remove(&key);
+                    "off"
+                };
+                Outcome::Message(Message::new(format!("Force/torque sensor of joint {joint_index} of object {object_id} {state}")))
+            }
             Command::CreateConstraint { spec } => self.insert_constraint(spec).into(),
             Command::SetDebugVisualization { show_contacts, show_frames } => {
                 self.tables.viewer.show_contacts = *show_contacts;
@@ -728,9 +747,12 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if self.hash_rules == HashRules::V2 {
+        let encoded = if self.hash_rules == HashRules::V2 && !t.joint_sensors.is_empty() {
+            // Version 7 is version 6's followed by the joint sensors.
+            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t, &t.joint_sensors), out)
+        } else if self.hash_rules == HashRules::V2 {
             // Version 6 is version 5's encoding in a world whose chain records state hash v2.
-            postcard::to_extend(&(SNAPSHOT_VERSION, &self.physics, t), out)
+            postcard::to_extend(&(6u32, &self.physics, t), out)
         } else if t.filters.is_empty() {
             let v3 = self.tables_v3_ref();
             postcard::to_extend(&(3u32, &self.physics, v3), out)
@@ -796,7 +818,13 @@ impl World {
         let bad = |e: postcard::Error| format!("snapshot does not decode: {e}");
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let (physics, tables) = match version {
-            5 | SNAPSHOT_VERSION => {
+            SNAPSHOT_VERSION => {
+                let (_, physics, mut tables, sensors): (u32, PhysicsWorld, Tables, BTreeSet<(u32, u32)>) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                tables.joint_sensors = sensors;
+                (physics, tables)
+            }
+            5 | 6 => {
                 let (_, physics, tables): (u32, PhysicsWorld, Tables) =
                     postcard::from_bytes(bytes).map_err(bad)?;
                 (physics, tables)
@@ -835,7 +863,7 @@ impl World {
             physics,
             tables,
             scene: OnceLock::new(),
-            hash_rules: if version == SNAPSHOT_VERSION { HashRules::V2 } else { HashRules::V1 },
+            hash_rules: if version >= 6 { HashRules::V2 } else { HashRules::V1 },
             digests: Default::default(),
         })
     }
@@ -868,8 +896,10 @@ impl World {
 /// worlds with the first release's filters are written as 4; 6 is 5's encoding in a world
 /// whose chain records state hash v2 (every world created from event version 5 on), so the
 /// rules travel with forks and loads; worlds of older chains are still written as 3, 4 or 5;
-/// 1 to 5 still restore, under state hash v1).
-pub const SNAPSHOT_VERSION: u32 = 6;
+/// 1 to 5 still restore, under state hash v1); 7 is 6's followed by the joint force/torque
+/// sensors that are on (`Tables::joint_sensors`), written only for a world with one (others are
+/// written as before, byte for byte).
+pub const SNAPSHOT_VERSION: u32 = 7;
 
 impl From<bodies::BodyOutcome> for Outcome {
     fn from(o: bodies::BodyOutcome) -> Outcome {

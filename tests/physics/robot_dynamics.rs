@@ -1,0 +1,94 @@
+//! The robot calls PyBullet scripts lean on, over MCP/HTTP against pybullet 3.2.7
+//! (tests/reference/pybullet_robot_dynamics.json, written by scripts/robot_dynamics_fixtures.py):
+//! the joint reaction wrench of a KUKA iiwa holding a pose under gravity with its force/torque
+//! sensors on, and the sensor switch as a recorded, undoable change refused on bad input.
+
+use crate::common;
+
+use std::path::Path;
+
+use common::{Client, Server};
+use serde_json::{json, Value};
+
+fn reference() -> Value {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reference/pybullet_robot_dynamics.json");
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+fn floats(v: &Value) -> Vec<f64> {
+    v.as_array().expect("array").iter().map(|x| x.as_f64().unwrap()).collect()
+}
+
+async fn load(c: &Client, sim: &str, file: &str) -> u64 {
+    let args = json!({"sim_id": sim, "file_path": file, "use_fixed_base": true});
+    c.call("load_urdf", args).await["object_id"].as_u64().unwrap()
+}
+
+async fn joint(c: &Client, sim: &str, id: u64, j: u64) -> Value {
+    c.call("get_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": j})).await
+}
+
+/// The KUKA held by position motors at a bent pose: with every sensor on, each joint's
+/// reaction wrench is PyBullet's within 5% of the largest force (forces) and of the largest
+/// moment (moments); the whole arm's static equilibrium holds within 1e-3: the base joint
+/// carries the arm's weight, and each joint's moment about its axis is its motor's torque.
+#[tokio::test(flavor = "multi_thread")]
+async fn reaction_wrench_of_a_kuka_holding_a_pose_is_pybullets() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let r = &reference()["holding"];
+    let sim = c.new_sim(json!({})).await;
+    let id = load(&c, &sim, r["robot"].as_str().unwrap()).await;
+    let q = floats(&r["positions"]);
+    for (j, x) in q.iter().enumerate() {
+        c.call("reset_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": j, "target_value": x})).await;
+        let before = joint(&c, &sim, id, j as u64).await;
+        assert_eq!(floats(&before["reaction_forces"]), vec![0.0; 6], "a joint without a sensor reports zeros");
+        c.call("enable_joint_force_torque_sensor", json!({"sim_id": sim, "object_id": id, "joint_index": j})).await;
+    }
+    let joints: Vec<usize> = (0..q.len()).collect();
+    c.call("set_joint_motor_control_array", json!({"sim_id": sim, "object_id": id, "joint_indices": joints,
+        "control_mode": "POSITION_CONTROL", "target_positions": q, "forces": vec![r["max_force"].clone(); q.len()]})).await;
+    c.step(&sim, r["steps"].as_u64().unwrap()).await;
+    let want: Vec<Vec<f64>> = r["joints"].as_array().unwrap().iter().map(|j| floats(&j["reaction_forces"])).collect();
+    let mut got = Vec::new();
+    for j in 0..q.len() {
+        got.push(floats(&joint(&c, &sim, id, j as u64).await["reaction_forces"]));
+    }
+    let largest = |k: std::ops::Range<usize>| want.iter().flat_map(|w| w[k.clone()].to_vec()).fold(0.0f64, |m, x| m.max(x.abs()));
+    let (f_max, m_max) = (largest(0..3), largest(3..6));
+    for (j, (g, w)) in got.iter().zip(&want).enumerate() {
+        for k in 0..6 {
+            let scale = if k < 3 { f_max } else { m_max };
+            assert!((g[k] - w[k]).abs() <= 0.05 * scale, "joint {j} component {k}: {g:?} vs pybullet {w:?}");
+        }
+    }
+    // The arm below joint 0 weighs 17.5 kg (iiwa links 1–7).
+    let weight = got[0][..3].iter().map(|x| x * x).sum::<f64>().sqrt();
+    assert!((weight - 17.5 * 9.81).abs() < 1e-3 * weight, "base joint carries {weight} N, not the arm's weight");
+}
+
+/// The switch is a change: recorded (undo turns it off again) and refused on a bad joint with
+/// nothing changed.
+#[tokio::test(flavor = "multi_thread")]
+async fn sensor_switch_is_an_undoable_change_and_bad_input_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    let id = load(&c, &sim, "kuka_iiwa/model.urdf").await;
+    c.call("reset_joint_state", json!({"sim_id": sim, "object_id": id, "joint_index": 1, "target_value": 0.5})).await;
+    let hash = c.hash(&sim).await;
+    let bad = c.try_call("enable_joint_force_torque_sensor", json!({"sim_id": sim, "object_id": id, "joint_index": 99})).await;
+    let why = bad.expect_err("joint 99 is refused");
+    assert!(why.contains("99"), "{why}");
+    assert_eq!(c.hash(&sim).await, hash, "a refusal changes nothing");
+    c.call("enable_joint_force_torque_sensor", json!({"sim_id": sim, "object_id": id, "joint_index": 1})).await;
+    assert_ne!(c.hash(&sim).await, hash, "a sensor is hashed state");
+    let on = floats(&joint(&c, &sim, id, 1).await["reaction_forces"]);
+    assert!(on.iter().any(|x| x.abs() > 1.0), "a sensed joint reports its wrench: {on:?}");
+    c.call("undo", json!({"sim_id": sim})).await;
+    assert_eq!(c.hash(&sim).await, hash, "undo turns the sensor off");
+    assert_eq!(floats(&joint(&c, &sim, id, 1).await["reaction_forces"]), vec![0.0; 6]);
+}
