@@ -7,7 +7,8 @@ the origin, loaded with URDF_USE_INERTIA_FROM_FILE:
   joint's reaction forces (getJointState item 2) and applied motor torque (item 3);
 - "dynamics": per robot, 5 seeded random configurations with random velocities and
   accelerations: calculateJacobian (link = the last link, local position (0.01, 0.02, 0.03)
-  in its centre-of-mass frame), calculateMassMatrix and calculateInverseDynamics.
+  in its URDF link frame, which is what pybullet uses though its docs say centre-of-mass
+  frame), calculateMassMatrix and calculateInverseDynamics.
 
 Dev-only (pybullet is not a dependency): python -m venv /tmp/pb && /tmp/pb/bin/pip install
 pybullet==3.2.7 numpy && /tmp/pb/bin/python scripts/robot_dynamics_fixtures.py
@@ -27,8 +28,15 @@ LOCAL = [0.01, 0.02, 0.03]
 
 
 def load(name):
-    return p.loadURDF(os.path.join(pybullet_data.getDataPath(), name), [0, 0, 0], [0, 0, 0, 1],
+    """The robot, each link whose URDF inertial says 0 kg given the server's stand-in (1e-3 kg,
+    1e-6 kg m^2: rapier cannot move a massless link; pybullet keeps the written inertia, 0.1 on
+    the Panda's panda_link8 and panda_grasptarget), so the references compare the algorithms."""
+    body = p.loadURDF(os.path.join(pybullet_data.getDataPath(), name), [0, 0, 0], [0, 0, 0, 1],
                       useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE)
+    for j in range(p.getNumJoints(body)):
+        if p.getDynamicsInfo(body, j)[0] == 0.0:
+            p.changeDynamics(body, j, mass=1e-3, localInertiaDiagonal=[1e-6] * 3)
+    return body
 
 
 def movable(body):

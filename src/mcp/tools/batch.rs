@@ -88,6 +88,8 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "get_object_state" => read(tool, a, Read::ObjectState),
         "get_joint_state" => read(tool, a, Read::JointState),
         "get_link_state" => read(tool, a, Read::LinkState),
+        "get_joint_states" => read(tool, a, Read::JointStates),
+        "get_link_states" => read(tool, a, Read::LinkStates),
         "get_simulation_info" => read(tool, a, Read::SimulationInfo),
         _ => return None,
     })

@@ -1,6 +1,7 @@
-//! The robot calls PyBullet scripts lean on, for URDF and MJCF robots alike:
-//! enable_joint_force_torque_sensor (PyBullet's enableJointForceTorqueSensor). Thin adapters;
-//! the physics is in `World` (`world/dynamics.rs`).
+//! The robot calls PyBullet scripts lean on, for URDF and MJCF robots alike, with PyBullet's
+//! names: enable_joint_force_torque_sensor, get_joint_states, get_link_states,
+//! calculate_jacobian, calculate_mass_matrix, calculate_inverse_dynamics. Thin adapters; the
+//! physics is in `World` (`world/dynamics.rs`), the reads in `sim/dynamics_reads.rs`.
 
 use rmcp::handler::server::common::schema_for_type;
 use rmcp::handler::server::wrapper::Json;
@@ -9,8 +10,9 @@ use rmcp::{tool, tool_router};
 
 use crate::command::Command;
 use crate::mcp::PhysicsServer;
-use crate::outputs::Message;
-use crate::params::{self, JointSensor};
+use crate::outputs::{InverseDynamics, Jacobian, JointStates, LinkStates, MassMatrix, Message};
+use crate::sim::dynamics_reads as reads;
+use crate::params::{self, InverseDynamicsQuery, JacobianQuery, JointSensor, JointsRef, LinksRef, MassMatrixQuery};
 use crate::value::Refusal;
 
 /// enable_joint_force_torque_sensor's arguments → the command (the joint is checked later).
@@ -33,5 +35,36 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::JointSensor>())]
     async fn enable_joint_force_torque_sensor(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("enable_joint_force_torque_sensor", args, decide_sensor).await
+    }
+
+    /// get_joint_state for several joints in one call.
+    #[tool(input_schema = schema_for_type::<params::JointsRef>(), annotations(read_only_hint = true))]
+    async fn get_joint_states(&self, args: JsonObject) -> Result<Json<JointStates>, String> {
+        self.read("get_joint_states", args, |sim, p: JointsRef| reads::joint_states(&sim.read_context(), &p)).await
+    }
+
+    /// get_link_state for several links in one call.
+    #[tool(input_schema = schema_for_type::<params::LinksRef>(), annotations(read_only_hint = true))]
+    async fn get_link_states(&self, args: JsonObject) -> Result<Json<LinkStates>, String> {
+        self.read("get_link_states", args, |sim, p: LinksRef| reads::link_states(&sim.read_context(), &p)).await
+    }
+
+    /// Linear and angular Jacobian of a point on a link at given joint positions (world
+    /// frame; see docs/tools.md).
+    #[tool(input_schema = schema_for_type::<params::JacobianQuery>(), annotations(read_only_hint = true))]
+    async fn calculate_jacobian(&self, args: JsonObject) -> Result<Json<Jacobian>, String> {
+        self.read("calculate_jacobian", args, |sim, p: JacobianQuery| reads::jacobian(&sim.read_context(), &p)).await
+    }
+
+    /// Joint-space mass matrix at given joint positions.
+    #[tool(input_schema = schema_for_type::<params::MassMatrixQuery>(), annotations(read_only_hint = true))]
+    async fn calculate_mass_matrix(&self, args: JsonObject) -> Result<Json<MassMatrix>, String> {
+        self.read("calculate_mass_matrix", args, |sim, p: MassMatrixQuery| reads::mass_matrix(&sim.read_context(), &p)).await
+    }
+
+    /// Joint torques for given positions, velocities and accelerations under gravity.
+    #[tool(input_schema = schema_for_type::<params::InverseDynamicsQuery>(), annotations(read_only_hint = true))]
+    async fn calculate_inverse_dynamics(&self, args: JsonObject) -> Result<Json<InverseDynamics>, String> {
+        self.read("calculate_inverse_dynamics", args, |sim, p: InverseDynamicsQuery| reads::inverse_dynamics(&sim.read_context(), &p)).await
     }
 }

@@ -196,14 +196,17 @@ impl RobotDynamics {
     }
 
     /// The linear and angular Jacobians (3 × dofs, world frame) of the point `local` given in
-    /// link `link`'s centre-of-mass frame (PyBullet's calculateJacobian).
+    /// link `link`'s URDF frame — what PyBullet 3.2.7's calculateJacobian computes, although its
+    /// documentation says the centre-of-mass frame.
     pub fn jacobian(&self, q: &[f64], link: usize, local: DVec3) -> ([Vec<f64>; 3], [Vec<f64>; 3]) {
         let zero = vec![0.0; self.dofs];
         let motion = self.kinematics(q, &zero, &zero, DVec3::ZERO);
         let mut lin: [Vec<f64>; 3] = std::array::from_fn(|_| zero.clone());
         let mut ang: [Vec<f64>; 3] = std::array::from_fn(|_| zero.clone());
-        let Some(target) = self.links.get(link) else { return (lin, ang) };
-        let x = motion[link].com_world(target.com + local);
+        if link >= self.links.len() {
+            return (lin, ang);
+        }
+        let x = motion[link].pos + motion[link].rot * local;
         let mut at = link as i32;
         let mut guard = 0;
         while at >= 0 && (at as usize) < self.links.len() && guard <= self.links.len() {
