@@ -92,3 +92,27 @@ pub struct InverseDynamicsQuery {
     /// One per movable joint.
     pub obj_accelerations: NumList,
 }
+
+/// get_aabb parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct AabbQuery {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// -1 = base (default).
+    pub link_index: Option<Int<i64>>,
+}
+
+/// get_overlapping_objects parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct OverlapQuery {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Box corner, world.
+    pub aabb_min: Vec3,
+    /// Opposite corner.
+    pub aabb_max: Vec3,
+}

@@ -206,6 +206,10 @@ pub enum Read {
     MassMatrix(params::MassMatrixQuery),
     /// calculate_inverse_dynamics.
     InverseDynamics(params::InverseDynamicsQuery),
+    /// get_aabb.
+    Aabb(params::AabbQuery),
+    /// get_overlapping_objects.
+    Overlapping(params::OverlapQuery),
 }
 
 impl Read {
@@ -241,6 +245,8 @@ impl Read {
             "calculate_jacobian" => Read::Jacobian(p(tool, a)?),
             "calculate_mass_matrix" => Read::MassMatrix(p(tool, a)?),
             "calculate_inverse_dynamics" => Read::InverseDynamics(p(tool, a)?),
+            "get_aabb" => Read::Aabb(p(tool, a)?),
+            "get_overlapping_objects" => Read::Overlapping(p(tool, a)?),
             other => return Err(format!("{other} is not a read this server knows")),
         })
     }
@@ -271,6 +277,8 @@ impl Read {
             Read::Jacobian(p) => json(super::dynamics_reads::jacobian(cx, p)),
             Read::MassMatrix(p) => json(super::dynamics_reads::mass_matrix(cx, p)),
             Read::InverseDynamics(p) => json(super::dynamics_reads::inverse_dynamics(cx, p)),
+            Read::Aabb(p) => json(super::geometry_reads::aabb(cx, p)),
+            Read::Overlapping(p) => json(super::geometry_reads::overlapping(cx, p)),
             Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) | Read::Animation(_) | Read::Sweep(_) => return None,
         })
     }

@@ -8,6 +8,7 @@ mod common;
 
 mod agent_calls;
 mod builtins;
+mod geometry_reads;
 mod ik;
 mod link_state;
 mod mjcf;

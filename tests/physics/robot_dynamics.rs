@@ -88,6 +88,12 @@ async fn sensor_switch_is_an_undoable_change_and_bad_input_is_refused() {
     assert_ne!(c.hash(&sim).await, hash, "a sensor is hashed state");
     let on = floats(&joint(&c, &sim, id, 1).await["reaction_forces"]);
     assert!(on.iter().any(|x| x.abs() > 1.0), "a sensed joint reports its wrench: {on:?}");
+    let sensed = c.hash(&sim).await;
+    let fork = c.call("fork_simulation", json!({"sim_id": sim})).await["simulation_id"].as_str().unwrap().to_string();
+    assert_eq!(c.hash(&fork).await, sensed, "a fork carries the sensor");
+    assert_eq!(floats(&joint(&c, &fork, id, 1).await["reaction_forces"]), on);
+    let verified = c.call("verify_simulation", json!({"sim_id": sim})).await;
+    assert_eq!(verified["ok"], json!(true), "the log refolds to the recorded hashes: {verified}");
     c.call("undo", json!({"sim_id": sim})).await;
     assert_eq!(c.hash(&sim).await, hash, "undo turns the sensor off");
     assert_eq!(floats(&joint(&c, &sim, id, 1).await["reaction_forces"]), vec![0.0; 6]);

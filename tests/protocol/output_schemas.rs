@@ -133,6 +133,8 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("calculate_jacobian", json!({"sim_id": sim, "object_id": arm, "link_index": 1, "local_position": [0, 0, 0.1],
         "obj_positions": q, "obj_velocities": zero, "obj_accelerations": zero})).await;
     c.call("calculate_mass_matrix", json!({"sim_id": sim, "object_id": arm, "obj_positions": q})).await;
+    c.call("get_aabb", json!({"sim_id": sim, "object_id": arm, "link_index": 1})).await;
+    c.call("get_overlapping_objects", json!({"sim_id": sim, "aabb_min": [-1, -1, 0], "aabb_max": [1, 1, 3]})).await;
     c.call("calculate_inverse_dynamics", json!({"sim_id": sim, "object_id": arm, "obj_positions": q, "obj_velocities": zero, "obj_accelerations": zero})).await;
     let mj = id(&c.call("create_simulation", json!({})).await, "simulation_id");
     c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await;

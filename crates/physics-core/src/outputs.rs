@@ -1004,3 +1004,28 @@ pub struct InverseDynamics {
     /// Torque (or force) per movable joint.
     pub joint_forces: Vec<f64>,
 }
+
+/// Result of get_aabb: the world axis-aligned box around a part's collision shapes.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Aabb {
+    /// Lowest corner.
+    pub aabb_min: [f64; 3],
+    /// Highest corner.
+    pub aabb_max: [f64; 3],
+}
+
+/// One part (an object's base or link) whose box overlaps a query box.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct PartRef {
+    /// The object.
+    pub object_id: u32,
+    /// Its link (−1 = base).
+    pub link_index: i64,
+}
+
+/// Result of get_overlapping_objects.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Overlapping {
+    /// Each overlapping part once, in object then link order.
+    pub objects: Vec<PartRef>,
+}

@@ -1,6 +1,7 @@
 //! The robot calls PyBullet scripts lean on, for URDF and MJCF robots alike, with PyBullet's
 //! names: enable_joint_force_torque_sensor, get_joint_states, get_link_states,
-//! calculate_jacobian, calculate_mass_matrix, calculate_inverse_dynamics. Thin adapters; the
+//! calculate_jacobian, calculate_mass_matrix, calculate_inverse_dynamics, get_aabb,
+//! get_overlapping_objects. Thin adapters; the
 //! physics is in `World` (`world/dynamics.rs`), the reads in `sim/dynamics_reads.rs`.
 
 use rmcp::handler::server::common::schema_for_type;
@@ -10,9 +11,9 @@ use rmcp::{tool, tool_router};
 
 use crate::command::Command;
 use crate::mcp::PhysicsServer;
-use crate::outputs::{InverseDynamics, Jacobian, JointStates, LinkStates, MassMatrix, Message};
+use crate::outputs::{Aabb, InverseDynamics, Overlapping, Jacobian, JointStates, LinkStates, MassMatrix, Message};
 use crate::sim::dynamics_reads as reads;
-use crate::params::{self, InverseDynamicsQuery, JacobianQuery, JointSensor, JointsRef, LinksRef, MassMatrixQuery};
+use crate::params::{self, AabbQuery, InverseDynamicsQuery, OverlapQuery, JacobianQuery, JointSensor, JointsRef, LinksRef, MassMatrixQuery};
 use crate::value::Refusal;
 
 /// enable_joint_force_torque_sensor's arguments → the command (the joint is checked later).
@@ -66,5 +67,17 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::InverseDynamicsQuery>(), annotations(read_only_hint = true))]
     async fn calculate_inverse_dynamics(&self, args: JsonObject) -> Result<Json<InverseDynamics>, String> {
         self.read("calculate_inverse_dynamics", args, |sim, p: InverseDynamicsQuery| reads::inverse_dynamics(&sim.read_context(), &p)).await
+    }
+
+    /// World axis-aligned box around an object's (or link's) collision shapes.
+    #[tool(input_schema = schema_for_type::<params::AabbQuery>(), annotations(read_only_hint = true))]
+    async fn get_aabb(&self, args: JsonObject) -> Result<Json<Aabb>, String> {
+        self.read("get_aabb", args, |sim, p: AabbQuery| crate::sim::geometry_reads::aabb(&sim.read_context(), &p)).await
+    }
+
+    /// Objects and links whose boxes overlap a world box.
+    #[tool(input_schema = schema_for_type::<params::OverlapQuery>(), annotations(read_only_hint = true))]
+    async fn get_overlapping_objects(&self, args: JsonObject) -> Result<Json<Overlapping>, String> {
+        self.read("get_overlapping_objects", args, |sim, p: OverlapQuery| crate::sim::geometry_reads::overlapping(&sim.read_context(), &p)).await
     }
 }
