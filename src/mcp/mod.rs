@@ -140,7 +140,8 @@ impl PhysicsServer {
                 + PhysicsServer::batch_router()
                 + PhysicsServer::sweep_router()
                 + PhysicsServer::files_router()
-                + PhysicsServer::models_router();
+                + PhysicsServer::models_router()
+                + PhysicsServer::dynamics_router();
             for route in router.map.values_mut() {
                 let tool = &mut route.attr;
                 tool.input_schema = Arc::new(schema::input(&tool.input_schema));

@@ -27,6 +27,7 @@ mod batch;
 mod sweep;
 mod files;
 mod models;
+mod dynamics;
 
 pub use simulations::*;
 pub use objects::*;
@@ -43,6 +44,7 @@ pub use batch::*;
 pub use sweep::*;
 pub use files::*;
 pub use models::*;
+pub use dynamics::*;
 
 use std::any::TypeId;
 use std::collections::BTreeMap;

@@ -8,6 +8,8 @@
 
 pub mod apply;
 pub mod budget;
+pub mod dynamics_reads;
+pub mod geometry_reads;
 pub mod cluster;
 pub mod reads;
 pub mod queue;

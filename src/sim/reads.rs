@@ -196,6 +196,20 @@ pub enum Read {
     LinkState(LinkRef),
     /// run_sweep (the swept simulation's event): its result comes from forks, not this world.
     Sweep(Box<params::Sweep>),
+    /// get_joint_states.
+    JointStates(params::JointsRef),
+    /// get_link_states.
+    LinkStates(params::LinksRef),
+    /// calculate_jacobian.
+    Jacobian(params::JacobianQuery),
+    /// calculate_mass_matrix.
+    MassMatrix(params::MassMatrixQuery),
+    /// calculate_inverse_dynamics.
+    InverseDynamics(params::InverseDynamicsQuery),
+    /// get_aabb.
+    Aabb(params::AabbQuery),
+    /// get_overlapping_objects.
+    Overlapping(params::OverlapQuery),
 }
 
 impl Read {
@@ -226,6 +240,13 @@ impl Read {
             "render_animation" => Read::Animation(p(tool, a)?),
             "get_link_state" => Read::LinkState(p(tool, a)?),
             "run_sweep" => Read::Sweep(Box::new(p(tool, a)?)),
+            "get_joint_states" => Read::JointStates(p(tool, a)?),
+            "get_link_states" => Read::LinkStates(p(tool, a)?),
+            "calculate_jacobian" => Read::Jacobian(p(tool, a)?),
+            "calculate_mass_matrix" => Read::MassMatrix(p(tool, a)?),
+            "calculate_inverse_dynamics" => Read::InverseDynamics(p(tool, a)?),
+            "get_aabb" => Read::Aabb(p(tool, a)?),
+            "get_overlapping_objects" => Read::Overlapping(p(tool, a)?),
             other => return Err(format!("{other} is not a read this server knows")),
         })
     }
@@ -251,6 +272,13 @@ impl Read {
             Read::CollisionsForPair(p) => json(collisions_for_pair(cx, p)),
             Read::CameraImage(p) => json(camera_image(cx, p, usize::MAX)),
             Read::LinkState(p) => json(link_state(cx, p)),
+            Read::JointStates(p) => json(super::dynamics_reads::joint_states(cx, p)),
+            Read::LinkStates(p) => json(super::dynamics_reads::link_states(cx, p)),
+            Read::Jacobian(p) => json(super::dynamics_reads::jacobian(cx, p)),
+            Read::MassMatrix(p) => json(super::dynamics_reads::mass_matrix(cx, p)),
+            Read::InverseDynamics(p) => json(super::dynamics_reads::inverse_dynamics(cx, p)),
+            Read::Aabb(p) => json(super::geometry_reads::aabb(cx, p)),
+            Read::Overlapping(p) => json(super::geometry_reads::overlapping(cx, p)),
             Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) | Read::Animation(_) | Read::Sweep(_) => return None,
         })
     }

@@ -126,6 +126,16 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("reset_joint_state", json!({"sim_id": sim, "object_id": arm, "joint_index": 1, "target_value": 0.2, "target_velocity": 0.1})).await;
     c.call("get_link_state", json!({"sim_id": sim, "object_id": arm, "link_index": 1})).await;
     c.call("calculate_inverse_kinematics", json!({"sim_id": sim, "object_id": arm, "end_effector_link_index": 1, "target_position": [0.5, 0, 1.6]})).await;
+    c.call("enable_joint_force_torque_sensor", json!({"sim_id": sim, "object_id": arm, "joint_index": 0})).await;
+    c.call("get_joint_states", json!({"sim_id": sim, "object_id": arm, "joint_indices": [0, 1]})).await;
+    c.call("get_link_states", json!({"sim_id": sim, "object_id": arm, "link_indices": [-1, 1]})).await;
+    let (q, zero) = (json!([0.1, 0.2]), json!([0, 0]));
+    c.call("calculate_jacobian", json!({"sim_id": sim, "object_id": arm, "link_index": 1, "local_position": [0, 0, 0.1],
+        "obj_positions": q, "obj_velocities": zero, "obj_accelerations": zero})).await;
+    c.call("calculate_mass_matrix", json!({"sim_id": sim, "object_id": arm, "obj_positions": q})).await;
+    c.call("get_aabb", json!({"sim_id": sim, "object_id": arm, "link_index": 1})).await;
+    c.call("get_overlapping_objects", json!({"sim_id": sim, "aabb_min": [-1, -1, 0], "aabb_max": [1, 1, 3]})).await;
+    c.call("calculate_inverse_dynamics", json!({"sim_id": sim, "object_id": arm, "obj_positions": q, "obj_velocities": zero, "obj_accelerations": zero})).await;
     let mj = id(&c.call("create_simulation", json!({})).await, "simulation_id");
     c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await;
     c.call("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "cylinder", "parent_dimensions": [0.1, 0.1, 0.1], "child_dimensions": [0.05, 0.3]})).await;

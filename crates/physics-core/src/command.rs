@@ -30,7 +30,9 @@ use crate::world::World;
 /// rule 2 computes robots' dynamics over their tree), so step results of new simulations
 /// differ from rule 1's in the last bits; get_camera_image's depth gives the background (the
 /// far plane) as the f32 it is, like every other depth value (`100.0`, not
-/// `99.99999999997188`); results are otherwise as version 5's.
+/// `99.99999999997188`); enable_joint_force_torque_sensor: get_joint_state reports a sensed
+/// joint's reaction wrench (`reaction_forces`, zeros as before on every other joint); results
+/// are otherwise as version 5's.
 pub const EVENT_VERSION: u32 = 6;
 
 /// The event version from which a chain's root records state hash v2.
@@ -609,6 +611,17 @@ pub enum Command {
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,
     },
+    /// Turn a joint's force/torque sensor on or off (enable_joint_force_torque_sensor,
+    /// PyBullet's enableJointForceTorqueSensor): while on, get_joint_state reports the joint's
+    /// reaction wrench. Event version 6.
+    EnableJointForceTorqueSensor {
+        /// The robot.
+        object_id: u32,
+        /// PyBullet joint index.
+        joint_index: u32,
+        /// On (true) or off.
+        enable: bool,
+    },
 }
 
 /// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
@@ -935,7 +948,9 @@ impl Command {
                 }
                 motors.iter().try_for_each(|(_, m)| motor_values(m))
             }
-            Command::SetCollisionFilter { .. } | Command::SetCollisionPair { .. } => Ok(()),
+            Command::SetCollisionFilter { .. }
+            | Command::SetCollisionPair { .. }
+            | Command::EnableJointForceTorqueSensor { .. } => Ok(()),
             Command::ResetJointState { target_value, target_velocity, .. } => {
                 finite("target_value", &[*target_value])?;
                 finite("target_velocity", &[*target_velocity])
@@ -1069,6 +1084,10 @@ impl Command {
             Command::ResetJointState { object_id, joint_index, .. } => {
                 exists(*object_id)?;
                 world.check_reset_joint(*object_id, *joint_index)
+            }
+            Command::EnableJointForceTorqueSensor { object_id, joint_index, .. } => {
+                exists(*object_id)?;
+                world.check_joint(*object_id, *joint_index as i64).map(|_| ())
             }
             Command::AddBody { .. } => room_for_object(world, limits),
             Command::CreateConstraint { spec } => {

@@ -630,7 +630,8 @@ pub struct JointState {
     pub joint_position: f64,
     /// Velocity (rad/s or m/s).
     pub joint_velocity: f64,
-    /// Reaction wrench [Fx, Fy, Fz, Mx, My, Mz]: zeros (no force/torque sensor, as PyBullet).
+    /// Reaction wrench [Fx, Fy, Fz, Mx, My, Mz] (child link frame, moment about its centre of
+    /// mass) while the joint's force/torque sensor is on; zeros otherwise, as PyBullet.
     pub reaction_forces: [f64; 6],
     /// Torque (or force) the motor applied in the last step.
     pub motor_torque: f64,
@@ -966,3 +967,65 @@ macro_rules! outcome_variants {
     )*};
 }
 outcome_variants!(Created, Stepped, TimestepSet, ObjectAdded, DynamicsChanged, UrdfLoaded, ConstraintCreated, MjcfLoaded, Message);
+
+/// Result of get_joint_states: get_joint_state's answer for each joint asked, in order.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct JointStates {
+    /// One per joint index given.
+    pub joint_states: Vec<JointState>,
+}
+
+/// Result of get_link_states: get_link_state's answer for each link asked, in order.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct LinkStates {
+    /// One per link index given.
+    pub link_states: Vec<LinkState>,
+}
+
+/// Result of calculate_jacobian (world frame; one column per movable joint).
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Jacobian {
+    /// 3 rows: the point's linear velocity per joint velocity.
+    pub linear_jacobian: Vec<Vec<f64>>,
+    /// 3 rows: the link's angular velocity per joint velocity.
+    pub angular_jacobian: Vec<Vec<f64>>,
+}
+
+/// Result of calculate_mass_matrix.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct MassMatrix {
+    /// Joint-space inertia, one row per movable joint.
+    pub mass_matrix: Vec<Vec<f64>>,
+}
+
+/// Result of calculate_inverse_dynamics.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct InverseDynamics {
+    /// Torque (or force) per movable joint.
+    pub joint_forces: Vec<f64>,
+}
+
+/// Result of get_aabb: the world axis-aligned box around a part's collision shapes.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Aabb {
+    /// Lowest corner.
+    pub aabb_min: [f64; 3],
+    /// Highest corner.
+    pub aabb_max: [f64; 3],
+}
+
+/// One part (an object's base or link) whose box overlaps a query box.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct PartRef {
+    /// The object.
+    pub object_id: u32,
+    /// Its link (−1 = base).
+    pub link_index: i64,
+}
+
+/// Result of get_overlapping_objects.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct Overlapping {
+    /// Each overlapping part once, in object then link order.
+    pub objects: Vec<PartRef>,
+}

@@ -10,7 +10,7 @@ use serde_json::Value;
 use tokio_util::sync::CancellationToken;
 
 use crate::params::{self, CallSpec};
-use super::{constraints, mjcf, objects, robots, simulations, viewer};
+use super::{constraints, dynamics, mjcf, objects, robots, simulations, viewer};
 use crate::mcp::{Params, PhysicsServer};
 use crate::sim::apply::{call_refused, Call, Planned, MAX_CALLS, READS};
 use crate::command::Command;
@@ -78,6 +78,7 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "set_collision_filter_group_mask" => change(tool, a, objects::decide_filter),
         "set_collision_filter_pair" => change(tool, a, objects::decide_pair),
         "reset_joint_state" => change(tool, a, mjcf::decide_reset),
+        "enable_joint_force_torque_sensor" => change(tool, a, dynamics::decide_sensor),
         "create_constraint" => change(tool, a, constraints::decide_create),
         "remove_constraint" => change(tool, a, constraints::decide_remove),
         "enable_debug_visualization" => change(tool, a, viewer::decide_debug),
@@ -87,6 +88,8 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "get_object_state" => read(tool, a, Read::ObjectState),
         "get_joint_state" => read(tool, a, Read::JointState),
         "get_link_state" => read(tool, a, Read::LinkState),
+        "get_joint_states" => read(tool, a, Read::JointStates),
+        "get_link_states" => read(tool, a, Read::LinkStates),
         "get_simulation_info" => read(tool, a, Read::SimulationInfo),
         _ => return None,
     })

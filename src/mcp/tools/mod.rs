@@ -4,6 +4,7 @@
 pub(crate) mod animation;
 pub(crate) mod batch;
 pub(crate) mod constraints;
+pub(crate) mod dynamics;
 pub(crate) mod files;
 pub(crate) mod mjcf;
 pub(crate) mod models;

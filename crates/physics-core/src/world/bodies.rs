@@ -141,6 +141,7 @@ impl World {
                 self.tables.pending_wrench.remove(object_id);
                 self.tables.as_given.link_masses.retain(|(id, _), _| id != object_id);
                 self.tables.filters.forget(*object_id);
+                self.tables.joint_sensors.retain(|(id, _)| id != object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
@@ -155,6 +156,7 @@ impl World {
             | Command::SetCollisionFilter { .. }
             | Command::SetCollisionPair { .. }
             | Command::ResetJointState { .. }
+            | Command::EnableJointForceTorqueSensor { .. }
             | Command::CreateConstraint { .. }
             | Command::RemoveConstraint { .. }
             | Command::SetDebugVisualization { .. }

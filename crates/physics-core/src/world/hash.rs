@@ -79,7 +79,10 @@ pub(super) fn touched_by(cmd: &Command, next_object_id: u32) -> Touched {
         | Command::SetObjectVelocity { object_id, .. }
         | Command::ChangeDynamics { object_id, .. }
         | Command::RemoveObject { object_id } => Touched::One(*object_id),
-        Command::SetCamera { .. } | Command::SetDebugVisualization { .. } | Command::SetTimestep { .. } => Touched::Nothing,
+        Command::SetCamera { .. }
+        | Command::SetDebugVisualization { .. }
+        | Command::SetTimestep { .. }
+        | Command::EnableJointForceTorqueSensor { .. } => Touched::Nothing,
         _ => Touched::All,
     }
 }
@@ -229,7 +232,9 @@ fn state_hash_v2(w: &World, tree: &mut Tree) -> String {
         constraints: super::constraints::hash_views(w),
         objects,
     };
-    blake3::hash(&encode(&header)).to_hex().to_string()
+    let mut bytes = encode(&header);
+    extend_with_sensors(w, &mut bytes);
+    blake3::hash(&bytes).to_hex().to_string()
 }
 
 /// A primitive's view (None when its body or collider is gone).
@@ -313,7 +318,16 @@ fn state_hash_v1(w: &World) -> String {
         let views = super::constraints::hash_views(w);
         bytes.extend(encode(&("constraints", views)));
     }
+    extend_with_sensors(w, &mut bytes);
     blake3::hash(&bytes).to_hex().to_string()
+}
+
+/// The joint force/torque sensors that are on, behind their own tag, only when there are some
+/// (event version 6): every state without one hashes as it always did.
+fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
+    if !w.tables.joint_sensors.is_empty() {
+        bytes.extend(encode(&("joint_sensors", &w.tables.joint_sensors)));
+    }
 }
 
 /// One body of a robot: its dynamic state, materials and parent joint coordinates.

@@ -8,6 +8,7 @@
 
 mod bodies;
 pub mod constraints;
+pub mod dynamics;
 pub mod facts;
 pub mod filters;
 mod hash;
@@ -235,6 +236,11 @@ pub struct Tables {
     pub as_given: AsGiven,
     /// Collision filters, pairs and markers the agent set (hashed when any).
     pub filters: filters::Filters,
+    /// Joints whose force/torque sensor is on, as (object id, joint index): get_joint_state
+    /// reports their reaction wrench. Not in the v3–v6 table encodings: snapshot version 7
+    /// carries it beside the tables, written only when a sensor is on.
+    #[serde(skip)]
+    pub joint_sensors: BTreeSet<(u32, u32)>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -279,6 +285,7 @@ impl From<TablesV3> for Tables {
             constraints: t.constraints,
             as_given: t.as_given,
             filters: filters::Filters::default(),
+            joint_sensors: BTreeSet::new(),
         }
     }
 }
@@ -316,6 +323,7 @@ impl TablesV2 {
             viewer: self.viewer,
             constraints: self.constraints,
             filters: filters::Filters::default(),
+            joint_sensors: BTreeSet::new(),
         }
     }
 }
@@ -664,6 +672,17 @@ impl World {
             Command::ResetJointState { object_id, joint_index, target_value, target_velocity } => {
                 Outcome::Message(Message::new(self.reset_joint(*object_id, *joint_index, *target_value, *target_velocity)))
             }
+            Command::EnableJointForceTorqueSensor { object_id, joint_index, enable } => {
+                let key = (*object_id, *joint_index);
+                let state = if *enable {
+                    self.tables.joint_sensors.insert(key);
+                    "on"
+                } else {
+                    self.tables.joint_sensors.remove(&key);
+                    "off"
+                };
+                Outcome::Message(Message::new(format!("Force/torque sensor of joint {joint_index} of object {object_id} {state}")))
+            }
             Command::CreateConstraint { spec } => self.insert_constraint(spec).into(),
             Command::SetDebugVisualization { show_contacts, show_frames } => {
                 self.tables.viewer.show_contacts = *show_contacts;
@@ -746,7 +765,11 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if self.engine_rule != EngineRule::Upstream {
+        let encoded = if !t.joint_sensors.is_empty() {
+            // Version 8: version 7's followed by the joint force/torque sensors that are on.
+            let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
+            postcard::to_extend(&(8u32, &self.physics, t, rules, &t.joint_sensors), out)
+        } else if self.engine_rule != EngineRule::Upstream {
             // Version 7: the engine rule (and the state hash rules) travel with the snapshot.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
             postcard::to_extend(&(7u32, &self.physics, t, rules), out)
@@ -820,6 +843,13 @@ impl World {
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
         let (mut physics, tables) = match version {
+            8 => {
+                let (_, physics, mut tables, recorded, sensors): (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>) =
+                    postcard::from_bytes(bytes).map_err(bad)?;
+                rules = recorded;
+                tables.joint_sensors = sensors;
+                (physics, tables)
+            }
             7 => {
                 let (_, physics, tables, recorded): (u32, PhysicsWorld, Tables, SnapshotRules) =
                     postcard::from_bytes(bytes).map_err(bad)?;
@@ -902,12 +932,14 @@ impl World {
 /// rules travel with forks and loads; worlds of older chains are still written as 3, 4 or 5;
 /// 7 is 5's encoding followed by [`SnapshotRules`], written for worlds of an engine rule after
 /// rule 1 (every world created from event version 6 on), so the rule travels with forks,
-/// loads and restarts; rule-1 worlds are written as before, byte for byte; 1 to 5 still
-/// restore, under state hash v1 and engine rule 1, 6 under v2 and rule 1).
-pub const SNAPSHOT_VERSION: u32 = 7;
+/// loads and restarts; 8 is 7's followed by the joint force/torque sensors that are on
+/// (`Tables::joint_sensors`), written only for a world with one; every other world is written
+/// as before, byte for byte; 1 to 5 still restore, under state hash v1 and engine rule 1, 6
+/// under v2 and rule 1).
+pub const SNAPSHOT_VERSION: u32 = 8;
 
-/// The rules a version-7 snapshot carries after the tables: the world's state hash rules and
-/// engine rule, which older versions imply (`SNAPSHOT_VERSION`).
+/// The rules a version-7 or -8 snapshot carries after the tables: the world's state hash rules
+/// and engine rule, which older versions imply (`SNAPSHOT_VERSION`).
 #[derive(Serialize, Deserialize, Clone, Copy, Debug)]
 struct SnapshotRules {
     /// State hash v2 (else v1).

@@ -612,10 +612,12 @@ impl World {
         let robot = self.robot(id)?;
         let l = robot.links.get(i)?;
         let (q, v) = self.joint_coordinates(l.body, l.joint.kind);
+        let sensed = self.tables.joint_sensors.contains(&(id, i as u32));
+        let reaction_forces = if sensed { self.joint_reaction_wrench(id, i).unwrap_or_default() } else { [0.0; 6] };
         Some(JointState {
             joint_position: r32(q),
             joint_velocity: r32(v),
-            reaction_forces: [0.0; 6],
+            reaction_forces,
             motor_torque: r32(l.motor_torque),
         })
     }
@@ -678,7 +680,7 @@ impl World {
     }
 
     /// The frames of the multibody joint that attaches `body` to its parent, in f64 (IK).
-    fn joint_frames(&self, body: RigidBodyHandle) -> Option<super::ik::JointFrames> {
+    pub(super) fn joint_frames(&self, body: RigidBodyHandle) -> Option<super::ik::JointFrames> {
         use rapier3d::glamx::{DQuat, DVec3};
         let mbs = &self.physics.multibody_joints;
         let link = mbs.rigid_body_link(body)?;
