@@ -865,7 +865,7 @@ impl Multibody {
     pub(crate) fn update_dynamics(&mut self, params: &IntegrationParameters, bodies: &RigidBodySet) {
         match params.multibody_dynamics {
             #[cfg(feature = "dim3")]
-            MultibodyDynamics::TreeSparse => self.tree_update_dynamics(params.dt, bodies),
+            MultibodyDynamics::TreeSparse if self.tree_eligible(bodies) => self.tree_update_dynamics(params.dt, bodies),
             _ => {
                 self.update_mass_matrix(params.dt, bodies);
                 self.update_acceleration(params.dt, bodies);
@@ -1552,7 +1552,7 @@ impl Multibody {
          */
         match dynamics {
             #[cfg(feature = "dim3")]
-            MultibodyDynamics::TreeSparse => self.tree_update_jacobians(),
+            MultibodyDynamics::TreeSparse if self.tree_eligible(bodies) => self.tree_update_jacobians(),
             _ => self.update_body_jacobians(),
         }
     }

@@ -339,6 +339,21 @@ impl Multibody {
 
     /// One substep's mass matrices and their factorisations, then the free accelerations:
     /// the tree path's `update_mass_matrix` followed by `update_acceleration`.
+    /// physics-mcp patch 2: whether the tree path may run this multibody. A link whose mass or
+    /// inertia holds a subnormal or non-finite number (a 1e-40 inertia, found by the file
+    /// fuzzer) overflowed the tree path's inverses and left its solver slicing out of bounds;
+    /// such a multibody takes the release's dense path, kinematics and dynamics alike, which
+    /// copes. A multibody of normal numbers (every real model) is unaffected.
+    pub(crate) fn tree_eligible(&self, bodies: &RigidBodySet) -> bool {
+        let normal = |x: Real| x.is_finite() && (x == 0.0 || x.abs() >= Real::MIN_POSITIVE);
+        self.links.iter().all(|link| {
+            let mp = &bodies[link.rigid_body].mprops;
+            let (m, p) = (mp.local_mprops.inv_mass, mp.local_mprops.inv_principal_inertia);
+            let e = mp.effective_inv_mass;
+            [m, p.x, p.y, p.z, e.x, e.y, e.z].into_iter().all(normal)
+        })
+    }
+
     pub(crate) fn tree_update_dynamics(&mut self, dt: Real, bodies: &RigidBodySet) {
         self.tree.active = true;
         if self.ndofs == 0 {
