@@ -296,5 +296,8 @@ fn foreign_engine(sim: &Sim) -> Option<String> {
         .iter()
         .filter(|e| e.kind == crate::log::Kind::Root && !e.inherited)
         .filter_map(|e| e.engine.clone())
-        .find(|b| b != crate::engine::ENGINE_BUILD)
+        // As embedded replay reads them (`engine::differences`): the vendored rapier
+        // `<release>+pmcp.<N>` reads logs of its release, so an imported log of the release
+        // is taken over; any other difference would fork results.
+        .find(|b| !crate::engine::differences(b, crate::engine::ENGINE_BUILD).is_empty())
 }

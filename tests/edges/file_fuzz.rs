@@ -1009,6 +1009,20 @@ fn hostile_table(ws: &Path, out: &Path) -> Vec<Case> {
     };
     w("chain200.urdf", &chain(200));
     ur("chain200.urdf", "a chain of 200 links", false);
+    // Subnormal inertias (1e-45: their inverses overflow) once made engine rule 2's tree path
+    // slice its solver out of bounds and panic (seed 669911269235257830 mutated this fixture
+    // so); such robots now take the dense path (crates/rapier3d/PATCHES.md, patch 2).
+    let limits = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/joint_limits.urdf")).unwrap();
+    // The fuzzer's inertias, link by link: a's iyy, b's ixx, e's ixy, f's ixx and ixz.
+    let unit = r#"<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>"#;
+    let tiny = [("a", r#"iyy="0.01""#, r#"iyy="1e-45""#), ("b", r#"ixx="0.01""#, r#"ixx="1e-45""#), ("e", r#"ixy="0""#, r#"ixy="1e-45""#), ("f", r#"ixx="0.01" ixy="0" ixz="0""#, r#"ixx="1e-45" ixy="0" ixz="1e-45""#)];
+    let subnormal = tiny.iter().fold(limits.clone(), |text, (link, from, to)| {
+        let before = format!(r#"<link name="{link}"><inertial><mass value="1"/>{unit}"#);
+        text.replace(&before, &before.replace(from, to))
+    });
+    assert_ne!(subnormal, limits, "the fixture's inertias were found");
+    w("subnormal_inertia.urdf", &subnormal);
+    ur("subnormal_inertia.urdf", "a robot with subnormal inertias", false);
     // One step of a chain of n links costs O(n^3) time and O(n^2) memory: this 3.8 MB URDF
     // (under the 8 MiB limit) once loaded and then made a one-step step_simulation run for
     // hours. A model has at most 512 joints now.
