@@ -1,4 +1,4 @@
-//! Robots at engine speed (issue 42; `cargo bench --bench robot_steps`): ms per step, in
+//! Robots at engine speed (engine rule 2 against rule 1; `cargo bench --bench robot_steps`): ms per step, in
 //! process, of the scenes `scripts/robot_bench.py` measures over MCP and beside PyBullet and
 //! MuJoCo, under each engine rule (`engine::EngineRule`):
 //! - `kuka` and `panda`: pybullet_data's `kuka_iiwa/model.urdf` and `franka_panda/panda.urdf`

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Robots at engine speed (issue 42), in one run: physics-mcp against PyBullet on the KUKA iiwa
+"""Robots at engine speed, in one run: physics-mcp against PyBullet on the KUKA iiwa
 and the Franka Panda, and against MuJoCo on every Gymnasium model, measured the way a user
 meets it (one step_simulation over MCP) and in process (`cargo bench --bench robot_steps`,
 every engine rule), each beside the reference measured in the same run.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Robots at engine speed (issue 42) counted in instructions: callgrind's instruction counts per
+"""Robots at engine speed counted in instructions: callgrind's instruction counts per
 step are repeatable on a shared machine where seconds are not. In one run, for each scene:
 physics-mcp's step under engine rule 1 (rapier 0.36.1's arithmetic) and rule 2 (the tree path,
 crates/rapier3d/PATCHES.md patch 1), and the reference engine on the same model:
