@@ -429,7 +429,7 @@ fn main() {
         )
         .init();
     let cli = Cli::parse();
-    #[cfg(feature = "failpoints")]
+    #[cfg(debug_assertions)]
     let _failpoints = physics_mcp::failpoints::setup();
     ignore_file_size_signal();
     // The built-in model library: only this binary links its archive (test binaries that never

@@ -1,12 +1,13 @@
 //! Crash loop: kill -9 at random moments across 3 simulations (one of 300 bodies
 //! in CI, `PHYSICS_CRASH_BODIES=1000` for the full size) while concurrent clients add, step, undo, redo, save, fork and load; then kills
-//! inside each risky phase, placed by crash points (feature `failpoints`, see
+//! inside each risky phase, placed by crash points (in every debug build, see
 //! src/failpoints.rs). After every restart: every acknowledged state-changing call is in the
 //! log at its acknowledged head with its acknowledged state hash, verify_simulation is ok for
 //! every simulation, nothing is reported damaged and no partial file is left. Recovery time
 //! (spawn to first answer) is reported, not asserted.
 //!
-//! Needs the crash points: `cargo test --features failpoints --test crash_loop` (.ci/run).
+//! Uses the crash points of debug builds: `cargo test --test failpoints -- --ignored crash_loop`
+//! (.ci/run).
 
 use crate::common;
 
@@ -145,8 +146,13 @@ async fn traffic(server: &mut Server, sims: &[String], acks: &Acks, seed: u64, k
     if !crashed {
         let _ = server_kill(server);
     }
-    for t in tasks {
-        let _ = tokio::time::timeout(Duration::from_secs(30), t).await;
+    // A client whose call was cut off mid-reply can sit in its transport's reconnect backoff
+    // for tens of seconds (30 s per such round, most of this test's time before); whatever it
+    // had acknowledged is already in `acks`, so it gets a moment to notice and is stopped.
+    for mut t in tasks {
+        if tokio::time::timeout(Duration::from_secs(2), &mut t).await.is_err() {
+            t.abort();
+        }
     }
     (crashed, acks.lock().unwrap().len() - acked_before)
 }
@@ -158,6 +164,7 @@ fn server_kill(server: &mut Server) -> bool {
 }
 
 #[tokio::test(flavor = "multi_thread")]
+#[ignore = "kills servers for a minute or more: .ci/run runs it (cargo test --test failpoints -- --ignored)"]
 async fn acknowledged_calls_survive_kill_9_anywhere() {
     let seed = seed();
     let mut rng = rng(seed);
