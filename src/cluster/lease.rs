@@ -102,7 +102,18 @@ impl Cluster {
     /// Joins the cluster as a node: its entry in `NS_nodes` under a new incarnation. An entry
     /// of the same name left by an earlier run (names are unique among live nodes) is taken
     /// over at once, which frees every simulation that run held.
+    ///
+    /// One join at a time, and none over a lease another caller has just got: after a lost
+    /// lease the renewer and a takeover both join, and two racing joins gave the node two
+    /// incarnations — ownership records written under the first while the node's entry held
+    /// the second. Other nodes then saw the records' incarnation dead and took over
+    /// simulations this node still served: a read answered from its memory after another
+    /// node's acknowledged change (the fault schedule's stale read, seed 7027981827904121657).
     pub(super) fn join(&self) -> Result<(), String> {
+        let _one = self.joining.lock().unwrap_or_else(|p| p.into_inner());
+        if self.holdings().node.is_some() {
+            return Ok(());
+        }
         let (nodes, name) = (self.nodes.clone(), self.config.node.clone());
         let token = uuid::Uuid::new_v4().simple().to_string();
         let value: bytes::Bytes = token.clone().into();
@@ -120,7 +131,10 @@ impl Cluster {
             })
             .await
         })??;
-        self.holdings().node = Some(NodeLease { token, revision, valid_until: self.valid_from(sent) });
+        let mut h = self.holdings();
+        // Whatever was held belonged to an earlier incarnation, dead to every other node now.
+        h.sims.clear();
+        h.node = Some(NodeLease { token, revision, valid_until: self.valid_from(sent) });
         Ok(())
     }
 

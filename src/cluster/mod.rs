@@ -87,6 +87,8 @@ pub struct Cluster {
     config: ClusterConfig,
     /// This node's lease and the simulations it owns.
     held: Mutex<lease::Holdings>,
+    /// Held while this node joins the cluster (`lease::join`): one join at a time.
+    joining: Mutex<()>,
     /// Where calls for simulations other nodes own were last sent (`calls::owner_hint`).
     hints: Mutex<HashMap<String, String>>,
     /// One lock per simulation being taken over or destroyed here (`one_at_a_time`).
@@ -227,6 +229,7 @@ impl Cluster {
             objects,
             config,
             held: Mutex::default(),
+            joining: Mutex::default(),
             hints: Mutex::default(),
             takeovers: Mutex::default(),
         });

@@ -175,7 +175,10 @@ async fn a_seeded_fault_schedule_keeps_every_promise() {
     let root = tempfile::tempdir().unwrap();
     let workspace = shared_workspace(root.path());
     let flags = ["--lease-ms", LEASE_MS, "--max-sims", "400"];
-    let mut nodes: Vec<Node> = ["a", "b", "c"].iter().map(|n| Node::start(root.path(), n, &nats, &workspace, &flags)).collect();
+    // Takeovers and lease losses are logged (info), so a failing run's kept logs show who
+    // served each simulation when.
+    let logging = [("RUST_LOG", "warn,physics_mcp::sim::cluster=info,physics_mcp::cluster=info")];
+    let mut nodes: Vec<Node> = ["a", "b", "c"].iter().map(|n| Node::start_with_env(root.path(), n, &nats, &workspace, &flags, &logging)).collect();
     let world = Arc::new(World {
         started: Instant::now(),
         urls: Mutex::new(nodes.iter().map(|n| Some(n.server().url.clone())).collect()),
@@ -511,9 +514,8 @@ fn keep_run(schedule: &Schedule, history: &[Op], broken: &[String], nodes: &[Nod
     std::fs::write(dir.join("history.jsonl"), lines.join("\n")).unwrap();
     std::fs::write(dir.join("broken.txt"), broken.join("\n")).unwrap();
     for n in nodes {
-        let lines = n.stderr();
-        let lines = lines.lock().unwrap();
-        let tail = &lines[lines.len().saturating_sub(400)..];
+        let lines = n.all_stderr();
+        let tail = &lines[lines.len().saturating_sub(5000)..];
         std::fs::write(dir.join(format!("node-{}.log", n.name)), tail.join("\n")).unwrap();
     }
     dir

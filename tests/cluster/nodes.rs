@@ -64,6 +64,9 @@ pub struct Node {
     /// Environment variables of the process (e.g. `RUST_LOG`).
     env: Vec<(String, String)>,
     server: Option<Server>,
+    /// The stderr lines of this node's earlier processes (killed or stopped), so a failing
+    /// run's evidence covers every incarnation, not only the last.
+    earlier: Vec<std::sync::Arc<std::sync::Mutex<Vec<String>>>>,
 }
 
 impl Node {
@@ -82,7 +85,7 @@ impl Node {
         let mut args = vec!["--cluster".to_string(), cluster.urls(), "--node".to_string(), name.to_string()];
         args.extend(extra.iter().map(|s| s.to_string()));
         let env = env.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-        let mut node = Node { name: name.to_string(), dir, args, env, server: None };
+        let mut node = Node { name: name.to_string(), dir, args, env, server: None, earlier: Vec::new() };
         node.restart();
         node
     }
@@ -99,6 +102,7 @@ impl Node {
     /// kill -9 and reap.
     pub fn kill9(&mut self) {
         if let Some(s) = self.server.take() {
+            self.earlier.push(s.stderr.clone());
             s.kill();
         }
     }
@@ -107,6 +111,7 @@ impl Node {
     /// to the cluster before it exits (which must be clean).
     pub fn terminate(&mut self) {
         if let Some(s) = self.server.take() {
+            self.earlier.push(s.stderr.clone());
             s.terminate();
         }
     }
@@ -125,6 +130,19 @@ impl Node {
     /// a `kill9`: the handle outlives the process).
     pub fn stderr(&self) -> std::sync::Arc<std::sync::Mutex<Vec<String>>> {
         self.server().stderr.clone()
+    }
+
+    /// Every stderr line of every process this node has run, in order, each process's lines
+    /// after a `--- restarted ---` line.
+    pub fn all_stderr(&self) -> Vec<String> {
+        let mut all = Vec::new();
+        for lines in self.earlier.iter().chain(self.server.as_ref().map(|s| &s.stderr)) {
+            if !all.is_empty() {
+                all.push("--- restarted ---".to_string());
+            }
+            all.extend(lines.lock().unwrap_or_else(|p| p.into_inner()).iter().cloned());
+        }
+        all
     }
 
     /// A new MCP client on this node.
