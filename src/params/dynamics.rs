@@ -1,6 +1,6 @@
 //! Parameters of the robot calls PyBullet scripts lean on: enable_joint_force_torque_sensor,
 //! get_joint_states, get_link_states, calculate_jacobian, calculate_mass_matrix,
-//! calculate_inverse_dynamics.
+//! calculate_inverse_dynamics, get_aabb, get_overlapping_objects, get_closest_points.
 
 use schemars::JsonSchema;
 use serde::Deserialize;
@@ -115,4 +115,22 @@ pub struct OverlapQuery {
     pub aabb_min: Vec3,
     /// Opposite corner.
     pub aabb_max: Vec3,
+}
+
+/// get_closest_points parameters (PyBullet's getClosestPoints).
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ClosestPointsQuery {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object A.
+    pub body_a: ObjectId,
+    /// Object B.
+    pub body_b: ObjectId,
+    /// Max distance, m.
+    pub distance: NonNegative,
+    /// A's link only (-1 = base); default all.
+    pub link_index_a: Option<Int<i64>>,
+    /// B's link only.
+    pub link_index_b: Option<Int<i64>>,
 }

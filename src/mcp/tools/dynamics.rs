@@ -1,7 +1,7 @@
 //! The robot calls PyBullet scripts lean on, for URDF and MJCF robots alike, with PyBullet's
 //! names: enable_joint_force_torque_sensor, get_joint_states, get_link_states,
 //! calculate_jacobian, calculate_mass_matrix, calculate_inverse_dynamics, get_aabb,
-//! get_overlapping_objects. Thin adapters; the
+//! get_overlapping_objects, get_closest_points. Thin adapters; the
 //! physics is in `World` (`world/dynamics.rs`), the reads in `sim/dynamics_reads.rs`.
 
 use rmcp::handler::server::common::schema_for_type;
@@ -11,9 +11,9 @@ use rmcp::{tool, tool_router};
 
 use crate::command::Command;
 use crate::mcp::PhysicsServer;
-use crate::outputs::{Aabb, InverseDynamics, Overlapping, Jacobian, JointStates, LinkStates, MassMatrix, Message};
+use crate::outputs::{Aabb, ClosestPoints, InverseDynamics, Overlapping, Jacobian, JointStates, LinkStates, MassMatrix, Message};
 use crate::sim::dynamics_reads as reads;
-use crate::params::{self, AabbQuery, InverseDynamicsQuery, OverlapQuery, JacobianQuery, JointSensor, JointsRef, LinksRef, MassMatrixQuery};
+use crate::params::{self, AabbQuery, ClosestPointsQuery, InverseDynamicsQuery, OverlapQuery, JacobianQuery, JointSensor, JointsRef, LinksRef, MassMatrixQuery};
 use crate::value::Refusal;
 
 /// enable_joint_force_torque_sensor's arguments → the command (the joint is checked later).
@@ -79,5 +79,11 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::OverlapQuery>(), annotations(read_only_hint = true))]
     async fn get_overlapping_objects(&self, args: JsonObject) -> Result<Json<Overlapping>, String> {
         self.read("get_overlapping_objects", args, |sim, p: OverlapQuery| crate::sim::geometry_reads::overlapping(&sim.read_context(), &p)).await
+    }
+
+    /// Closest points between two objects (or links) within `distance`; negative = penetration.
+    #[tool(input_schema = schema_for_type::<params::ClosestPointsQuery>(), annotations(read_only_hint = true))]
+    async fn get_closest_points(&self, args: JsonObject) -> Result<Json<ClosestPoints>, String> {
+        self.read("get_closest_points", args, |sim, p: ClosestPointsQuery| crate::sim::geometry_reads::closest_points(&sim.read_context(), &p)).await
     }
 }
