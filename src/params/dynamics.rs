@@ -55,13 +55,13 @@ pub struct JacobianQuery {
     pub object_id: ObjectId,
     /// The link.
     pub link_index: Int<i32>,
-    /// Point in the link frame.
+    /// In the link frame.
     pub local_position: Vec3,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_positions: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_velocities: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_accelerations: NumList,
 }
 
@@ -73,7 +73,7 @@ pub struct MassMatrixQuery {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_positions: NumList,
 }
 
@@ -85,11 +85,11 @@ pub struct InverseDynamicsQuery {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_positions: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_velocities: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_accelerations: NumList,
 }
 
@@ -127,10 +127,10 @@ pub struct ClosestPointsQuery {
     pub body_a: ObjectId,
     /// Object B.
     pub body_b: ObjectId,
-    /// Max distance, m.
+    /// Max, m.
     pub distance: NonNegative,
-    /// A's link only (-1 = base); default all.
+    /// Default all.
     pub link_index_a: Option<Int<i64>>,
-    /// B's link only.
+    /// Default all.
     pub link_index_b: Option<Int<i64>>,
 }

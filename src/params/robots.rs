@@ -91,17 +91,17 @@ pub struct JointTrajectory {
     pub object_id: ObjectId,
     /// Movable joints.
     pub joint_indices: Vec<Int<u32>>,
-    /// Seconds after the call, increasing.
+    /// s from now, rising.
     pub times: NumList,
-    /// Per time, one per joint.
+    /// Row per time.
     pub positions: Vec<NumList>,
-    /// Per time, one per joint.
+    /// Row per time.
     pub velocities: Option<Vec<NumList>>,
     /// Per joint.
     pub forces: Option<NumList>,
-    /// Per joint; default 0.1s.
+    /// Default 0.1s.
     pub position_gains: Option<NumList>,
-    /// Per joint; default 1s.
+    /// Default 1s.
     pub velocity_gains: Option<NumList>,
 }
 

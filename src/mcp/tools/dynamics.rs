@@ -31,8 +31,7 @@ pub(super) fn decide_sensor(p: JointSensor) -> Result<Command, Refusal> {
 
 #[tool_router(router = dynamics_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Turn a joint's force/torque sensor on (default) or off: get_joint_state then reports
-    /// its reaction wrench.
+    /// Sensor on/off: get_joint_state reports the joint's reaction wrench.
     #[tool(input_schema = schema_for_type::<params::JointSensor>())]
     async fn enable_joint_force_torque_sensor(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("enable_joint_force_torque_sensor", args, decide_sensor).await
@@ -50,26 +49,25 @@ impl PhysicsServer {
         self.read("get_link_states", args, |sim, p: LinksRef| reads::link_states(&sim.read_context(), &p)).await
     }
 
-    /// Linear and angular Jacobian of a point on a link at given joint positions (world
-    /// frame; see docs/tools.md).
+    /// Jacobian of a point on a link, world frame (docs/tools.md).
     #[tool(input_schema = schema_for_type::<params::JacobianQuery>(), annotations(read_only_hint = true))]
     async fn calculate_jacobian(&self, args: JsonObject) -> Result<Json<Jacobian>, String> {
         self.read("calculate_jacobian", args, |sim, p: JacobianQuery| reads::jacobian(&sim.read_context(), &p)).await
     }
 
-    /// Joint-space mass matrix at given joint positions.
+    /// Joint-space mass matrix at joint positions.
     #[tool(input_schema = schema_for_type::<params::MassMatrixQuery>(), annotations(read_only_hint = true))]
     async fn calculate_mass_matrix(&self, args: JsonObject) -> Result<Json<MassMatrix>, String> {
         self.read("calculate_mass_matrix", args, |sim, p: MassMatrixQuery| reads::mass_matrix(&sim.read_context(), &p)).await
     }
 
-    /// Joint torques for given positions, velocities and accelerations under gravity.
+    /// Joint torques for positions, velocities, accelerations, gravity.
     #[tool(input_schema = schema_for_type::<params::InverseDynamicsQuery>(), annotations(read_only_hint = true))]
     async fn calculate_inverse_dynamics(&self, args: JsonObject) -> Result<Json<InverseDynamics>, String> {
         self.read("calculate_inverse_dynamics", args, |sim, p: InverseDynamicsQuery| reads::inverse_dynamics(&sim.read_context(), &p)).await
     }
 
-    /// World axis-aligned box around an object's (or link's) collision shapes.
+    /// World box around an object's or link's collision shapes.
     #[tool(input_schema = schema_for_type::<params::AabbQuery>(), annotations(read_only_hint = true))]
     async fn get_aabb(&self, args: JsonObject) -> Result<Json<Aabb>, String> {
         self.read("get_aabb", args, |sim, p: AabbQuery| crate::sim::geometry_reads::aabb(&sim.read_context(), &p)).await
@@ -81,7 +79,7 @@ impl PhysicsServer {
         self.read("get_overlapping_objects", args, |sim, p: OverlapQuery| crate::sim::geometry_reads::overlapping(&sim.read_context(), &p)).await
     }
 
-    /// Closest points between two objects (or links) within `distance`; negative = penetration.
+    /// Closest points of two objects or links within distance (<0: overlap).
     #[tool(input_schema = schema_for_type::<params::ClosestPointsQuery>(), annotations(read_only_hint = true))]
     async fn get_closest_points(&self, args: JsonObject) -> Result<Json<ClosestPoints>, String> {
         self.read("get_closest_points", args, |sim, p: ClosestPointsQuery| crate::sim::geometry_reads::closest_points(&sim.read_context(), &p)).await

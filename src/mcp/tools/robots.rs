@@ -176,8 +176,7 @@ impl PhysicsServer {
         self.change("set_joint_motor_control_array", args, decide_motor_array).await
     }
 
-    /// Joints' position motors follow a cubic path through waypoints at given times as the
-    /// simulation steps (docs/tools.md).
+    /// Joints follow a cubic path through timed waypoints as the sim steps (docs/tools.md).
     #[tool(input_schema = schema_for_type::<params::JointTrajectory>())]
     async fn set_joint_trajectory(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_joint_trajectory", args, decide_trajectory).await
