@@ -253,7 +253,7 @@ mod tests {
     #[test]
     fn passes_waypoints_with_their_velocities() {
         let p = path(None);
-        assert_eq!(p.velocities, vec![-0.5, -0.1666666666666666, 0.0]);
+        assert_eq!(p.velocities, vec![-0.5, -0.5 / 3.0, 0.0]);
         assert_eq!(p.sample(0.0), (0.0, 0.0));
         for (k, t) in p.times.iter().enumerate() {
             let (q, v) = p.sample(*t - 1e-12);
