@@ -7,7 +7,7 @@ URL is a running physics-mcp's `/mcp` endpoint whose workspace holds a copy of t
 at `tests/fixtures/` (scripts/agent_tasks.sh starts such a server and runs this script).
 
 The script is an agent: the Python `mcp` SDK's `Client` (streamable HTTP, the SDK's default
-mode) and `call_tool`, nothing else. It runs nine tasks written as a sensible agent calls
+mode) and `call_tool`, nothing else. It runs ten tasks written as a sensible agent calls
 today's tools — the server's default arguments only (no detail switches; no `output_path`, no
 `observe`, no `every`), one call per thing the agent wants to know, and the agent's own Python
 for whatever the tools do not compute (how many boxes moved, when a box landed). The tasks
@@ -20,7 +20,9 @@ driven forward by velocity motors on its wheels; (6) one undo, one fork, one get
 one verify_simulation on a small scene; (7) a pick-style reach to a target where the agent
 also placed a marker sphere (`collides: false`: the arm passes through it);
 (8) Gymnasium's MJCF reacher driven by per-joint motors; (9) boxes dropped from three heights,
-and the moment the first one hit the ground found with get_trajectory.
+and the moment the first one hit the ground found with get_trajectory; (10) the iiwa14 moved
+through five poses in one call (calculate_inverse_kinematics ×5, set_joint_trajectory,
+step_simulation) and where its gripper ended.
 
 What is counted, per call (a refused call is counted the same way):
   * one call = one `tools/call` (a `batch` or `run_sweep` is one call, whatever it holds);
@@ -407,6 +409,33 @@ async def first_landing(t):
     t.check(abs(time - fall) <= resolution + 0.02, f"found the landing at {time:.4f} s; free fall takes {fall:.4f} s")
 
 
+FIVE_POSES = [[0.5, 0.0, 0.6], [0.4, 0.3, 0.7], [0.2, 0.4, 0.9], [0.3, -0.3, 0.8], [0.5, -0.1, 0.5]]
+POSE_TIMES = [0.6, 1.2, 1.8, 2.4, 3.0]
+
+
+async def five_poses(t):
+    """The KUKA iiwa14 moved through five IK poses in 3 s with one set_joint_trajectory; where the gripper ends."""
+    sim = (await t.call("create_simulation", {}))["simulation_id"]
+    arm = ids(await t.call("load_urdf", {"sim_id": sim, "file_path": IIWA, "use_fixed_base": True}))
+    poses, rest = [], None
+    for target in FIVE_POSES:
+        args = {"sim_id": sim, "object_id": arm, "end_effector_link_index": IIWA_EE, "target_position": target}
+        if rest is not None:
+            args["rest_poses"] = rest
+        rest = (await t.call("calculate_inverse_kinematics", args))["joint_positions"][:IIWA_MOVABLE]
+        poses.append(rest)
+    await t.call(
+        "set_joint_trajectory",
+        {"sim_id": sim, "object_id": arm, "joint_indices": list(range(IIWA_MOVABLE)), "times": POSE_TIMES, "positions": poses,
+         "position_gains": [0.3] * IIWA_MOVABLE},
+    )
+    await t.call("step_simulation", {"sim_id": sim, "steps": 960})
+    link = await t.call("get_link_state", {"sim_id": sim, "object_id": arm, "link_index": IIWA_EE})
+    miss = dist(link["link_world_position"], FIVE_POSES[-1])
+    t.note(f"the gripper ended {miss * 100:.2f} cm from the last pose's target, 1 s after the trajectory's 3 s")
+    t.check(miss <= 0.01, f"the gripper ended {miss * 100:.2f} cm from the last target (> 1 cm)")
+
+
 TASKS = [
     (1, "tower look-back", tower_lookback),
     (2, "100-box pile (batch)", box_pile),
@@ -417,6 +446,7 @@ TASKS = [
     (7, "pick reach + marker", pick_reach),
     (8, "MJCF reacher motors", mjcf_reacher),
     (9, "first box to land", first_landing),
+    (10, "arm through five poses", five_poses),
 ]
 THE_FIVE = {1, 2, 3, 4, 5, 6}  # tower, pile, sweep, robots (4 and 5 together), timeline ops
 

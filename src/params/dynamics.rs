@@ -1,6 +1,6 @@
 //! Parameters of the robot calls PyBullet scripts lean on: enable_joint_force_torque_sensor,
 //! get_joint_states, get_link_states, calculate_jacobian, calculate_mass_matrix,
-//! calculate_inverse_dynamics.
+//! calculate_inverse_dynamics, get_aabb, get_overlapping_objects, get_closest_points.
 
 use schemars::JsonSchema;
 use serde::Deserialize;
@@ -55,13 +55,13 @@ pub struct JacobianQuery {
     pub object_id: ObjectId,
     /// The link.
     pub link_index: Int<i32>,
-    /// Point in the link frame.
+    /// In the link frame.
     pub local_position: Vec3,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_positions: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_velocities: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_accelerations: NumList,
 }
 
@@ -73,7 +73,7 @@ pub struct MassMatrixQuery {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_positions: NumList,
 }
 
@@ -85,11 +85,11 @@ pub struct InverseDynamicsQuery {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_positions: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_velocities: NumList,
-    /// One per movable joint.
+    /// Per movable joint.
     pub obj_accelerations: NumList,
 }
 
@@ -115,4 +115,22 @@ pub struct OverlapQuery {
     pub aabb_min: Vec3,
     /// Opposite corner.
     pub aabb_max: Vec3,
+}
+
+/// get_closest_points parameters (PyBullet's getClosestPoints).
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ClosestPointsQuery {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object A.
+    pub body_a: ObjectId,
+    /// Object B.
+    pub body_b: ObjectId,
+    /// Max, m.
+    pub distance: NonNegative,
+    /// Default all.
+    pub link_index_a: Option<Int<i64>>,
+    /// Default all.
+    pub link_index_b: Option<Int<i64>>,
 }

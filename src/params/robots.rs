@@ -81,6 +81,30 @@ pub struct MotorControlArray {
     pub velocity_gains: Option<NumList>,
 }
 
+/// set_joint_trajectory parameters: per waypoint (row) one value per joint.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct JointTrajectory {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// Movable joints.
+    pub joint_indices: Vec<Int<u32>>,
+    /// s from now, rising.
+    pub times: NumList,
+    /// Row per time.
+    pub positions: Vec<NumList>,
+    /// Row per time.
+    pub velocities: Option<Vec<NumList>>,
+    /// Per joint.
+    pub forces: Option<NumList>,
+    /// Default 0.1s.
+    pub position_gains: Option<NumList>,
+    /// Default 1s.
+    pub velocity_gains: Option<NumList>,
+}
+
 /// calculate_inverse_kinematics parameters.
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]

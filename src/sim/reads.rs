@@ -210,6 +210,8 @@ pub enum Read {
     Aabb(params::AabbQuery),
     /// get_overlapping_objects.
     Overlapping(params::OverlapQuery),
+    /// get_closest_points.
+    ClosestPoints(params::ClosestPointsQuery),
 }
 
 impl Read {
@@ -247,6 +249,7 @@ impl Read {
             "calculate_inverse_dynamics" => Read::InverseDynamics(p(tool, a)?),
             "get_aabb" => Read::Aabb(p(tool, a)?),
             "get_overlapping_objects" => Read::Overlapping(p(tool, a)?),
+            "get_closest_points" => Read::ClosestPoints(p(tool, a)?),
             other => return Err(format!("{other} is not a read this server knows")),
         })
     }
@@ -279,6 +282,7 @@ impl Read {
             Read::InverseDynamics(p) => json(super::dynamics_reads::inverse_dynamics(cx, p)),
             Read::Aabb(p) => json(super::geometry_reads::aabb(cx, p)),
             Read::Overlapping(p) => json(super::geometry_reads::overlapping(cx, p)),
+            Read::ClosestPoints(p) => json(super::geometry_reads::closest_points(cx, p)),
             Read::History(_) | Read::Verify(_) | Read::Save(_) | Read::Fork(_) | Read::Trajectory(_) | Read::Animation(_) | Read::Sweep(_) => return None,
         })
     }

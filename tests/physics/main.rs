@@ -11,6 +11,7 @@ mod builtins;
 mod engine_rules;
 mod geometry_reads;
 mod ik;
+mod joint_trajectory;
 mod link_state;
 mod mjcf;
 mod mjcf_rest;

@@ -136,6 +136,9 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("get_aabb", json!({"sim_id": sim, "object_id": arm, "link_index": 1})).await;
     c.call("get_overlapping_objects", json!({"sim_id": sim, "aabb_min": [-1, -1, 0], "aabb_max": [1, 1, 3]})).await;
     c.call("calculate_inverse_dynamics", json!({"sim_id": sim, "object_id": arm, "obj_positions": q, "obj_velocities": zero, "obj_accelerations": zero})).await;
+    c.call("get_closest_points", json!({"sim_id": sim, "body_a": arm, "body_b": ball, "distance": 100})).await;
+    c.call("set_joint_trajectory", json!({"sim_id": sim, "object_id": arm, "joint_indices": [0, 1], "times": [0.5, 1], "positions": [q, zero]})).await;
+    c.call("get_joint_state", json!({"sim_id": sim, "object_id": arm, "joint_index": 0})).await;
     let mj = id(&c.call("create_simulation", json!({})).await, "simulation_id");
     c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await;
     c.call("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "cylinder", "parent_dimensions": [0.1, 0.1, 0.1], "child_dimensions": [0.05, 0.3]})).await;

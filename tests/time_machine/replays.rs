@@ -78,11 +78,15 @@ fn a_tampered_log_fails_naming_the_event_and_diff_finds_it() {
     assert!(ok && stdout.lines().count() >= 10 && stdout.contains("apply_force"), "{stdout}");
 }
 
-/// `engine_rule_v6*.sqlite` (recorded by the release that introduced engine rules) step their
+/// `engine_rule_v6*.sqlite` (recorded by the release that introduced engine rules) and every later
+/// replay (`RULE_2_LOGS`) step their
 /// robots under rule 2 at every event — the created world, its fork and the saved file loaded
 /// again — while every log recorded before rules folds under rule 1 throughout. A load or a
 /// fork that fell back to rule 1 would still replay to its own hashes; this test tells them
 /// apart.
+/// The replays recorded under engine rule 2 (every simulation created from event version 6 on).
+const RULE_2_LOGS: &[&str] = &["engine_rule_v6", "joint_trajectory_v7"];
+
 #[test]
 fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() {
     use physics_mcp::command::BlobSource;
@@ -91,7 +95,8 @@ fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() 
     let limits = physics_mcp::limits::Limits::default();
     let (mut rule_2_roots, mut rule_1_roots) = (0, 0);
     for path in recorded() {
-        let expected = if path.file_name().unwrap().to_string_lossy().starts_with("engine_rule_v6") { EngineRule::TreeMultibody } else { EngineRule::Upstream };
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        let expected = if RULE_2_LOGS.iter().any(|p| name.starts_with(p)) { EngineRule::TreeMultibody } else { EngineRule::Upstream };
         let log = Log::open_read_only(&path).unwrap();
         let blobs: &dyn BlobSource = &log;
         let mut after = std::collections::BTreeMap::new();

@@ -33,7 +33,9 @@ use crate::world::World;
 /// `99.99999999997188`); enable_joint_force_torque_sensor: get_joint_state reports a sensed
 /// joint's reaction wrench (`reaction_forces`, zeros as before on every other joint); results
 /// are otherwise as version 5's.
-pub const EVENT_VERSION: u32 = 6;
+/// 7: set_joint_trajectory (a new command; get_joint_state of a joint following one adds
+/// `trajectory`); get_closest_points (a new read). Every result of version 6 is unchanged.
+pub const EVENT_VERSION: u32 = 7;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;
@@ -622,6 +624,15 @@ pub enum Command {
         /// On (true) or off.
         enable: bool,
     },
+    /// The joints' position motors follow a time-parameterised path as the world steps
+    /// (set_joint_trajectory; `world::joint_trajectory`), replacing their motors and any path
+    /// they followed. Event version 7.
+    SetJointTrajectory {
+        /// The robot.
+        object_id: u32,
+        /// The joints, waypoints and motor settings.
+        trajectory: crate::world::joint_trajectory::TrajectorySpec,
+    },
 }
 
 /// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
@@ -951,6 +962,17 @@ impl Command {
             Command::SetCollisionFilter { .. }
             | Command::SetCollisionPair { .. }
             | Command::EnableJointForceTorqueSensor { .. } => Ok(()),
+            Command::SetJointTrajectory { trajectory: t, .. } => {
+                let rows = t.positions.iter().chain(t.velocities.iter().flatten());
+                let mut numbers = t.times.iter().chain(rows.flatten());
+                if let Some(x) = numbers.find(|x| !x.is_finite()) {
+                    return Err(format!("times, positions and velocities must be finite numbers; got {x}"));
+                }
+                for (name, list) in [("forces", &t.forces), ("position_gains", &t.position_gains), ("velocity_gains", &t.velocity_gains)] {
+                    list.iter().flatten().try_for_each(|x| non_negative(name, *x))?;
+                }
+                Ok(())
+            }
             Command::ResetJointState { target_value, target_velocity, .. } => {
                 finite("target_value", &[*target_value])?;
                 finite("target_velocity", &[*target_velocity])
@@ -1088,6 +1110,10 @@ impl Command {
             Command::EnableJointForceTorqueSensor { object_id, joint_index, .. } => {
                 exists(*object_id)?;
                 world.check_joint(*object_id, *joint_index as i64).map(|_| ())
+            }
+            Command::SetJointTrajectory { object_id, trajectory } => {
+                exists(*object_id)?;
+                world.check_trajectory(*object_id, trajectory)
             }
             Command::AddBody { .. } => room_for_object(world, limits),
             Command::CreateConstraint { spec } => {

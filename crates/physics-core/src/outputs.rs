@@ -635,6 +635,21 @@ pub struct JointState {
     pub reaction_forces: [f64; 6],
     /// Torque (or force) the motor applied in the last step.
     pub motor_torque: f64,
+    /// Where the joint is on the set_joint_trajectory path it follows; absent when it follows
+    /// none (event version 7: no earlier state has one, so earlier results are unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectoryState>,
+}
+
+/// A joint's place on the trajectory it follows.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct TrajectoryState {
+    /// Seconds since set_joint_trajectory.
+    pub elapsed: f64,
+    /// Seconds from the call to the last waypoint.
+    pub duration: f64,
+    /// Index of the next waypoint (times[i]) to reach.
+    pub next_waypoint: usize,
 }
 
 /// Result of calculate_inverse_kinematics.
@@ -1012,6 +1027,35 @@ pub struct Aabb {
     pub aabb_min: [f64; 3],
     /// Highest corner.
     pub aabb_max: [f64; 3],
+}
+
+/// One pair of closest points (PyBullet's getClosestPoints item): per pair of collision shapes
+/// of A and B no farther apart than the query's distance.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ClosestPoint {
+    /// Object A.
+    pub body_a: u32,
+    /// Object B.
+    pub body_b: u32,
+    /// A's link (−1 = base or a primitive).
+    pub link_index_a: i64,
+    /// B's link.
+    pub link_index_b: i64,
+    /// World point on A's surface.
+    pub position_on_a: [f64; 3],
+    /// World point on B's surface.
+    pub position_on_b: [f64; 3],
+    /// Unit normal pointing from B to A.
+    pub contact_normal_on_b: [f64; 3],
+    /// Signed distance (negative = penetration), m.
+    pub contact_distance: f64,
+}
+
+/// Result of get_closest_points.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
+pub struct ClosestPoints {
+    /// Closest points per shape pair, in A's then B's part order.
+    pub points: Vec<ClosestPoint>,
 }
 
 /// One part (an object's base or link) whose box overlaps a query box.

@@ -75,6 +75,7 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "set_timestep" => change(tool, a, simulations::decide_timestep),
         "set_joint_motor_control" => change(tool, a, robots::decide_motor),
         "set_joint_motor_control_array" => change(tool, a, robots::decide_motor_array),
+        "set_joint_trajectory" => change(tool, a, robots::decide_trajectory),
         "set_collision_filter_group_mask" => change(tool, a, objects::decide_filter),
         "set_collision_filter_pair" => change(tool, a, objects::decide_pair),
         "reset_joint_state" => change(tool, a, mjcf::decide_reset),

@@ -1,4 +1,5 @@
-//! Robot tools: load_urdf, joints, motors, inverse kinematics, generate_revolute_joint.
+//! Robot tools: load_urdf, joints, motors, joint trajectories, inverse kinematics,
+//! generate_revolute_joint.
 
 use rmcp::handler::server::common::schema_for_type;
 use rmcp::handler::server::wrapper::Json;
@@ -6,7 +7,7 @@ use rmcp::model::JsonObject;
 use rmcp::{tool, tool_router};
 
 use crate::params::lenient::NumList;
-use crate::params::{self, GenerateRevolute, LoadUrdf, MotorControl, MotorControlArray};
+use crate::params::{self, GenerateRevolute, JointTrajectory, LoadUrdf, MotorControl, MotorControlArray};
 use crate::mcp::PhysicsServer;
 use crate::command::{Command, ControlMode, MotorSpec};
 use crate::outputs::{GeneratedUrdf, IkSolution, JointInfo, JointState, Message, NumJoints, UrdfLoaded};
@@ -109,6 +110,32 @@ pub(super) fn decide_motor_array(p: MotorControlArray) -> Result<Command, Refusa
     Ok(Command::SetJointMotors { object_id, motors })
 }
 
+/// set_joint_trajectory's arguments → the command (the joints are checked against the world
+/// later, `World::check_trajectory`).
+pub(super) fn decide_trajectory(p: JointTrajectory) -> Result<Command, Refusal> {
+    let object_id = p.object_id.0;
+    let joint_indices = p
+        .joint_indices
+        .iter()
+        .enumerate()
+        .map(|(i, j)| u32::try_from(j.get()).map_err(|_| format!("joint_indices[{i}] = {} is out of range: object {object_id} has no such joint", j.get())))
+        .collect::<Result<Vec<_>, _>>()?;
+    let f32s = |l: Option<NumList>, name: &str| -> Result<Option<Vec<f32>>, Refusal> {
+        l.map(|l| l.0.iter().enumerate().map(|(i, x)| crate::value::number(&format!("{name}[{i}]"), &serde_json::json!(x))).collect()).transpose()
+    };
+    let rows = |l: Vec<NumList>| l.into_iter().map(|r| r.0).collect::<Vec<_>>();
+    let trajectory = crate::world::joint_trajectory::TrajectorySpec {
+        joint_indices,
+        times: p.times.0,
+        positions: rows(p.positions),
+        velocities: p.velocities.map(rows),
+        forces: f32s(p.forces, "forces")?,
+        position_gains: f32s(p.position_gains, "position_gains")?,
+        velocity_gains: f32s(p.velocity_gains, "velocity_gains")?,
+    };
+    Ok(Command::SetJointTrajectory { object_id, trajectory })
+}
+
 #[tool_router(router = robot_router, vis = "pub(crate)")]
 impl PhysicsServer {
     /// Load a URDF (workspace path or plane/cube/sphere.urdf); PyBullet joint numbering, no motors.
@@ -147,6 +174,12 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::MotorControlArray>())]
     async fn set_joint_motor_control_array(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_joint_motor_control_array", args, decide_motor_array).await
+    }
+
+    /// Joints follow a cubic path through timed waypoints as the sim steps (docs/tools.md).
+    #[tool(input_schema = schema_for_type::<params::JointTrajectory>())]
+    async fn set_joint_trajectory(&self, args: JsonObject) -> Result<Json<Message>, String> {
+        self.change("set_joint_trajectory", args, decide_trajectory).await
     }
 
     /// Joint positions (per movable joint) putting the end effector's link frame (not its centre of mass) at the target, within limits.

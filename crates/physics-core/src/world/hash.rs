@@ -78,7 +78,8 @@ pub(super) fn touched_by(cmd: &Command, next_object_id: u32) -> Touched {
         | Command::ApplyTorque { object_id, .. }
         | Command::SetObjectVelocity { object_id, .. }
         | Command::ChangeDynamics { object_id, .. }
-        | Command::RemoveObject { object_id } => Touched::One(*object_id),
+        | Command::RemoveObject { object_id }
+        | Command::SetJointTrajectory { object_id, .. } => Touched::One(*object_id),
         Command::SetCamera { .. }
         | Command::SetDebugVisualization { .. }
         | Command::SetTimestep { .. }
@@ -322,11 +323,15 @@ fn state_hash_v1(w: &World) -> String {
     blake3::hash(&bytes).to_hex().to_string()
 }
 
-/// The joint force/torque sensors that are on, behind their own tag, only when there are some
-/// (event version 6): every state without one hashes as it always did.
+/// The joint force/torque sensors that are on and the joint trajectories followed, each behind
+/// its own tag, only when there are some (event versions 6 and 7): every state without one hashes as it always did.
 fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
     if !w.tables.joint_sensors.is_empty() {
         bytes.extend(encode(&("joint_sensors", &w.tables.joint_sensors)));
+    }
+    // Joint trajectories likewise (event version 7), only while one is followed.
+    if !w.tables.joint_trajectories.is_empty() {
+        bytes.extend(encode(&("joint_trajectories", &w.tables.joint_trajectories)));
     }
 }
 

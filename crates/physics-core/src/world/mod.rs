@@ -14,6 +14,7 @@ pub mod filters;
 mod hash;
 mod hash_tree;
 pub mod ik;
+pub mod joint_trajectory;
 pub mod mjcf;
 pub mod mjcf_mesh;
 pub mod mjcf_options;
@@ -241,6 +242,11 @@ pub struct Tables {
     /// carries it beside the tables, written only when a sensor is on.
     #[serde(skip)]
     pub joint_sensors: BTreeSet<(u32, u32)>,
+    /// Joints following a set_joint_trajectory path, by (object id, joint index). Not in the
+    /// table encodings: snapshot version 9 carries it after the sensors, written only when a
+    /// trajectory is followed.
+    #[serde(skip)]
+    pub joint_trajectories: BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -286,6 +292,7 @@ impl From<TablesV3> for Tables {
             as_given: t.as_given,
             filters: filters::Filters::default(),
             joint_sensors: BTreeSet::new(),
+            joint_trajectories: BTreeMap::new(),
         }
     }
 }
@@ -324,6 +331,7 @@ impl TablesV2 {
             constraints: self.constraints,
             filters: filters::Filters::default(),
             joint_sensors: BTreeSet::new(),
+            joint_trajectories: BTreeMap::new(),
         }
     }
 }
@@ -655,10 +663,12 @@ impl World {
                 }
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
+                self.end_trajectory(*object_id, *joint_index);
                 Outcome::Message(Message::new(self.set_motor(*object_id, *joint_index, motor)))
             }
             Command::SetJointMotors { object_id, motors } => {
                 for (j, m) in motors {
+                    self.end_trajectory(*object_id, *j);
                     self.set_motor(*object_id, *j, m);
                 }
                 let joints: Vec<u32> = motors.iter().map(|(j, _)| *j).collect();
@@ -671,6 +681,9 @@ impl World {
             Command::SetCollisionPair { a, b, enable } => Outcome::Message(Message::new(self.set_collision_pair(*a, *b, *enable))),
             Command::ResetJointState { object_id, joint_index, target_value, target_velocity } => {
                 Outcome::Message(Message::new(self.reset_joint(*object_id, *joint_index, *target_value, *target_velocity)))
+            }
+            Command::SetJointTrajectory { object_id, trajectory } => {
+                Outcome::Message(Message::new(self.set_trajectory(*object_id, trajectory)))
             }
             Command::EnableJointForceTorqueSensor { object_id, joint_index, enable } => {
                 let key = (*object_id, *joint_index);
@@ -733,6 +746,7 @@ impl World {
         // does not serialise this choice).
         self.physics.integration_parameters.multibody_dynamics = self.engine_rule.multibody_dynamics();
         while taken < n {
+            self.follow_trajectories();
             let watches = self.drive_motors();
             if excluded.is_empty() {
                 self.physics.step();
@@ -765,7 +779,11 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if !t.joint_sensors.is_empty() {
+        let encoded = if !t.joint_trajectories.is_empty() {
+            // Version 9: version 8's followed by the joint trajectories being followed.
+            let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
+            postcard::to_extend(&(9u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories), out)
+        } else if !t.joint_sensors.is_empty() {
             // Version 8: version 7's followed by the joint force/torque sensors that are on.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
             postcard::to_extend(&(8u32, &self.physics, t, rules, &t.joint_sensors), out)
@@ -843,6 +861,14 @@ impl World {
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
         let (mut physics, tables) = match version {
+            9 => {
+                type V9 = (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>, BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>);
+                let (_, physics, mut tables, recorded, sensors, trajectories): V9 = postcard::from_bytes(bytes).map_err(bad)?;
+                rules = recorded;
+                tables.joint_sensors = sensors;
+                tables.joint_trajectories = trajectories;
+                (physics, tables)
+            }
             8 => {
                 let (_, physics, mut tables, recorded, sensors): (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>) =
                     postcard::from_bytes(bytes).map_err(bad)?;
@@ -933,12 +959,13 @@ impl World {
 /// 7 is 5's encoding followed by [`SnapshotRules`], written for worlds of an engine rule after
 /// rule 1 (every world created from event version 6 on), so the rule travels with forks,
 /// loads and restarts; 8 is 7's followed by the joint force/torque sensors that are on
-/// (`Tables::joint_sensors`), written only for a world with one; every other world is written
-/// as before, byte for byte; 1 to 5 still restore, under state hash v1 and engine rule 1, 6
+/// (`Tables::joint_sensors`), written only for a world with one; 9 is 8's followed by the
+/// joint trajectories being followed (`Tables::joint_trajectories`), written only for a world
+/// with one; every other world is written as before, byte for byte; 1 to 5 still restore, under state hash v1 and engine rule 1, 6
 /// under v2 and rule 1).
-pub const SNAPSHOT_VERSION: u32 = 8;
+pub const SNAPSHOT_VERSION: u32 = 9;
 
-/// The rules a version-7 or -8 snapshot carries after the tables: the world's state hash rules
+/// The rules a version-7, -8 or -9 snapshot carries after the tables: the world's state hash rules
 /// and engine rule, which older versions imply (`SNAPSHOT_VERSION`).
 #[derive(Serialize, Deserialize, Clone, Copy, Debug)]
 struct SnapshotRules {

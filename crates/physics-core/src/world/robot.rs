@@ -619,6 +619,11 @@ impl World {
             joint_velocity: r32(v),
             reaction_forces,
             motor_torque: r32(l.motor_torque),
+            trajectory: self.trajectory_progress(id, i as u32).map(|p| crate::outputs::TrajectoryState {
+                elapsed: p.elapsed_s,
+                duration: p.duration_s,
+                next_waypoint: p.next_waypoint,
+            }),
         })
     }
 
