@@ -280,3 +280,36 @@ impl JsonSchema for CameraTerms {
         schemars::json_schema!({"type": "object"})
     }
 }
+
+/// The JSON Schema of set_actuator_controls' `controls`: a list, or an object by name.
+#[derive(JsonSchema)]
+#[serde(untagged)]
+#[allow(dead_code)]
+pub enum ControlsSchema {
+    /// One per actuator, in order.
+    List(Vec<f64>),
+    /// By actuator name.
+    ByName(std::collections::BTreeMap<String, f64>),
+}
+
+lenient!(
+    /// Actuator controls: finite numbers in actuator order, or an object of them by name.
+    Controls(crate::command::ActuatorControls) as ControlsSchema,
+    |name, v| {
+        use crate::command::ActuatorControls;
+        match v {
+            Value::Array(xs) => {
+                let us = xs.iter().enumerate().map(|(i, x)| value::number64(&format!("{name}[{i}]"), x)).collect::<Result<_, _>>()?;
+                Ok(ActuatorControls::InOrder(us))
+            }
+            Value::Object(by) => {
+                let us = by.iter().map(|(k, x)| Ok((k.clone(), value::number64(&format!("{name}.{k}"), x)?))).collect::<Result<_, Refusal>>()?;
+                Ok(ActuatorControls::ByName(us))
+            }
+            other => Err(format!(
+                "{name} must be a list of numbers (one per actuator, in order) or an object of numbers by actuator name; got {}",
+                value::show(other)
+            )),
+        }
+    }
+);

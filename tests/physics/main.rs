@@ -13,6 +13,7 @@ mod geometry_reads;
 mod ik;
 mod link_state;
 mod mjcf;
+mod mjcf_actuators;
 mod mjcf_rest;
 mod physical_facts;
 mod robot_dynamics;

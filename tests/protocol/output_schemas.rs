@@ -137,7 +137,8 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("get_overlapping_objects", json!({"sim_id": sim, "aabb_min": [-1, -1, 0], "aabb_max": [1, 1, 3]})).await;
     c.call("calculate_inverse_dynamics", json!({"sim_id": sim, "object_id": arm, "obj_positions": q, "obj_velocities": zero, "obj_accelerations": zero})).await;
     let mj = id(&c.call("create_simulation", json!({})).await, "simulation_id");
-    c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await;
+    let reacher = id(&c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await, "object_id");
+    c.call("set_actuator_controls", json!({"sim_id": mj, "object_id": reacher, "controls": [0.1, -0.1]})).await;
     c.call("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "cylinder", "parent_dimensions": [0.1, 0.1, 0.1], "child_dimensions": [0.05, 0.3]})).await;
     // Built-in models and workspace files.
     c.call("list_models", json!({"filter": "kuka"})).await;

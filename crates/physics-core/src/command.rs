@@ -33,7 +33,9 @@ use crate::world::World;
 /// `99.99999999997188`); enable_joint_force_torque_sensor: get_joint_state reports a sensed
 /// joint's reaction wrench (`reaction_forces`, zeros as before on every other joint); results
 /// are otherwise as version 5's.
-pub const EVENT_VERSION: u32 = 6;
+/// 7: load_mjcf records `actuators` and builds the model's MuJoCo actuators (its result lists
+/// them); set_actuator_controls; older loads fold as before (their actuators stay ignored).
+pub const EVENT_VERSION: u32 = 7;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;
@@ -607,9 +609,23 @@ pub enum Command {
         /// and fold as they did.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         use_model_options: bool,
+        /// The model's `<actuator>`s are simulated (`world::actuators`; event version 7): set by
+        /// every load_mjcf since. Events recorded before decode as false and fold as they did
+        /// (the actuators listed in `ignored`); omitted when false, so they re-encode byte for
+        /// byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        actuators: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,
+    },
+    /// Set an MJCF robot's actuator controls (set_actuator_controls, MuJoCo's `data.ctrl`),
+    /// held until changed. Event version 7.
+    SetActuatorControls {
+        /// The robot.
+        object_id: u32,
+        /// The controls, in actuator order or by name.
+        controls: ActuatorControls,
     },
     /// Turn a joint's force/torque sensor on or off (enable_joint_force_torque_sensor,
     /// PyBullet's enableJointForceTorqueSensor): while on, get_joint_state reports the joint's
@@ -622,6 +638,16 @@ pub enum Command {
         /// On (true) or off.
         enable: bool,
     },
+}
+
+/// set_actuator_controls' controls: one per actuator in the model's order, or some by name.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum ActuatorControls {
+    /// Every actuator's control, in order.
+    InOrder(Vec<f64>),
+    /// Some actuators' controls by name (the others keep theirs).
+    ByName(BTreeMap<String, f64>),
 }
 
 /// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
@@ -951,6 +977,16 @@ impl Command {
             Command::SetCollisionFilter { .. }
             | Command::SetCollisionPair { .. }
             | Command::EnableJointForceTorqueSensor { .. } => Ok(()),
+            Command::SetActuatorControls { controls, .. } => {
+                let values: Vec<f64> = match controls {
+                    ActuatorControls::InOrder(us) => us.clone(),
+                    ActuatorControls::ByName(by) => by.values().copied().collect(),
+                };
+                match values.iter().find(|u| !u.is_finite()) {
+                    Some(u) => Err(format!("controls must be finite numbers; got {u}")),
+                    None => Ok(()),
+                }
+            }
             Command::ResetJointState { target_value, target_velocity, .. } => {
                 finite("target_value", &[*target_value])?;
                 finite("target_velocity", &[*target_velocity])
@@ -1088,6 +1124,10 @@ impl Command {
             Command::EnableJointForceTorqueSensor { object_id, joint_index, .. } => {
                 exists(*object_id)?;
                 world.check_joint(*object_id, *joint_index as i64).map(|_| ())
+            }
+            Command::SetActuatorControls { object_id, controls } => {
+                exists(*object_id)?;
+                world.check_actuator_controls(*object_id, controls)
             }
             Command::AddBody { .. } => room_for_object(world, limits),
             Command::CreateConstraint { spec } => {

@@ -142,6 +142,7 @@ impl World {
                 self.tables.as_given.link_masses.retain(|(id, _), _| id != object_id);
                 self.tables.filters.forget(*object_id);
                 self.tables.joint_sensors.retain(|(id, _)| id != object_id);
+                self.tables.actuation.remove(object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
@@ -157,6 +158,7 @@ impl World {
             | Command::SetCollisionPair { .. }
             | Command::ResetJointState { .. }
             | Command::EnableJointForceTorqueSensor { .. }
+            | Command::SetActuatorControls { .. }
             | Command::CreateConstraint { .. }
             | Command::RemoveConstraint { .. }
             | Command::SetDebugVisualization { .. }

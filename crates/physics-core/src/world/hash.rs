@@ -78,7 +78,8 @@ pub(super) fn touched_by(cmd: &Command, next_object_id: u32) -> Touched {
         | Command::ApplyTorque { object_id, .. }
         | Command::SetObjectVelocity { object_id, .. }
         | Command::ChangeDynamics { object_id, .. }
-        | Command::RemoveObject { object_id } => Touched::One(*object_id),
+        | Command::RemoveObject { object_id }
+        | Command::SetActuatorControls { object_id, .. } => Touched::One(*object_id),
         Command::SetCamera { .. }
         | Command::SetDebugVisualization { .. }
         | Command::SetTimestep { .. }
@@ -327,6 +328,10 @@ fn state_hash_v1(w: &World) -> String {
 fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
     if !w.tables.joint_sensors.is_empty() {
         bytes.extend(encode(&("joint_sensors", &w.tables.joint_sensors)));
+    }
+    // MJCF actuators and their held controls likewise (event version 7).
+    if !w.tables.actuation.is_empty() {
+        bytes.extend(encode(&("actuation", &w.tables.actuation)));
     }
 }
 

@@ -6,6 +6,7 @@
 //! rapier `PhysicsWorld` (broad and narrow phase included) plus our tables, so restoring one and
 //! continuing is bit-identical to never having stopped.
 
+pub mod actuators;
 mod bodies;
 pub mod constraints;
 pub mod dynamics;
@@ -241,6 +242,11 @@ pub struct Tables {
     /// carries it beside the tables, written only when a sensor is on.
     #[serde(skip)]
     pub joint_sensors: BTreeSet<(u32, u32)>,
+    /// MJCF robots' actuators and their held controls, by object id (loads of event version 7
+    /// on). Not in the v3–v8 table encodings: snapshot version 9 carries it in
+    /// [`SnapshotExtensions`], written only when a robot has actuators.
+    #[serde(skip)]
+    pub actuation: BTreeMap<u32, actuators::Actuation>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -286,6 +292,7 @@ impl From<TablesV3> for Tables {
             as_given: t.as_given,
             filters: filters::Filters::default(),
             joint_sensors: BTreeSet::new(),
+            actuation: BTreeMap::new(),
         }
     }
 }
@@ -324,6 +331,7 @@ impl TablesV2 {
             constraints: self.constraints,
             filters: filters::Filters::default(),
             joint_sensors: BTreeSet::new(),
+            actuation: BTreeMap::new(),
         }
     }
 }
@@ -632,6 +640,7 @@ impl World {
                 keyframe,
                 parent_filter,
                 use_model_options,
+                actuators,
                 parsed,
             } => {
                 let prepared = match parsed.get() {
@@ -645,7 +654,7 @@ impl World {
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
                         let options = prepared.options();
-                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter), keyframe.as_deref());
+                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter, *actuators), keyframe.as_deref());
                         if *use_model_options {
                             self.use_model_options(&mut loaded, options);
                         }
@@ -653,6 +662,9 @@ impl World {
                     }
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
+            }
+            Command::SetActuatorControls { object_id, controls } => {
+                Outcome::Message(Message::new(self.set_actuator_controls(*object_id, controls)))
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 Outcome::Message(Message::new(self.set_motor(*object_id, *joint_index, motor)))
@@ -734,6 +746,7 @@ impl World {
         self.physics.integration_parameters.multibody_dynamics = self.engine_rule.multibody_dynamics();
         while taken < n {
             let watches = self.drive_motors();
+            self.drive_actuators();
             if excluded.is_empty() {
                 self.physics.step();
             } else {
@@ -743,6 +756,7 @@ impl World {
                 self.record_motor_torques(watches);
             }
             self.clear_pending_wrench();
+            self.integrate_activations();
             self.tables.time_s += self.physics.integration_parameters.dt as f64;
             self.tables.steps += 1;
             taken += 1;
@@ -765,7 +779,12 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if !t.joint_sensors.is_empty() {
+        let encoded = if !t.actuation.is_empty() {
+            // Version 9: version 8's followed by the extensions of event version 7.
+            let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
+            let ext = SnapshotExtensions { actuation: t.actuation.clone() };
+            postcard::to_extend(&(9u32, &self.physics, t, rules, &t.joint_sensors, ext), out)
+        } else if !t.joint_sensors.is_empty() {
             // Version 8: version 7's followed by the joint force/torque sensors that are on.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
             postcard::to_extend(&(8u32, &self.physics, t, rules, &t.joint_sensors), out)
@@ -843,6 +862,14 @@ impl World {
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
         let (mut physics, tables) = match version {
+            9 => {
+                type V9 = (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>, SnapshotExtensions);
+                let (_, physics, mut tables, recorded, sensors, ext): V9 = postcard::from_bytes(bytes).map_err(bad)?;
+                rules = recorded;
+                tables.joint_sensors = sensors;
+                tables.actuation = ext.actuation;
+                (physics, tables)
+            }
             8 => {
                 let (_, physics, mut tables, recorded, sensors): (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>) =
                     postcard::from_bytes(bytes).map_err(bad)?;
@@ -934,9 +961,18 @@ impl World {
 /// rule 1 (every world created from event version 6 on), so the rule travels with forks,
 /// loads and restarts; 8 is 7's followed by the joint force/torque sensors that are on
 /// (`Tables::joint_sensors`), written only for a world with one; every other world is written
-/// as before, byte for byte; 1 to 5 still restore, under state hash v1 and engine rule 1, 6
+/// as before, byte for byte; 9 is 8's followed by [`SnapshotExtensions`] (event version 7's
+/// state), written only for a world that has some; 1 to 5 still restore, under state hash v1 and engine rule 1, 6
 /// under v2 and rule 1).
-pub const SNAPSHOT_VERSION: u32 = 8;
+pub const SNAPSHOT_VERSION: u32 = 9;
+
+/// The state event version 7 added, which a version-9 snapshot carries after version 8's
+/// (one field per feature, so features merge into one struct).
+#[derive(Serialize, Deserialize, Clone, Debug, Default)]
+struct SnapshotExtensions {
+    /// `Tables::actuation`.
+    actuation: BTreeMap<u32, actuators::Actuation>,
+}
 
 /// The rules a version-7 or -8 snapshot carries after the tables: the world's state hash rules
 /// and engine rule, which older versions imply (`SNAPSHOT_VERSION`).
