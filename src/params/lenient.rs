@@ -281,15 +281,20 @@ impl JsonSchema for CameraTerms {
     }
 }
 
-/// The JSON Schema of set_actuator_controls' `controls`: a list, or an object by name.
-#[derive(JsonSchema)]
-#[serde(untagged)]
-#[allow(dead_code)]
-pub enum ControlsSchema {
-    /// One per actuator, in order.
-    List(Vec<f64>),
-    /// By actuator name.
-    ByName(std::collections::BTreeMap<String, f64>),
+/// The JSON Schema of set_actuator_controls' `controls`: a list or an object of numbers (the
+/// rule says which), kept to one line of tools/list.
+pub struct ControlsSchema;
+
+impl JsonSchema for ControlsSchema {
+    fn inline_schema() -> bool {
+        true
+    }
+    fn schema_name() -> Cow<'static, str> {
+        "Controls".into()
+    }
+    fn json_schema(_: &mut SchemaGenerator) -> Schema {
+        schemars::json_schema!({"type": ["array", "object"]})
+    }
 }
 
 lenient!(

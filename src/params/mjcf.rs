@@ -61,6 +61,6 @@ pub struct ActuatorControlsSet {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// List in actuator order, or {name: value}.
+    /// Numbers: a list in actuator order, or {name: value}.
     pub controls: Controls,
 }

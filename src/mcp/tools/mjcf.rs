@@ -43,7 +43,7 @@ impl PhysicsServer {
             .await
     }
 
-    /// Set an MJCF model's actuator controls (MuJoCo's ctrl), held until changed; see docs/tools.md.
+    /// Set an MJCF model's actuator controls (MuJoCo ctrl), held.
     #[tool(input_schema = schema_for_type::<params::ActuatorControlsSet>())]
     async fn set_actuator_controls(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_actuator_controls", args, decide_controls).await
