@@ -145,6 +145,7 @@ fn mjcf_command(mut files: ModelFiles, at: PathBuf, user: &str) -> Result<Comman
         keyframe: None,
         parent_filter: true,
         use_model_options: false,
+        actuators: true,
         parsed: Default::default(),
     })
 }

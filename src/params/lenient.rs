@@ -280,3 +280,41 @@ impl JsonSchema for CameraTerms {
         schemars::json_schema!({"type": "object"})
     }
 }
+
+/// The JSON Schema of set_actuator_controls' `controls`: a list or an object of numbers (the
+/// rule says which), kept to one line of tools/list.
+pub struct ControlsSchema;
+
+impl JsonSchema for ControlsSchema {
+    fn inline_schema() -> bool {
+        true
+    }
+    fn schema_name() -> Cow<'static, str> {
+        "Controls".into()
+    }
+    fn json_schema(_: &mut SchemaGenerator) -> Schema {
+        schemars::json_schema!({"type": ["array", "object"]})
+    }
+}
+
+lenient!(
+    /// Actuator controls: finite numbers in actuator order, or an object of them by name.
+    Controls(crate::command::ActuatorControls) as ControlsSchema,
+    |name, v| {
+        use crate::command::ActuatorControls;
+        match v {
+            Value::Array(xs) => {
+                let us = xs.iter().enumerate().map(|(i, x)| value::number64(&format!("{name}[{i}]"), x)).collect::<Result<_, _>>()?;
+                Ok(ActuatorControls::InOrder(us))
+            }
+            Value::Object(by) => {
+                let us = by.iter().map(|(k, x)| Ok((k.clone(), value::number64(&format!("{name}.{k}"), x)?))).collect::<Result<_, Refusal>>()?;
+                Ok(ActuatorControls::ByName(us))
+            }
+            other => Err(format!(
+                "{name} must be a list of numbers (one per actuator, in order) or an object of numbers by actuator name; got {}",
+                value::show(other)
+            )),
+        }
+    }
+);

@@ -52,3 +52,15 @@ pub struct ResetJoint {
     /// Default 0.
     pub target_velocity: Option<Num>,
 }
+
+/// set_actuator_controls parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ActuatorControlsSet {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// Numbers: a list in actuator order, or {name: value}.
+    pub controls: Controls,
+}

@@ -1,5 +1,5 @@
-//! load_mjcf's command as the server records it today (parent filter on, at the origin, no
-//! keyframe), for the tests and the MJCF benchmark that drive a `World` directly (the bench
+//! load_mjcf's command as the server records it today (parent filter and actuators on, at the
+//! origin, no keyframe), for the tests and the MJCF benchmark that drive a `World` directly (the bench
 //! includes this file by path).
 
 use physics_mcp::command::{Blob, Command};
@@ -16,6 +16,7 @@ pub fn load_mjcf(file_path: &str, bytes: &[u8], use_model_options: bool) -> Comm
         keyframe: None,
         parent_filter: true,
         use_model_options,
+        actuators: true,
         parsed: Default::default(),
     }
 }

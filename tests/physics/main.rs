@@ -14,6 +14,7 @@ mod ik;
 mod joint_trajectory;
 mod link_state;
 mod mjcf;
+mod mjcf_actuators;
 mod mjcf_rest;
 mod physical_facts;
 mod robot_dynamics;

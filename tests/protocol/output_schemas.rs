@@ -140,7 +140,8 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     c.call("set_joint_trajectory", json!({"sim_id": sim, "object_id": arm, "joint_indices": [0, 1], "times": [0.5, 1], "positions": [q, zero]})).await;
     c.call("get_joint_state", json!({"sim_id": sim, "object_id": arm, "joint_index": 0})).await;
     let mj = id(&c.call("create_simulation", json!({})).await, "simulation_id");
-    c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await;
+    let reacher = id(&c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await, "object_id");
+    c.call("set_actuator_controls", json!({"sim_id": mj, "object_id": reacher, "controls": [0.1, -0.1]})).await;
     c.call("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "cylinder", "parent_dimensions": [0.1, 0.1, 0.1], "child_dimensions": [0.05, 0.3]})).await;
     // Built-in models and workspace files.
     c.call("list_models", json!({"filter": "kuka"})).await;

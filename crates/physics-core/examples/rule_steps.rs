@@ -68,6 +68,7 @@ fn main() {
                 keyframe: None,
                 parent_filter: true,
                 use_model_options: false,
+                actuators: false,
                 parsed: Default::default(),
             };
             let out = apply(&mut w, &load);

@@ -34,7 +34,10 @@ use crate::world::World;
 /// joint's reaction wrench (`reaction_forces`, zeros as before on every other joint); results
 /// are otherwise as version 5's.
 /// 7: set_joint_trajectory (a new command; get_joint_state of a joint following one adds
-/// `trajectory`); get_closest_points (a new read). Every result of version 6 is unchanged.
+/// `trajectory`); get_closest_points (a new read);
+/// load_mjcf records `actuators` and builds the model's MuJoCo actuators (its result lists
+/// them); set_actuator_controls; older loads fold as before (their actuators stay ignored).
+/// Every other result of version 6 is unchanged.
 pub const EVENT_VERSION: u32 = 7;
 
 /// The event version from which a chain's root records state hash v2.
@@ -609,9 +612,23 @@ pub enum Command {
         /// and fold as they did.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         use_model_options: bool,
+        /// The model's `<actuator>`s are simulated (`world::actuators`; event version 7): set by
+        /// every load_mjcf since. Events recorded before decode as false and fold as they did
+        /// (the actuators listed in `ignored`); omitted when false, so they re-encode byte for
+        /// byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        actuators: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,
+    },
+    /// Set an MJCF robot's actuator controls (set_actuator_controls, MuJoCo's `data.ctrl`),
+    /// held until changed. Event version 7.
+    SetActuatorControls {
+        /// The robot.
+        object_id: u32,
+        /// The controls, in actuator order or by name.
+        controls: ActuatorControls,
     },
     /// Turn a joint's force/torque sensor on or off (enable_joint_force_torque_sensor,
     /// PyBullet's enableJointForceTorqueSensor): while on, get_joint_state reports the joint's
@@ -633,6 +650,16 @@ pub enum Command {
         /// The joints, waypoints and motor settings.
         trajectory: crate::world::joint_trajectory::TrajectorySpec,
     },
+}
+
+/// set_actuator_controls' controls: one per actuator in the model's order, or some by name.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum ActuatorControls {
+    /// Every actuator's control, in order.
+    InOrder(Vec<f64>),
+    /// Some actuators' controls by name (the others keep theirs).
+    ByName(BTreeMap<String, f64>),
 }
 
 /// The kinds of constraint create_constraint makes (PyBullet's names, plus revolute).
@@ -973,6 +1000,16 @@ impl Command {
                 }
                 Ok(())
             }
+            Command::SetActuatorControls { controls, .. } => {
+                let values: Vec<f64> = match controls {
+                    ActuatorControls::InOrder(us) => us.clone(),
+                    ActuatorControls::ByName(by) => by.values().copied().collect(),
+                };
+                match values.iter().find(|u| !u.is_finite()) {
+                    Some(u) => Err(format!("controls must be finite numbers; got {u}")),
+                    None => Ok(()),
+                }
+            }
             Command::ResetJointState { target_value, target_velocity, .. } => {
                 finite("target_value", &[*target_value])?;
                 finite("target_velocity", &[*target_velocity])
@@ -1114,6 +1151,10 @@ impl Command {
             Command::SetJointTrajectory { object_id, trajectory } => {
                 exists(*object_id)?;
                 world.check_trajectory(*object_id, trajectory)
+            }
+            Command::SetActuatorControls { object_id, controls } => {
+                exists(*object_id)?;
+                world.check_actuator_controls(*object_id, controls)
             }
             Command::AddBody { .. } => room_for_object(world, limits),
             Command::CreateConstraint { spec } => {

@@ -586,9 +586,29 @@ pub struct MjcfLoaded {
     pub bodies: Vec<MjcfBodyLink>,
     /// What of the file is not simulated, one sentence each.
     pub ignored: Vec<String>,
+    /// The actuators, in order (set_actuator_controls).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub actuators: Vec<ActuatorInfo>,
     /// Where the call landed (event version 3 on): the head after it and the time.
     #[serde(flatten)]
     pub landed: Option<Landed>,
+}
+
+/// One MuJoCo actuator of a loaded model.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct ActuatorInfo {
+    /// Name.
+    pub name: String,
+    /// motor, position, velocity, intvelocity, damper, general.
+    pub r#type: String,
+    /// Joint driven.
+    pub joint_index: u32,
+    /// When limited.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ctrlrange: Option<[f64; 2]>,
+    /// When limited.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forcerange: Option<[f64; 2]>,
 }
 
 /// Result of get_num_joints.

@@ -80,6 +80,7 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "set_collision_filter_pair" => change(tool, a, objects::decide_pair),
         "reset_joint_state" => change(tool, a, mjcf::decide_reset),
         "enable_joint_force_torque_sensor" => change(tool, a, dynamics::decide_sensor),
+        "set_actuator_controls" => change(tool, a, mjcf::decide_controls),
         "create_constraint" => change(tool, a, constraints::decide_create),
         "remove_constraint" => change(tool, a, constraints::decide_remove),
         "enable_debug_visualization" => change(tool, a, viewer::decide_debug),

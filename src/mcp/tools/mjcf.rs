@@ -28,6 +28,11 @@ pub(super) fn decide_reset(p: ResetJoint) -> Result<Command, Refusal> {
     })
 }
 
+/// set_actuator_controls' arguments → the command (the actuators are checked later).
+pub(super) fn decide_controls(p: params::ActuatorControlsSet) -> Result<Command, Refusal> {
+    Ok(Command::SetActuatorControls { object_id: p.object_id.0, controls: p.controls.0 })
+}
+
 #[tool_router(router = mjcf_router, vis = "pub(crate)")]
 impl PhysicsServer {
     /// Load an MJCF model as one robot (link -1: worldbody or free root; a joint per
@@ -36,6 +41,12 @@ impl PhysicsServer {
     async fn load_mjcf(&self, args: JsonObject) -> Result<Json<MjcfLoaded>, String> {
         self.change_reading("load_mjcf", args, |p: params::LoadMjcf, reader| crate::files::mjcf::load_mjcf_command(reader, &p))
             .await
+    }
+
+    /// Set an MJCF model's actuator controls (MuJoCo ctrl), held.
+    #[tool(input_schema = schema_for_type::<params::ActuatorControlsSet>())]
+    async fn set_actuator_controls(&self, args: JsonObject) -> Result<Json<Message>, String> {
+        self.change("set_actuator_controls", args, decide_controls).await
     }
 
     /// A link's frame (link_world_*: the URDF link frame, which IK targets) and centre of mass (com_world_*), and its velocity.

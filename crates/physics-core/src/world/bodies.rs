@@ -143,6 +143,7 @@ impl World {
                 self.tables.filters.forget(*object_id);
                 self.tables.joint_sensors.retain(|(id, _)| id != object_id);
                 self.tables.joint_trajectories.retain(|(id, _), _| id != object_id);
+                self.tables.actuation.remove(object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
@@ -159,6 +160,7 @@ impl World {
             | Command::ResetJointState { .. }
             | Command::EnableJointForceTorqueSensor { .. }
             | Command::SetJointTrajectory { .. }
+            | Command::SetActuatorControls { .. }
             | Command::CreateConstraint { .. }
             | Command::RemoveConstraint { .. }
             | Command::SetDebugVisualization { .. }

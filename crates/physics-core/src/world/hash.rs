@@ -80,6 +80,7 @@ pub(super) fn touched_by(cmd: &Command, next_object_id: u32) -> Touched {
         | Command::ChangeDynamics { object_id, .. }
         | Command::RemoveObject { object_id }
         | Command::SetJointTrajectory { object_id, .. } => Touched::One(*object_id),
+        | Command::SetActuatorControls { object_id, .. } => Touched::One(*object_id),
         Command::SetCamera { .. }
         | Command::SetDebugVisualization { .. }
         | Command::SetTimestep { .. }
@@ -332,6 +333,10 @@ fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
     // Joint trajectories likewise (event version 7), only while one is followed.
     if !w.tables.joint_trajectories.is_empty() {
         bytes.extend(encode(&("joint_trajectories", &w.tables.joint_trajectories)));
+    }
+    // MJCF actuators and their held controls likewise (event version 7).
+    if !w.tables.actuation.is_empty() {
+        bytes.extend(encode(&("actuation", &w.tables.actuation)));
     }
 }
 

@@ -80,7 +80,15 @@ pub struct Prepared {
     robot: MjcfRobot,
     ignored: Vec<String>,
     keyframe_qpos: Option<Vec<f64>>,
+    /// The keyframe's `ctrl` (empty: none).
+    keyframe_ctrl: Vec<f64>,
+    /// What the actuators need beyond the parser's (`actuators::actuator_extras`).
+    actuator_extras: Vec<super::actuators::ActuatorExtras>,
 }
+
+/// The note `scan` writes for a model with actuators, replaced by per-actuator notes when a
+/// load simulates them.
+const ACTUATORS_IGNORED: &str = "<actuator>: actuators are not simulated; drive joints with set_joint_motor_control";
 
 /// Elements the engine cannot simulate and the server refuses (docs/tools.md "MJCF models") (never dropped silently).
 const REFUSED_ELEMENTS: [(&str, &str); 6] = [
@@ -177,7 +185,7 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
         return Err("file_path is not an MJCF model: it has no root element".into());
     }
     for (tag, why) in [
-        ("actuator", "<actuator>: actuators are not simulated; drive joints with set_joint_motor_control"),
+        ("actuator", ACTUATORS_IGNORED),
         ("tendon", "<tendon>: fixed tendons are not simulated"),
         ("equality", "<equality>: equality constraints are not simulated"),
         ("sensor", "<sensor>: sensors are not simulated; read state with the sensing tools"),
@@ -378,18 +386,19 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
             return Err(format!("a geom of {who} could not be built (check its type and size)"));
         }
     }
-    let keyframe_qpos = match keyframe {
-        None => None,
+    let (keyframe_qpos, keyframe_ctrl) = match keyframe {
+        None => (None, Vec::new()),
         Some(name) => {
             let key = model
                 .keyframes
                 .iter()
                 .find(|k| k.name.as_deref() == Some(name))
                 .ok_or_else(|| format!("keyframe {name} is not a <key> of this model"))?;
-            Some(key.qpos.clone())
+            (Some(key.qpos.clone()), key.ctrl.clone())
         }
     };
-    Ok(Prepared { model, robot, ignored, keyframe_qpos })
+    let actuator_extras = super::actuators::actuator_extras(xml);
+    Ok(Prepared { model, robot, ignored, keyframe_qpos, keyframe_ctrl, actuator_extras })
 }
 
 fn rel(from: &Pose, to: &Pose) -> Pose {
@@ -452,10 +461,10 @@ impl World {
         file_path: &str,
         (blob, meshes): (&Blob, &BTreeMap<String, Blob>),
         pose: Pose,
-        (fixed_base, parent_filter): (bool, bool),
+        (fixed_base, parent_filter, with_actuators): (bool, bool, bool),
         keyframe: Option<&str>,
     ) -> MjcfLoaded {
-        let Prepared { model, robot, ignored, keyframe_qpos } = prepared;
+        let Prepared { model, robot, mut ignored, keyframe_qpos, keyframe_ctrl, actuator_extras } = prepared;
         let MjcfRobot { bodies: mut mbodies, joints: mjoints, qpos_dofs, .. } = robot;
         let n = mbodies.len();
         let world_pose: Vec<Pose> = mbodies.iter().map(|b| *b.body.position()).collect();
@@ -681,6 +690,27 @@ impl World {
         };
         let num_joints = robot.links.len();
         let id = self.tables.next_object_id;
+        let mut actuator_infos = Vec::new();
+        if with_actuators {
+            let joint_of = |name: &str| robot.links.iter().position(|l| !name.is_empty() && l.joint.name == name).map(|i| i as u32);
+            let (mut actuation, notes) = super::actuators::build(&model, &actuator_extras, &joint_of);
+            ignored.retain(|s| s != ACTUATORS_IGNORED);
+            ignored.extend(notes);
+            if !actuation.actuators.is_empty() {
+                // A keyframe's `ctrl` (one per actuator of the file) starts the controls.
+                if keyframe_ctrl.len() == model.actuators.len() {
+                    let kept = model.actuators.iter().enumerate().filter(|(k, a)| {
+                        let name = a.name.clone().unwrap_or_else(|| format!("#{k}"));
+                        actuation.actuators.iter().any(|x| x.name == name)
+                    });
+                    for (slot, (k, _)) in kept.enumerate() {
+                        actuation.ctrl[slot] = keyframe_ctrl[k];
+                    }
+                }
+                actuator_infos = super::actuators::infos(&actuation);
+                self.tables.actuation.insert(id, actuation);
+            }
+        }
         self.tables.next_object_id += 1;
         for (link, m) in link_masses.into_iter().filter(|(_, m)| *m > 0.0) {
             self.tables.as_given.link_masses.insert((id, link), m);
@@ -723,6 +753,7 @@ impl World {
             num_joints,
             bodies: body_links,
             ignored,
+            actuators: actuator_infos,
         }
     }
 

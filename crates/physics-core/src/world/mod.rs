@@ -6,6 +6,7 @@
 //! rapier `PhysicsWorld` (broad and narrow phase included) plus our tables, so restoring one and
 //! continuing is bit-identical to never having stopped.
 
+pub mod actuators;
 mod bodies;
 pub mod constraints;
 pub mod dynamics;
@@ -247,6 +248,11 @@ pub struct Tables {
     /// trajectory is followed.
     #[serde(skip)]
     pub joint_trajectories: BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>,
+    /// MJCF robots' actuators and their held controls, by object id (loads of event version 7
+    /// on). Not in the table encodings: snapshot version 10 carries it in
+    /// [`SnapshotExtensions`], written only when a robot has actuators.
+    #[serde(skip)]
+    pub actuation: BTreeMap<u32, actuators::Actuation>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -293,6 +299,7 @@ impl From<TablesV3> for Tables {
             filters: filters::Filters::default(),
             joint_sensors: BTreeSet::new(),
             joint_trajectories: BTreeMap::new(),
+            actuation: BTreeMap::new(),
         }
     }
 }
@@ -332,6 +339,7 @@ impl TablesV2 {
             filters: filters::Filters::default(),
             joint_sensors: BTreeSet::new(),
             joint_trajectories: BTreeMap::new(),
+            actuation: BTreeMap::new(),
         }
     }
 }
@@ -640,6 +648,7 @@ impl World {
                 keyframe,
                 parent_filter,
                 use_model_options,
+                actuators,
                 parsed,
             } => {
                 let prepared = match parsed.get() {
@@ -653,7 +662,7 @@ impl World {
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
                         let options = prepared.options();
-                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter), keyframe.as_deref());
+                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter, *actuators), keyframe.as_deref());
                         if *use_model_options {
                             self.use_model_options(&mut loaded, options);
                         }
@@ -661,6 +670,9 @@ impl World {
                     }
                     Err(why) => Outcome::Message(Message::new(why)),
                 }
+            }
+            Command::SetActuatorControls { object_id, controls } => {
+                Outcome::Message(Message::new(self.set_actuator_controls(*object_id, controls)))
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
                 self.end_trajectory(*object_id, *joint_index);
@@ -748,6 +760,7 @@ impl World {
         while taken < n {
             self.follow_trajectories();
             let watches = self.drive_motors();
+            self.drive_actuators();
             if excluded.is_empty() {
                 self.physics.step();
             } else {
@@ -757,6 +770,7 @@ impl World {
                 self.record_motor_torques(watches);
             }
             self.clear_pending_wrench();
+            self.integrate_activations();
             self.tables.time_s += self.physics.integration_parameters.dt as f64;
             self.tables.steps += 1;
             taken += 1;
@@ -779,7 +793,12 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if !t.joint_trajectories.is_empty() {
+        let encoded = if !t.actuation.is_empty() {
+            // Version 10: version 9's followed by the MJCF actuators and their held controls.
+            let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
+            let ext = SnapshotExtensions { actuation: t.actuation.clone() };
+            postcard::to_extend(&(10u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories, ext), out)
+        } else if !t.joint_trajectories.is_empty() {
             // Version 9: version 8's followed by the joint trajectories being followed.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
             postcard::to_extend(&(9u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories), out)
@@ -861,6 +880,15 @@ impl World {
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
         let (mut physics, tables) = match version {
+            10 => {
+                type V10 = (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>, BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>, SnapshotExtensions);
+                let (_, physics, mut tables, recorded, sensors, trajectories, ext): V10 = postcard::from_bytes(bytes).map_err(bad)?;
+                rules = recorded;
+                tables.joint_sensors = sensors;
+                tables.joint_trajectories = trajectories;
+                tables.actuation = ext.actuation;
+                (physics, tables)
+            }
             9 => {
                 type V9 = (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>, BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>);
                 let (_, physics, mut tables, recorded, sensors, trajectories): V9 = postcard::from_bytes(bytes).map_err(bad)?;
@@ -961,11 +989,20 @@ impl World {
 /// loads and restarts; 8 is 7's followed by the joint force/torque sensors that are on
 /// (`Tables::joint_sensors`), written only for a world with one; 9 is 8's followed by the
 /// joint trajectories being followed (`Tables::joint_trajectories`), written only for a world
-/// with one; every other world is written as before, byte for byte; 1 to 5 still restore, under state hash v1 and engine rule 1, 6
-/// under v2 and rule 1).
-pub const SNAPSHOT_VERSION: u32 = 9;
+/// with one; 10 is 9's followed by [`SnapshotExtensions`] (the MJCF actuators and their held
+/// controls), written only for a world with some (9 and 10 are both event version 7's: two
+/// features of one release, merged); every other world is written as before, byte for byte; 1
+/// to 5 still restore, under state hash v1 and engine rule 1, 6 under v2 and rule 1).
+pub const SNAPSHOT_VERSION: u32 = 10;
 
-/// The rules a version-7, -8 or -9 snapshot carries after the tables: the world's state hash rules
+/// The state a version-10 snapshot carries after version 9's.
+#[derive(Serialize, Deserialize, Clone, Debug, Default)]
+struct SnapshotExtensions {
+    /// `Tables::actuation`.
+    actuation: BTreeMap<u32, actuators::Actuation>,
+}
+
+/// The rules a version-7 to -10 snapshot carries after the tables: the world's state hash rules
 /// and engine rule, which older versions imply (`SNAPSHOT_VERSION`).
 #[derive(Serialize, Deserialize, Clone, Copy, Debug)]
 struct SnapshotRules {

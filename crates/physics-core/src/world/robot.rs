@@ -322,6 +322,7 @@ impl World {
         let force = spec.force.unwrap_or(if effort > 0.0 { effort } else { DEFAULT_MOTOR_FORCE });
         link.motor = Some(Motor { spec: spec.clone(), force });
         let (body, kind) = (link.body, link.joint.kind);
+        self.release_actuators(id, joint_index);
         if spec.mode == ControlMode::TorqueControl {
             self.with_mb_link(body, |joint| {
                 joint.data.motor_axes.remove(joint_axis(kind).into());
@@ -329,6 +330,21 @@ impl World {
         }
         self.physics.wake_up(body, true);
         format!("Motor of joint {joint_index} of object {id} set to {}", spec.mode.name())
+    }
+
+    /// Removes joint `joint_index`'s motor (set_actuator_controls took the joint over): the
+    /// engine's motor on its axis is off and its torque reads 0. A joint without one is left
+    /// as it is.
+    pub(super) fn remove_motor(&mut self, id: u32, joint_index: u32) {
+        let Some(link) = self.robot_mut(id).and_then(|r| r.links.get_mut(joint_index as usize)) else { return };
+        if link.motor.take().is_none() {
+            return;
+        }
+        link.motor_torque = 0.0;
+        let (body, kind) = (link.body, link.joint.kind);
+        self.with_mb_link(body, |joint| {
+            joint.data.motor_axes.remove(joint_axis(kind).into());
+        });
     }
 
     fn with_mb_link(&mut self, body: RigidBodyHandle, f: impl FnOnce(&mut rapier3d::dynamics::MultibodyJoint)) {
@@ -486,7 +502,7 @@ impl World {
 
     /// Applies a joint torque (revolute) or force (prismatic) as equal and opposite efforts on
     /// the child and parent bodies, so only that joint's coordinate feels it.
-    fn apply_joint_effort(&mut self, child: RigidBodyHandle, parent: RigidBodyHandle, joint: &JointSpec, effort: f32) {
+    pub(super) fn apply_joint_effort(&mut self, child: RigidBodyHandle, parent: RigidBodyHandle, joint: &JointSpec, effort: f32) {
         let Some(c) = self.physics.bodies.get(child) else { return };
         let axis = *c.rotation() * Vector::new(joint.axis[0] as f32, joint.axis[1] as f32, joint.axis[2] as f32);
         let at = c.center_of_mass();
