@@ -335,24 +335,27 @@ impl World {
         }
         let ids: Vec<u32> = self.tables.actuation.keys().copied().collect();
         for id in ids {
-            let Some(robot) = self.robot(id).cloned() else { continue };
             let Some(base) = self.tables.objects.get(&id).map(|o| o.body) else { continue };
-            let Some(a) = self.tables.actuation.get(&id).cloned() else { continue };
+            let outputs = self.actuator_outputs(id);
+            let (Some(a), Some(robot)) = (self.tables.actuation.get(&id), self.robot(id)) else { continue };
             let mut effort: BTreeMap<u32, f64> = BTreeMap::new();
-            for (k, x) in a.actuators.iter().enumerate() {
-                let Some(link) = robot.links.get(x.joint as usize) else { continue };
-                if !a.driving[k] {
-                    continue;
+            for (x, out) in a.actuators.iter().zip(&outputs) {
+                if let Some((joint, force)) = out {
+                    *effort.entry(*joint).or_default() += x.gear * force;
                 }
-                let (q, v) = self.joint_coordinates(link.body, link.joint.kind);
-                let input = if x.integrator { a.act[k] } else { x.clamp_ctrl(a.ctrl[k]) };
-                *effort.entry(x.joint).or_default() += x.gear * x.force(input, q as f64, v as f64);
             }
             // An effort beyond f32 (a gear of 1e300) would be ±inf in the engine: none is applied.
-            for (j, tau) in effort.into_iter().filter(|(_, tau)| (*tau as f32).is_finite()) {
-                let link = &robot.links[j as usize];
-                let parent = robot.link_body(base, link.joint.parent).unwrap_or(base);
-                self.apply_joint_effort(link.body, parent, &link.joint, tau as f32);
+            // Only the driven joints are copied out of the model (the step loop runs this).
+            let pushes: Vec<_> = effort
+                .into_iter()
+                .filter(|(_, tau)| (*tau as f32).is_finite())
+                .map(|(j, tau)| {
+                    let link = &robot.links[j as usize];
+                    (link.body, robot.link_body(base, link.joint.parent).unwrap_or(base), link.joint.clone(), tau as f32)
+                })
+                .collect();
+            for (child, parent, joint, tau) in pushes {
+                self.apply_joint_effort(child, parent, &joint, tau);
             }
             self.tables.pending_wrench.insert(id);
         }
@@ -377,15 +380,21 @@ impl World {
 
     /// MuJoCo's `actuator_force` of each actuator of `id` now (0 for one not driving).
     pub fn actuator_forces(&self, id: u32) -> Vec<f64> {
+        self.actuator_outputs(id).into_iter().map(|out| out.map_or(0.0, |(_, force)| force)).collect()
+    }
+
+    /// Each actuator of `id`'s joint and MuJoCo's `actuator_force` now (before its gear), None
+    /// for one not driving: what the step applies and what the reads report, computed once.
+    fn actuator_outputs(&self, id: u32) -> Vec<Option<(u32, f64)>> {
         let (Some(a), Some(robot)) = (self.actuation(id), self.robot(id)) else { return Vec::new() };
         a.actuators
             .iter()
             .enumerate()
             .map(|(k, x)| {
-                let Some(link) = robot.links.get(x.joint as usize).filter(|_| a.driving[k]) else { return 0.0 };
+                let link = robot.links.get(x.joint as usize).filter(|_| a.driving[k])?;
                 let (q, v) = self.joint_coordinates(link.body, link.joint.kind);
                 let input = if x.integrator { a.act[k] } else { x.clamp_ctrl(a.ctrl[k]) };
-                x.force(input, q as f64, v as f64)
+                Some((x.joint, x.force(input, q as f64, v as f64)))
             })
             .collect()
     }
