@@ -231,6 +231,8 @@ async fn deep_huge_and_extreme_models_are_refused_and_models_at_the_bounds_work(
     write("far_body.xml", r#"<mujoco><worldbody><body pos="0 0 1e400"><joint type="hinge" range="-1 1" limited="true"/><geom size="0.1"/></body></worldbody></mujoco>"#.into());
     write("far_joint.xml", FAR_JOINT.into());
     write("long_cylinder.urdf", r#"<robot name="r"><link name="a"/><link name="b"><collision><geometry><cylinder radius="0.1" length="1e26"/></geometry></collision></link><joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#.into());
+    write("overflowing_axis.urdf", r#"<robot name="r"><link name="a"/><link name="b"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link><joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 -1e308 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#.into());
+    write("overflowing_axis.xml", r#"<mujoco><worldbody><body><joint name="h" type="hinge" axis="1e200 1e200 0" range="-1 1" limited="true"/><geom size="0.1"/></body></worldbody></mujoco>"#.into());
     write("entities.xml", r#"<?xml version="1.0"?><!DOCTYPE mujoco [<!ENTITY a "<body><geom size='0.1'/></body>">]><mujoco><worldbody>&a;</worldbody></mujoco>"#.into());
     let c = server.client().await;
     let sim = c.new_sim(json!({})).await;
@@ -243,6 +245,10 @@ async fn deep_huge_and_extreme_models_are_refused_and_models_at_the_bounds_work(
         ("load_mjcf", "far_joint.xml", "joint hinge has pos [0.0, 1e308, 0.0]"),
         ("load_urdf", "long_cylinder.urdf", "cylinder length of 1000000"),
         ("load_mjcf", "entities.xml", "declarations (entities)"),
+        // Finite parts whose squared length overflows: the axis normalised to zero and the
+        // engine's joint solver panicked at the next step (file fuzzing found it).
+        ("load_urdf", "overflowing_axis.urdf", "joint j has an axis with no finite, non-zero length"),
+        ("load_mjcf", "overflowing_axis.xml", "joint h has an axis with no finite, non-zero length"),
     ];
     for (tool, file, says) in refused {
         let why = c.try_call(tool, json!({"sim_id": sim, "file_path": file})).await.expect_err(file);

@@ -886,7 +886,7 @@ impl Command {
     /// Sizes and positions within [`crate::limits::MAX_EXTENT_M`]: beyond it the engine
     /// panics on every later step (a 1.8e19 m box beside a mesh); velocities within
     /// [`crate::limits::MAX_SPEED`] (far beyond it a body freezes); an MJCF model's joint
-    /// anchors too (parsed here unless parsed ahead). Checked at the edge only — `ready`, which
+    /// anchors and any model's joint axes too (parsed here unless parsed ahead). Checked at the edge only — `ready`, which
     /// a client's call and every command re-made from a saved file's readable fields go
     /// through — not in `validate`, so logs recorded before the bound fold as they always did.
     pub fn within_extent(&self) -> Result<(), Refusal> {
@@ -900,7 +900,19 @@ impl Command {
                 near("position", position)?;
                 near("dimensions", &shape.dimensions())
             }
-            Command::SetObjectPose { position, .. } | Command::LoadUrdf { position, .. } => near("position", position),
+            Command::SetObjectPose { position, .. } => near("position", position),
+            Command::LoadUrdf { position, urdf, meshes, parsed, .. } => {
+                near("position", position)?;
+                let built;
+                let model = match parsed.get() {
+                    Some(model) => model.as_ref(),
+                    None => {
+                        built = crate::world::urdf_model(urdf, meshes, self.urdf_rules())?;
+                        &built
+                    }
+                };
+                model.joints_usable()
+            }
             Command::LoadMjcf { position, mjcf, meshes, keyframe, parsed, .. } => {
                 near("position", position)?;
                 match parsed.get() {

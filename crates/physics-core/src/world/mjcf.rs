@@ -269,10 +269,15 @@ impl Prepared {
     pub fn joints_within_extent(&self) -> Result<(), Refusal> {
         let bound = crate::limits::MAX_EXTENT_M;
         for (id, entry) in self.model.bodies_iter() {
-            if let Some(j) = entry.body.joints.iter().find(|j| !j.pos.iter().all(|x| x.abs() <= bound)) {
-                let body = entry.body.name.clone().unwrap_or_else(|| format!("#{id}"));
-                let joint = j.name.clone().unwrap_or_else(|| format!("of body {body}"));
-                return Err(format!("joint {joint} has pos {:?}, not finite numbers within {bound} m", j.pos));
+            for j in &entry.body.joints {
+                let body = || entry.body.name.clone().unwrap_or_else(|| format!("#{id}"));
+                let joint = j.name.clone().unwrap_or_else(|| format!("of body {}", body()));
+                if !j.pos.iter().all(|x| x.abs() <= bound) {
+                    return Err(format!("joint {joint} has pos {:?}, not finite numbers within {bound} m", j.pos));
+                }
+                if matches!(j.type_, JointType::Hinge | JointType::Slide) {
+                    super::robot::axis_refusal(&joint, j.axis)?;
+                }
             }
         }
         Ok(())

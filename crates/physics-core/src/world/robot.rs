@@ -99,6 +99,18 @@ fn pose_f64(pos: [f64; 3], rot: [f64; 4]) -> Pose {
     )
 }
 
+/// A model file's joint axis that normalises: its squared length finite and not (nearly) zero.
+/// `[0, -1e308, 1]` has finite parts but normalises to zero, and a zero axis fills the joint's
+/// frame with NaN, on which the engine's joint solver panics at the next step. Checked at the
+/// edge (`Command::within_extent`), so logs that loaded such a model fold as they always did.
+pub(crate) fn axis_refusal(joint: &str, axis: [f64; 3]) -> Result<(), Refusal> {
+    let squared: f64 = axis.iter().map(|x| x * x).sum();
+    match squared.is_finite() && squared > 1e-18 {
+        true => Ok(()),
+        false => Err(format!("joint {joint} has an axis with no finite, non-zero length to normalise")),
+    }
+}
+
 /// Rotation taking the joint frame's x axis onto the URDF axis (rapier moves along AngX/LinX).
 fn axis_frame(axis: [f64; 3]) -> Rotation {
     let a = Vec3::new(axis[0] as f32, axis[1] as f32, axis[2] as f32).normalize();

@@ -143,6 +143,15 @@ pub struct RobotModel {
     pub links: Vec<LinkModel>,
 }
 
+impl RobotModel {
+    /// Every moving joint's axis normalised to a direction (see `robot::axis_refusal`; the
+    /// axes are stored normalised, so an axis that overflowed is zero here).
+    pub fn joints_usable(&self) -> Result<(), Refusal> {
+        let moving = self.links.iter().filter_map(|l| l.joint.as_ref()).filter(|j| j.kind.movable());
+        moving.map(|j| super::robot::axis_refusal(&j.name, j.axis)).collect()
+    }
+}
+
 /// Quaternion [x, y, z, w] of a URDF fixed-axis roll-pitch-yaw: Rz(yaw)·Ry(pitch)·Rx(roll).
 pub fn rpy_quat(rpy: [f64; 3]) -> [f64; 4] {
     DQuat::from_euler(EulerRot::ZYX, rpy[2], rpy[1], rpy[0]).to_array()
