@@ -216,14 +216,15 @@ impl World {
             return;
         }
         let end_of_step = self.tables.time_s + f64::from(self.physics.integration_parameters.dt);
-        let paths = std::mem::take(&mut self.tables.joint_trajectories);
-        for ((id, j), path) in paths {
+        // Taken out while the motors are set (a motor call ends a path: here it finds none),
+        // kept in place otherwise — no map rebuilt per step.
+        let mut paths = std::mem::take(&mut self.tables.joint_trajectories);
+        paths.retain(|&(id, j), path| {
             let t = end_of_step - path.start_s;
             self.set_motor(id, j, &path.motor_at(t));
-            if t < path.duration() {
-                self.tables.joint_trajectories.insert((id, j), path);
-            }
-        }
+            t < path.duration()
+        });
+        self.tables.joint_trajectories = paths;
     }
 
     /// Where joint `joint_index` of `id` is on the trajectory it follows, if it follows one.
