@@ -1,4 +1,5 @@
-//! Parameters of load_mjcf, get_link_state, reset_joint_state.
+//! Parameters of load_mjcf, get_link_state, reset_joint_state, set_actuator_controls,
+//! get_sensor_data.
 
 use schemars::JsonSchema;
 use serde::Deserialize;
@@ -63,4 +64,16 @@ pub struct ActuatorControlsSet {
     pub object_id: ObjectId,
     /// Numbers: a list in actuator order, or {name: value}.
     pub controls: Controls,
+}
+
+/// get_sensor_data parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SensorsRef {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// Sensor names (default all).
+    pub names: Option<Vec<Text>>,
 }

@@ -10,7 +10,7 @@ use rmcp::{tool, tool_router};
 use crate::params::{self, LinkRef, ResetJoint};
 use crate::mcp::PhysicsServer;
 use crate::command::Command;
-use crate::outputs::{LinkState, Message, MjcfLoaded};
+use crate::outputs::{LinkState, Message, MjcfLoaded, SensorData};
 use crate::sim::reads;
 use crate::value::Refusal;
 
@@ -47,6 +47,12 @@ impl PhysicsServer {
     #[tool(input_schema = schema_for_type::<params::ActuatorControlsSet>())]
     async fn set_actuator_controls(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_actuator_controls", args, decide_controls).await
+    }
+
+    /// MuJoCo sensordata by sensor name; see docs/tools.md.
+    #[tool(input_schema = schema_for_type::<params::SensorsRef>(), annotations(read_only_hint = true))]
+    async fn get_sensor_data(&self, args: JsonObject) -> Result<Json<SensorData>, String> {
+        self.read("get_sensor_data", args, |sim, p: params::SensorsRef| reads::sensor_data(&sim.read_context(), &p)).await
     }
 
     /// A link's frame (link_world_*: the URDF link frame, which IK targets) and centre of mass (com_world_*), and its velocity.
