@@ -14,9 +14,9 @@ pub struct LoadMjcf {
     pub sim_id: Text,
     /// Workspace MJCF file.
     pub file_path: Text,
-    /// Model frame position (default 0).
+    /// Default 0.
     pub position: Option<Vec3>,
-    /// Model frame (default identity).
+    /// Default identity.
     pub orientation: Option<Quat>,
     /// Fix a free root (default false).
     pub use_fixed_base: Option<Bool>,
@@ -62,7 +62,7 @@ pub struct ActuatorControlsSet {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Numbers: a list in actuator order, or {name: value}.
+    /// A list in actuator order, or {name: value}.
     pub controls: Controls,
 }
 
@@ -74,6 +74,6 @@ pub struct SensorsRef {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Sensor names (default all).
+    /// Default all.
     pub names: Option<Vec<Text>>,
 }

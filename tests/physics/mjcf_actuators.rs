@@ -181,6 +181,11 @@ async fn statics_and_changes(c: &Client, server: &Server) {
         ]),
         "{loaded}"
     );
+    // get_joint_info lists a joint's actuators, get_simulation_info the model's.
+    let info = c.call("get_joint_info", json!({"sim_id": s, "object_id": id, "joint_index": 0})).await;
+    assert_eq!(info["actuators"], json!([{"name": "servo", "type": "position", "joint_index": 0, "ctrlrange": [-1.0, 1.0]}]), "{info}");
+    let sim_info = c.call("get_simulation_info", json!({"sim_id": s})).await;
+    assert_eq!(sim_info["objects"][0]["actuators"], loaded["actuators"], "{sim_info}");
     let set = |controls: Value| json!({"sim_id": s, "object_id": id, "controls": controls});
 
     // Refusals name the parameter and change nothing.

@@ -74,6 +74,9 @@ async fn sensors_match_mujoco_and_read_as_reads() {
     assert!(ignored.contains("sensor palm_touch: type touch is not computed"), "{ignored}");
     assert!(ignored.contains("sensor tip_in_upper: frames relative to a reference frame"), "{ignored}");
 
+    let sim_info = c.call("get_simulation_info", json!({"sim_id": s})).await;
+    assert_eq!(sim_info["objects"][0]["sensors"].as_array().map(Vec::len), Some(27), "{sim_info}");
+
     let mut report = Vec::new();
     for (k, pose) in r["poses"].as_array().unwrap().iter().enumerate() {
         let mut calls = Vec::new();
