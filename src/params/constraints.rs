@@ -11,17 +11,17 @@ use super::lenient::*;
 pub struct CreateConstraint {
     /// Sim id.
     pub sim_id: Text,
-    /// Parent object.
+    /// Object.
     pub parent_id: ObjectId,
-    /// Child object, or -1: the world.
+    /// Object or -1.
     pub child_id: Int<i64>,
     /// fixed, prismatic, spherical or revolute.
     pub joint_type: Text,
-    /// Parent frame (default z).
+    /// Default z.
     pub joint_axis: Option<Vec3>,
-    /// Parent body frame (default 0).
+    /// Default 0.
     pub parent_frame_position: Option<Vec3>,
-    /// Child frame, or world if child_id -1.
+    /// Child frame.
     pub child_frame_position: Option<Vec3>,
     /// Default identity.
     pub parent_frame_orientation: Option<Quat>,

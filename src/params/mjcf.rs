@@ -1,4 +1,5 @@
-//! Parameters of load_mjcf, get_link_state, reset_joint_state.
+//! Parameters of load_mjcf, get_link_state, reset_joint_state, set_actuator_controls,
+//! get_sensor_data.
 
 use schemars::JsonSchema;
 use serde::Deserialize;
@@ -13,9 +14,9 @@ pub struct LoadMjcf {
     pub sim_id: Text,
     /// Workspace MJCF file.
     pub file_path: Text,
-    /// Model frame position (default 0).
+    /// Default 0.
     pub position: Option<Vec3>,
-    /// Model frame (default identity).
+    /// Default identity.
     pub orientation: Option<Quat>,
     /// Fix a free root (default false).
     pub use_fixed_base: Option<Bool>,
@@ -61,6 +62,18 @@ pub struct ActuatorControlsSet {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// Numbers: a list in actuator order, or {name: value}.
+    /// A list in actuator order, or {name: value}.
     pub controls: Controls,
+}
+
+/// get_sensor_data parameters.
+#[derive(Deserialize, JsonSchema, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SensorsRef {
+    /// Sim id.
+    pub sim_id: Text,
+    /// Object id.
+    pub object_id: ObjectId,
+    /// Default all.
+    pub names: Option<Vec<Text>>,
 }

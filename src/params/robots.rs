@@ -113,19 +113,19 @@ pub struct InverseKinematics {
     pub sim_id: Text,
     /// Object id.
     pub object_id: ObjectId,
-    /// The link to place.
+    /// Link index.
     pub end_effector_link_index: Int<u32>,
     /// World (m).
     pub target_position: Vec3,
     /// Optional.
     pub target_orientation: Option<Quat>,
-    /// Default: the URDF's.
+    /// Default URDF's.
     pub lower_limits: Option<NumList>,
-    /// Default: the URDF's.
+    /// Default URDF's.
     pub upper_limits: Option<NumList>,
-    /// Ignored (PyBullet).
+    /// Ignored.
     pub joint_ranges: Option<NumList>,
-    /// Start pose (default: current).
+    /// Default current.
     pub rest_poses: Option<NumList>,
 }
 
@@ -135,9 +135,9 @@ pub struct InverseKinematics {
 pub struct GenerateRevolute {
     /// box, sphere or cylinder.
     pub parent_shape: Text,
-    /// box, sphere or cylinder.
+    /// As parent_shape.
     pub child_shape: Text,
-    /// Box half-extents, [radius] or [radius, height].
+    /// Half-extents, [r] or [r, h].
     pub parent_dimensions: NumList,
     /// As parent_dimensions.
     pub child_dimensions: NumList,
@@ -145,9 +145,9 @@ pub struct GenerateRevolute {
     pub parent_mass: Option<Positive>,
     /// kg (default 1).
     pub child_mass: Option<Positive>,
-    /// Parent frame (default z).
+    /// Default z.
     pub joint_axis: Option<Vec3>,
-    /// Parent frame (default 0).
+    /// Default 0.
     pub joint_origin: Option<Vec3>,
     /// rad (default -pi).
     pub joint_lower_limit: Option<Num>,
@@ -159,6 +159,6 @@ pub struct GenerateRevolute {
     pub max_velocity: Option<NonNegative>,
     /// Default generated/revolute_<n>.urdf.
     pub output_path: Option<Text>,
-    /// Replace a file not its own (default false).
+    /// Replace another file (default false).
     pub overwrite: Option<Bool>,
 }

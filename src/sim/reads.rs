@@ -111,6 +111,16 @@ pub fn link_state(cx: &ReadContext, p: &LinkRef) -> Result<LinkState, Refusal> {
     w.link_state(id, link).ok_or_else(|| object_not_found(id, w.simulation_id()))
 }
 
+/// get_sensor_data.
+pub fn sensor_data(cx: &ReadContext, p: &params::SensorsRef) -> Result<crate::outputs::SensorData, Refusal> {
+    let id = p.object_id.0;
+    if !cx.world.has_object(id) {
+        return Err(object_not_found(id, cx.world.simulation_id()));
+    }
+    let names: Option<Vec<String>> = p.names.as_ref().map(|ns| ns.iter().map(|n| n.0.clone()).collect());
+    cx.world.sensor_data(id, names.as_deref())
+}
+
 /// calculate_inverse_kinematics.
 pub fn inverse_kinematics(cx: &ReadContext, p: &InverseKinematics) -> Result<IkSolution, Refusal> {
     let id = p.object_id.0;
@@ -200,6 +210,8 @@ pub enum Read {
     JointStates(params::JointsRef),
     /// get_link_states.
     LinkStates(params::LinksRef),
+    /// get_sensor_data.
+    SensorData(params::SensorsRef),
     /// calculate_jacobian.
     Jacobian(params::JacobianQuery),
     /// calculate_mass_matrix.
@@ -244,6 +256,7 @@ impl Read {
             "run_sweep" => Read::Sweep(Box::new(p(tool, a)?)),
             "get_joint_states" => Read::JointStates(p(tool, a)?),
             "get_link_states" => Read::LinkStates(p(tool, a)?),
+            "get_sensor_data" => Read::SensorData(p(tool, a)?),
             "calculate_jacobian" => Read::Jacobian(p(tool, a)?),
             "calculate_mass_matrix" => Read::MassMatrix(p(tool, a)?),
             "calculate_inverse_dynamics" => Read::InverseDynamics(p(tool, a)?),
@@ -277,6 +290,7 @@ impl Read {
             Read::LinkState(p) => json(link_state(cx, p)),
             Read::JointStates(p) => json(super::dynamics_reads::joint_states(cx, p)),
             Read::LinkStates(p) => json(super::dynamics_reads::link_states(cx, p)),
+            Read::SensorData(p) => json(sensor_data(cx, p)),
             Read::Jacobian(p) => json(super::dynamics_reads::jacobian(cx, p)),
             Read::MassMatrix(p) => json(super::dynamics_reads::mass_matrix(cx, p)),
             Read::InverseDynamics(p) => json(super::dynamics_reads::inverse_dynamics(cx, p)),

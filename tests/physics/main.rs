@@ -15,6 +15,7 @@ mod joint_trajectory;
 mod link_state;
 mod mjcf;
 mod mjcf_actuators;
+mod mjcf_sensors;
 mod mjcf_rest;
 mod physical_facts;
 mod robot_dynamics;

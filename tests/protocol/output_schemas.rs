@@ -142,6 +142,10 @@ async fn every_tool_declares_an_output_schema_that_its_results_validate_against(
     let mj = id(&c.call("create_simulation", json!({})).await, "simulation_id");
     let reacher = id(&c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/reacher.xml"})).await, "object_id");
     c.call("set_actuator_controls", json!({"sim_id": mj, "object_id": reacher, "controls": [0.1, -0.1]})).await;
+    let arm = id(&c.call("load_mjcf", json!({"sim_id": mj, "file_path": "mjcf/sensor_arm.xml"})).await, "object_id");
+    c.call("get_sensor_data", json!({"sim_id": mj, "object_id": arm})).await;
+    c.call("get_joint_info", json!({"sim_id": mj, "object_id": arm, "joint_index": 0})).await;
+    c.call("get_simulation_info", json!({"sim_id": mj})).await;
     c.call("generate_revolute_joint", json!({"parent_shape": "box", "child_shape": "cylinder", "parent_dimensions": [0.1, 0.1, 0.1], "child_dimensions": [0.05, 0.3]})).await;
     // Built-in models and workspace files.
     c.call("list_models", json!({"filter": "kuka"})).await;

@@ -288,6 +288,12 @@ pub struct ObjectSummary {
     pub mass: f64,
     /// Current position.
     pub position: [f64; 3],
+    /// An MJCF model's actuators (absent when none: only loads of event version 7 have any).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub actuators: Vec<ActuatorInfo>,
+    /// An MJCF model's sensors by name (get_sensor_data; absent when none, as `actuators`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sensors: Vec<String>,
 }
 
 /// Result of batch: each call's result as that tool returns it, in order, and where the
@@ -611,6 +617,24 @@ pub struct ActuatorInfo {
     pub forcerange: Option<[f64; 2]>,
 }
 
+/// Result of get_sensor_data: MuJoCo's `sensordata`, sensor by sensor in the model's order.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct SensorData {
+    /// One entry per sensor read.
+    pub sensors: Vec<SensorReading>,
+}
+
+/// One MuJoCo sensor's values (docs/tools.md "MJCF models").
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct SensorReading {
+    /// Its name.
+    pub name: String,
+    /// Its MJCF type (jointpos, framequat, force, …).
+    pub r#type: String,
+    /// Its values (a quaternion is [w, x, y, z], as MuJoCo's).
+    pub data: Vec<f64>,
+}
+
 /// Result of get_num_joints.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct NumJoints {
@@ -641,6 +665,10 @@ pub struct JointInfo {
     pub link_name: String,
     /// The parent link's index (−1 = the base).
     pub parent_index: i32,
+    /// The MJCF actuators driving this joint (absent when none: only loads of event version 7
+    /// have any, so earlier results are unchanged).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub actuators: Vec<ActuatorInfo>,
 }
 
 /// Result of get_joint_state.

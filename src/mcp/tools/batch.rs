@@ -92,6 +92,7 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "get_link_state" => read(tool, a, Read::LinkState),
         "get_joint_states" => read(tool, a, Read::JointStates),
         "get_link_states" => read(tool, a, Read::LinkStates),
+        "get_sensor_data" => read(tool, a, Read::SensorData),
         "get_simulation_info" => read(tool, a, Read::SimulationInfo),
         _ => return None,
     })

@@ -50,7 +50,7 @@ pub(super) fn decide_remove(p: ConstraintRef) -> Result<Command, Refusal> {
 
 #[tool_router(router = constraint_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Join two objects, or one to the world (child_id -1), as PyBullet's createConstraint.
+    /// PyBullet's createConstraint (child_id -1: the world); see docs/tools.md.
     #[tool(input_schema = schema_for_type::<params::CreateConstraint>())]
     async fn create_constraint(&self, args: JsonObject) -> Result<Json<ConstraintCreated>, String> {
         self.change("create_constraint", args, decide_create).await

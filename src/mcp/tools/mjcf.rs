@@ -10,7 +10,7 @@ use rmcp::{tool, tool_router};
 use crate::params::{self, LinkRef, ResetJoint};
 use crate::mcp::PhysicsServer;
 use crate::command::Command;
-use crate::outputs::{LinkState, Message, MjcfLoaded};
+use crate::outputs::{LinkState, Message, MjcfLoaded, SensorData};
 use crate::sim::reads;
 use crate::value::Refusal;
 
@@ -35,18 +35,23 @@ pub(super) fn decide_controls(p: params::ActuatorControlsSet) -> Result<Command,
 
 #[tool_router(router = mjcf_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Load an MJCF model as one robot (link -1: worldbody or free root; a joint per
-    /// hinge/slide); `ignored`: what is not simulated.
+    /// Load an MJCF model as one robot; `ignored`: what is not simulated.
     #[tool(input_schema = schema_for_type::<params::LoadMjcf>())]
     async fn load_mjcf(&self, args: JsonObject) -> Result<Json<MjcfLoaded>, String> {
         self.change_reading("load_mjcf", args, |p: params::LoadMjcf, reader| crate::files::mjcf::load_mjcf_command(reader, &p))
             .await
     }
 
-    /// Set an MJCF model's actuator controls (MuJoCo ctrl), held.
+    /// Set an MJCF model's actuator controls (held).
     #[tool(input_schema = schema_for_type::<params::ActuatorControlsSet>())]
     async fn set_actuator_controls(&self, args: JsonObject) -> Result<Json<Message>, String> {
         self.change("set_actuator_controls", args, decide_controls).await
+    }
+
+    /// An MJCF model's MuJoCo sensordata.
+    #[tool(input_schema = schema_for_type::<params::SensorsRef>(), annotations(read_only_hint = true))]
+    async fn get_sensor_data(&self, args: JsonObject) -> Result<Json<SensorData>, String> {
+        self.read("get_sensor_data", args, |sim, p: params::SensorsRef| reads::sensor_data(&sim.read_context(), &p)).await
     }
 
     /// A link's frame (link_world_*: the URDF link frame, which IK targets) and centre of mass (com_world_*), and its velocity.

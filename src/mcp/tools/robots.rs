@@ -182,7 +182,7 @@ impl PhysicsServer {
         self.change("set_joint_trajectory", args, decide_trajectory).await
     }
 
-    /// Joint positions (per movable joint) putting the end effector's link frame (not its centre of mass) at the target, within limits.
+    /// IK to the end effector's link frame; see docs/tools.md.
     #[tool(input_schema = schema_for_type::<params::InverseKinematics>(), annotations(read_only_hint = true))]
     async fn calculate_inverse_kinematics(&self, args: JsonObject) -> Result<Json<IkSolution>, String> {
         self.read("calculate_inverse_kinematics", args, |sim, p| {
@@ -191,7 +191,7 @@ impl PhysicsServer {
         .await
     }
 
-    /// Write a two-link revolute URDF for load_urdf.
+    /// Write a 2-link revolute URDF; see docs/tools.md.
     #[tool(input_schema = schema_for_type::<params::GenerateRevolute>())]
     async fn generate_revolute_joint(&self, args: JsonObject) -> Result<Json<GeneratedUrdf>, String> {
         let reg = self.reg.clone();

@@ -146,6 +146,28 @@ pub fn actuator_extras(xml: &str) -> Vec<ActuatorExtras> {
         .collect()
 }
 
+/// Notes for the actuator-related attributes written in `xml` that are not applied (only loads
+/// that simulate actuators list them: older loads' `ignored` stays as recorded).
+pub fn unapplied_attributes(xml: &str) -> Vec<String> {
+    let Ok(doc) = roxmltree::Document::parse(xml) else { return Vec::new() };
+    let mut notes: Vec<String> = Vec::new();
+    for n in doc.descendants().filter(|n| n.is_element()) {
+        for (a, why) in [
+            ("dampratio", "position actuators' damping ratio is not applied (kv is)"),
+            ("timeconst", "activation time constants are not applied"),
+            ("actearly", "activations act on the next step, not early"),
+            ("inheritrange", "ranges are not inherited from the joint"),
+            ("actuatorfrcrange", "a joint's total actuator force is not clamped"),
+        ] {
+            let note = format!("{a} (on <{}>): {why}", n.tag_name().name());
+            if n.attribute(a).is_some() && !notes.contains(&note) {
+                notes.push(note);
+            }
+        }
+    }
+    notes
+}
+
 /// The model's actuators on our joints (`joint_of`: a joint name → its index), and a sentence
 /// for each one that is not simulated.
 pub fn build(model: &Model, extras: &[ActuatorExtras], joint_of: &dyn Fn(&str) -> Option<u32>) -> (Actuation, Vec<String>) {

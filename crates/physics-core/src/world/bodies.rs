@@ -144,6 +144,7 @@ impl World {
                 self.tables.joint_sensors.retain(|(id, _)| id != object_id);
                 self.tables.joint_trajectories.retain(|(id, _), _| id != object_id);
                 self.tables.actuation.remove(object_id);
+                self.tables.mjcf_sensors.remove(object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
@@ -477,6 +478,8 @@ impl World {
                     dimensions,
                     mass: if is_static { 0.0 } else { r32(obj.mass) },
                     position: r32s(pos),
+                    actuators: self.actuation(*id).map(super::actuators::infos).unwrap_or_default(),
+                    sensors: self.sensors(*id).map(|s| s.iter().map(|x| x.name.clone()).collect()).unwrap_or_default(),
                 }
             })
             .collect()

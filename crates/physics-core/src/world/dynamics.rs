@@ -76,7 +76,8 @@ impl LinkMotion {
         self.vel + self.omega.cross(x - self.pos)
     }
 
-    fn acceleration_at(&self, x: DVec3) -> DVec3 {
+    /// Acceleration of the point `x` (world) moving with the link.
+    pub fn acceleration_at(&self, x: DVec3) -> DVec3 {
         let r = x - self.pos;
         self.acc + self.alpha.cross(r) + self.omega.cross(self.omega.cross(r))
     }

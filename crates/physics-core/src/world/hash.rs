@@ -338,6 +338,10 @@ fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
     if !w.tables.actuation.is_empty() {
         bytes.extend(encode(&("actuation", &w.tables.actuation)));
     }
+    // MJCF sensors likewise (event version 7): what a load kept is part of the model.
+    if !w.tables.mjcf_sensors.is_empty() {
+        bytes.extend(encode(&("mjcf_sensors", &w.tables.mjcf_sensors)));
+    }
 }
 
 /// One body of a robot: its dynamic state, materials and parent joint coordinates.

@@ -90,6 +90,10 @@ pub struct Prepared {
 /// load simulates them.
 const ACTUATORS_IGNORED: &str = "<actuator>: actuators are not simulated; drive joints with set_joint_motor_control";
 
+/// The note `scan` writes for a model with sensors, replaced by per-sensor notes when a load
+/// keeps them.
+const SENSORS_IGNORED: &str = "<sensor>: sensors are not simulated; read state with the sensing tools";
+
 /// Elements the engine cannot simulate and the server refuses (docs/tools.md "MJCF models") (never dropped silently).
 const REFUSED_ELEMENTS: [(&str, &str); 6] = [
     ("spatial", "spatial tendons are not supported"),
@@ -188,7 +192,7 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
         ("actuator", ACTUATORS_IGNORED),
         ("tendon", "<tendon>: fixed tendons are not simulated"),
         ("equality", "<equality>: equality constraints are not simulated"),
-        ("sensor", "<sensor>: sensors are not simulated; read state with the sensing tools"),
+        ("sensor", SENSORS_IGNORED),
         ("pair", "<contact><pair>: explicit contact pairs are not applied"),
     ] {
         if found.contains(tag) {
@@ -714,6 +718,26 @@ impl World {
                 }
                 actuator_infos = super::actuators::infos(&actuation);
                 self.tables.actuation.insert(id, actuation);
+            }
+            // Sensors (get_sensor_data): each MJCF body's placement, then the model's sensors.
+            let placed: Vec<Option<super::sensors::Placed>> = (0..model.bodies.len())
+                .map(|m| {
+                    let k = (0..n).find(|k| !mbodies[*k].is_intermediate && mbodies[*k].mjcf_body_id == m)?;
+                    let o = owner[k];
+                    let body = handle_of.get(&o).copied().or(if o == 0 { world_body } else { None })?;
+                    let link = link_of_body.get(&o).copied().unwrap_or(-1);
+                    Some(super::sensors::Placed { body, in_body: rel(&world_pose[o], &world_pose[k]), own: o == k, link })
+                })
+                .collect();
+            let actuator_names: Vec<String> = self.tables.actuation.get(&id).map(|a| a.actuators.iter().map(|x| x.name.clone()).collect()).unwrap_or_default();
+            let actuator_of = |name: &str| actuator_names.iter().position(|x| x == name);
+            let resolver = super::sensors::Resolver { model: &model, placed: &placed, joint_of: &joint_of, actuator_of: &actuator_of };
+            let (sensors, notes) = super::sensors::build(std::str::from_utf8(&blob.bytes).unwrap_or(""), &resolver);
+            ignored.retain(|s| s != SENSORS_IGNORED);
+            ignored.extend(notes);
+            ignored.extend(super::actuators::unapplied_attributes(std::str::from_utf8(&blob.bytes).unwrap_or("")));
+            if !sensors.is_empty() {
+                self.tables.mjcf_sensors.insert(id, sensors);
             }
         }
         self.tables.next_object_id += 1;

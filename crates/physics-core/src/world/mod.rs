@@ -7,6 +7,7 @@
 //! continuing is bit-identical to never having stopped.
 
 pub mod actuators;
+pub mod sensors;
 mod bodies;
 pub mod constraints;
 pub mod dynamics;
@@ -253,6 +254,11 @@ pub struct Tables {
     /// [`SnapshotExtensions`], written only when a robot has actuators.
     #[serde(skip)]
     pub actuation: BTreeMap<u32, actuators::Actuation>,
+    /// MJCF robots' sensors (get_sensor_data), by object id (loads of event version 7 on).
+    /// Not in the table encodings: snapshot version 10 carries them in [`SnapshotExtensions`],
+    /// written only when a robot has actuators or sensors.
+    #[serde(skip)]
+    pub mjcf_sensors: BTreeMap<u32, Vec<sensors::Sensor>>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -300,6 +306,7 @@ impl From<TablesV3> for Tables {
             joint_sensors: BTreeSet::new(),
             joint_trajectories: BTreeMap::new(),
             actuation: BTreeMap::new(),
+            mjcf_sensors: BTreeMap::new(),
         }
     }
 }
@@ -340,6 +347,7 @@ impl TablesV2 {
             joint_sensors: BTreeSet::new(),
             joint_trajectories: BTreeMap::new(),
             actuation: BTreeMap::new(),
+            mjcf_sensors: BTreeMap::new(),
         }
     }
 }
@@ -793,10 +801,10 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if !t.actuation.is_empty() {
+        let encoded = if !t.actuation.is_empty() || !t.mjcf_sensors.is_empty() {
             // Version 10: version 9's followed by the MJCF actuators and their held controls.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
-            let ext = SnapshotExtensions { actuation: t.actuation.clone() };
+            let ext = SnapshotExtensions { actuation: t.actuation.clone(), mjcf_sensors: t.mjcf_sensors.clone() };
             postcard::to_extend(&(10u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories, ext), out)
         } else if !t.joint_trajectories.is_empty() {
             // Version 9: version 8's followed by the joint trajectories being followed.
@@ -887,6 +895,7 @@ impl World {
                 tables.joint_sensors = sensors;
                 tables.joint_trajectories = trajectories;
                 tables.actuation = ext.actuation;
+                tables.mjcf_sensors = ext.mjcf_sensors;
                 (physics, tables)
             }
             9 => {
@@ -990,7 +999,7 @@ impl World {
 /// (`Tables::joint_sensors`), written only for a world with one; 9 is 8's followed by the
 /// joint trajectories being followed (`Tables::joint_trajectories`), written only for a world
 /// with one; 10 is 9's followed by [`SnapshotExtensions`] (the MJCF actuators and their held
-/// controls), written only for a world with some (9 and 10 are both event version 7's: two
+/// controls, and the MJCF sensors), written only for a world with some (9 and 10 are both event version 7's: two
 /// features of one release, merged); every other world is written as before, byte for byte; 1
 /// to 5 still restore, under state hash v1 and engine rule 1, 6 under v2 and rule 1).
 pub const SNAPSHOT_VERSION: u32 = 10;
@@ -1000,6 +1009,8 @@ pub const SNAPSHOT_VERSION: u32 = 10;
 struct SnapshotExtensions {
     /// `Tables::actuation`.
     actuation: BTreeMap<u32, actuators::Actuation>,
+    /// `Tables::mjcf_sensors`.
+    mjcf_sensors: BTreeMap<u32, Vec<sensors::Sensor>>,
 }
 
 /// The rules a version-7 to -10 snapshot carries after the tables: the world's state hash rules

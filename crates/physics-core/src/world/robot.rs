@@ -632,6 +632,10 @@ impl World {
             joint_axis: r32s(j.axis.map(|x| x as f32)),
             link_name: l.name.clone(),
             parent_index: j.parent,
+            actuators: self
+                .actuation(id)
+                .map(|a| super::actuators::infos(a).into_iter().filter(|x| x.joint_index as usize == i).collect())
+                .unwrap_or_default(),
         })
     }
 
