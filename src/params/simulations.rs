@@ -46,6 +46,8 @@ pub struct Step {
     pub detail: Option<Text>,
     /// Samples' decimals (default 4).
     pub precision: Option<Int<u32>>,
+    /// Answers at every step (docs/tools.md Measures).
+    pub measure: Option<super::trajectory::Measures>,
 }
 
 /// set_timestep parameters.

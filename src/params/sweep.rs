@@ -16,6 +16,8 @@ pub struct Observe {
     pub include_velocities: Option<Bool>,
     /// Also sample poses every N steps.
     pub every: Option<Int<u64>>,
+    /// Answers at every step (docs/tools.md Measures).
+    pub measure: Option<super::trajectory::Measures>,
 }
 
 /// run_sweep parameters.
@@ -42,8 +44,10 @@ pub struct Sweep {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RankBy {
-    /// Object id.
-    pub object_id: ObjectId,
-    /// displacement, peak_speed or final_z.
-    pub metric: Text,
+    /// Index into observe.measure.
+    pub measure: Option<Int<u32>>,
+    /// Or: object id,
+    pub object_id: Option<ObjectId>,
+    /// and displacement, peak_speed or final_z.
+    pub metric: Option<Text>,
 }

@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use crate::log::fold::{self, FoldError, Interval, Lent, Moment};
+use crate::seeing::measure::{Meter, Spec};
 use crate::outputs::{ObjectTrack, Trajectory};
 use crate::value::Refusal;
 use crate::world::World;
@@ -100,6 +101,7 @@ impl Sampler {
                 objects: vec![],
                 output_path: None,
                 unmoved: vec![],
+                measures: None,
             },
             tracks: BTreeMap::new(),
             cells: 0,
@@ -210,6 +212,31 @@ pub fn sample_interval_with(lent: &Lent, req: &Request, also: fold::Observer) ->
     let mut sampler = Sampler::new(lent.interval, every, req);
     fold::resimulate(lent, every, &mut |w, m| sampler.observe(w, m) && also(w, m)).map_err(resim_error)?;
     sampler.finish("every")
+}
+
+/// get_trajectory with `measure`: the measures taken at every step of the same
+/// re-simulation that samples (`fold::resimulate_each`), rounded to `decimals` unless exact;
+/// with `samples` false (neither `every` nor `object_ids` asked) the trajectory holds the
+/// measures and no samples.
+pub fn sample_and_measure(lent: &Lent, req: &Request, specs: Vec<Spec>, samples: bool, decimals: Option<u32>) -> Result<Trajectory, Refusal> {
+    let every = req.every.unwrap_or_else(|| default_every(lent.interval_steps()));
+    if let (true, Some(ids)) = (samples, &req.object_ids) {
+        check_cells(max_samples(lent.interval_steps(), every), ids.len() as u64, "every")?;
+    }
+    let mut sampler = Sampler::new(lent.interval, every, req);
+    let mut meter = Meter::new(specs);
+    fold::resimulate_each(lent, every, &mut |w, m| {
+        meter.see(w);
+        !samples || sampler.observe(w, m)
+    })
+    .map_err(resim_error)?;
+    meter.unseen("measure")?;
+    let mut t = sampler.finish("every")?;
+    if let Some(d) = decimals {
+        compact(&mut t, Some(d));
+    }
+    t.measures = Some(meter.finish(decimals));
+    Ok(t)
 }
 
 /// A re-simulation that failed: the log does not fold to what it recorded.

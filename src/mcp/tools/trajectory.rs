@@ -16,6 +16,7 @@ use crate::log::fold::{self, Lent};
 use crate::outputs::Trajectory;
 use crate::sim::lock_sim;
 use crate::seeing::foxglove;
+use crate::seeing::measure::Spec;
 use crate::seeing::trajectory::{self, FileForm, Request};
 use crate::sim::sampled_step::Sampling;
 use crate::value::{self, Args, Refusal};
@@ -60,8 +61,8 @@ pub(crate) fn shortening(detail: Option<&crate::params::lenient::Text>, precisio
 }
 
 /// What get_trajectory asks besides the interval: what to sample, output_path (with the form
-/// its extension asks for), shortening.
-type Asking = (Request, Option<(String, FileForm)>, Shortening);
+/// its extension asks for), shortening, measures (with whether samples are asked too).
+type Asking = (Request, Option<(String, FileForm)>, Shortening, Option<(Vec<Spec>, bool)>);
 
 /// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path, shortening.
 fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
@@ -75,14 +76,21 @@ fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
     };
     let path = p.output_path.map(|t| t.0);
     let path = path.map(|p| trajectory::file_form(&p, "output_path", &[FileForm::Csv, FileForm::Jsonl, FileForm::Mcap]).map(|f| (p, f))).transpose()?;
-    Ok((interval, (req, path, shortening)))
+    if p.measure.is_some() && path.is_some() {
+        return Err("measure cannot be combined with output_path: ask for the measures in a call without output_path".into());
+    }
+    let samples = req.every.is_some() || req.object_ids.is_some();
+    Ok((interval, (req, path, shortening, p.measure.map(|m| (m.0, samples)))))
 }
 
 /// get_trajectory's work: the interval sampled, and with an output path its file — written
 /// there (never over an existing file; checked before the re-simulation too) with the reply
 /// a summary; without one, the table inline (compact unless asked otherwise), held to the
 /// reply budget where the read is logged (`look_back`).
-fn sample_and_deliver((req, path, shortening): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
+fn sample_and_deliver((req, path, shortening, measures): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
+    if let Some((specs, samples)) = measures {
+        return trajectory::sample_and_measure(lent, &req, specs, samples, shortening);
+    }
     let Some((user, form)) = path else {
         let mut t = trajectory::sample_interval(lent, &req)?;
         if let Some(decimals) = shortening {
@@ -219,5 +227,7 @@ pub(crate) fn step_sampling(p: &Step) -> Result<Option<Sampling>, Refusal> {
     let every = opt_every(p.sample_every, "sample_every")?;
     let object_ids = opt_ids(p.sample_objects.clone());
     let compact = shortening(p.detail.as_ref(), p.precision)?;
-    Ok((every.is_some() || object_ids.is_some()).then_some(Sampling { every, object_ids, include_velocities: false, compact }))
+    let samples = every.is_some() || object_ids.is_some();
+    let measure = p.measure.clone().map(|m| m.0).unwrap_or_default();
+    Ok((samples || p.measure.is_some()).then_some(Sampling { every, object_ids, include_velocities: false, compact, samples, measure }))
 }
