@@ -42,11 +42,11 @@ pub struct Step {
     pub sample_every: Option<Int<u64>>,
     /// Default all.
     pub sample_objects: Option<Vec<ObjectId>>,
-    /// Samples: full = exact, unmoved objects too.
+    /// full: exact samples.
     pub detail: Option<Text>,
     /// Samples' decimals (default 4).
     pub precision: Option<Int<u32>>,
-    /// Answers at every step (docs/tools.md Measures).
+    /// Per-step answers (docs/tools.md).
     pub measure: Option<super::trajectory::Measures>,
 }
 

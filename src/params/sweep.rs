@@ -16,7 +16,7 @@ pub struct Observe {
     pub include_velocities: Option<Bool>,
     /// Also sample poses every N steps.
     pub every: Option<Int<u64>>,
-    /// Answers at every step (docs/tools.md Measures).
+    /// Per-step answers (docs/tools.md).
     pub measure: Option<super::trajectory::Measures>,
 }
 
@@ -30,13 +30,13 @@ pub struct Sweep {
     pub variants: Vec<Vec<CallSpec>>,
     /// Steps after the calls.
     pub steps: Int<u64>,
-    /// Default: all objects.
+    /// What to report (default all).
     pub observe: Option<Observe>,
     /// Keep the forks (default false).
     pub keep: Option<Bool>,
     /// full: unmoved objects too.
     pub detail: Option<Text>,
-    /// Rank variants, highest first.
+    /// Order the variants (docs/tools.md).
     pub rank_by: Option<RankBy>,
 }
 
@@ -44,10 +44,10 @@ pub struct Sweep {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RankBy {
-    /// Index into observe.measure.
+    /// An observe.measure index,
     pub measure: Option<Int<u32>>,
-    /// Or: object id,
+    /// or object_id
     pub object_id: Option<ObjectId>,
-    /// and displacement, peak_speed or final_z.
+    /// and displacement/peak_speed/final_z.
     pub metric: Option<Text>,
 }

@@ -27,7 +27,7 @@ pub struct GetTrajectory {
     pub detail: Option<Text>,
     /// Decimals (default 4).
     pub precision: Option<Int<u32>>,
-    /// Answers at every step (docs/tools.md Measures); alone: no samples.
+    /// Per-step answers (docs/tools.md).
     pub measure: Option<Measures>,
 }
 

@@ -96,7 +96,7 @@ impl PhysicsServer {
 
 #[tool_router(router = sweep_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Per variant, in parallel: fork at the head, apply its calls, step, summarise.
+    /// Fork per variant in parallel, apply its calls, step, summarise.
     #[tool(input_schema = schema_for_type::<params::Sweep>())]
     async fn run_sweep(
         &self,
