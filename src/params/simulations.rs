@@ -48,6 +48,8 @@ pub struct Step {
     pub precision: Option<Int<u32>>,
     /// Per-step answers (docs/tools.md).
     pub measure: Option<super::trajectory::Measures>,
+    /// Sample columns, e.g. ["z"].
+    pub fields: Option<Vec<Text>>,
 }
 
 /// set_timestep parameters.

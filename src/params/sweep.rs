@@ -18,6 +18,8 @@ pub struct Observe {
     pub every: Option<Int<u64>>,
     /// Per-step answers (docs/tools.md).
     pub measure: Option<super::trajectory::Measures>,
+    /// Sample columns, e.g. ["z"].
+    pub fields: Option<Vec<Text>>,
 }
 
 /// run_sweep parameters.

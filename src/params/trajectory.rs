@@ -29,6 +29,8 @@ pub struct GetTrajectory {
     pub precision: Option<Int<u32>>,
     /// Per-step answers (docs/tools.md).
     pub measure: Option<Measures>,
+    /// Columns, e.g. ["z"] (docs/tools.md).
+    pub fields: Option<Vec<Text>>,
 }
 
 /// `measure` (get_trajectory, step_simulation, run_sweep's observe): a list of measures, read

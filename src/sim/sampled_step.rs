@@ -30,6 +30,8 @@ pub struct Sampling {
     pub samples: bool,
     /// Measures taken after every step (`seeing::measure`), in the reply only like the samples.
     pub measure: Vec<Spec>,
+    /// The sample columns to keep (`trajectory::select`), None for all.
+    pub fields: Option<Vec<String>>,
 }
 
 impl Sim {
@@ -82,6 +84,9 @@ impl Sim {
         debug_assert_eq!(self.log().head_seq(), seq);
         if sampling.samples {
             result.trajectory = sampler.finish("sample_every").ok();
+        }
+        if let (Some(t), Some(f)) = (result.trajectory.as_mut(), &sampling.fields) {
+            trajectory::select(t, f);
         }
         if let (Some(t), Some(decimals)) = (result.trajectory.as_mut(), sampling.compact) {
             trajectory::compact(t, Some(decimals));

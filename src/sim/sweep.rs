@@ -41,6 +41,9 @@ pub struct Observe {
     /// Measures taken after every step (`seeing::measure`).
     #[serde(default)]
     pub measure: Vec<crate::seeing::measure::Spec>,
+    /// The sample columns to keep (`trajectory::select`), None for all.
+    #[serde(default)]
+    pub fields: Option<Vec<String>>,
 }
 
 /// A sweep asked for: its variants' calls (decided), the steps, what to observe, whether to
@@ -474,6 +477,7 @@ fn variant_work(
                     compact: None,
                     samples: true,
                     measure: Vec::new(),
+                    fields: observe.fields.clone(),
                 };
                 let s = sim.step_sampled_watched(&a, steps, &sampling, limits, &mut *control, &mut watch)?;
                 trajectory = s.trajectory.clone();

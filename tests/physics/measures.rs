@@ -57,6 +57,14 @@ async fn measures_answer_what_free_flight_and_free_fall_say() {
     assert!(zs.iter().all(|z| *z < top), "the samples never reach the peak: {zs:?}");
     // get_trajectory re-simulates the same answers from the log, bit for bit.
     assert_eq!(sampled["measures"], stepped["measures"]);
+    // `fields`: only the heights, one number a sample, the same as the full positions' z.
+    let heights = c.call("get_trajectory", json!({"sim_id": sim, "every": 50, "object_ids": [ball], "detail": "full", "fields": ["z"]})).await;
+    let track = &heights["objects"][0];
+    assert!(track.get("positions").is_none() && track.get("orientations").is_none(), "{track}");
+    let z: Vec<f64> = track["z"].as_array().unwrap().iter().map(|z| z.as_f64().unwrap()).collect();
+    assert_eq!(z, zs);
+    let e = c.try_call("get_trajectory", json!({"sim_id": sim, "fields": ["height"]})).await.unwrap_err();
+    assert!(e.contains("fields: unknown field \"height\"; the fields are positions, x, y, z"), "{e}");
     // The compact default rounds them to 4 decimals.
     let compact = c.call("get_trajectory", json!({"sim_id": sim, "measure": peak})).await;
     assert!(compact.get("objects").is_none(), "measure alone: no samples: {compact}");
@@ -71,7 +79,10 @@ async fn measures_answer_what_free_flight_and_free_fall_say() {
         {"pair": [ball, ground], "what": "first_contact"},
         {"object_id": ball, "what": "first", "when": {"height_above": 2}},
     ]);
-    let r = c.call("step_simulation", json!({"sim_id": sim, "steps": 240, "measure": asked})).await;
+    let r = c.call("step_simulation", json!({"sim_id": sim, "steps": 240, "measure": asked, "sample_every": 60, "fields": ["z"]})).await;
+    let tracks = r["trajectory"]["objects"].as_array().unwrap();
+    assert!(tracks.len() == 1 && tracks[0]["z"].as_array().unwrap().len() == 5 && tracks[0].get("orientations").is_none(), "only the ball moves, by its heights: {r}");
+    assert_eq!(r["trajectory"]["unmoved"], json!([ground]));
     let (z, t) = answer(&r, 0);
     assert!((t.unwrap() - (1.0 / G).sqrt()).abs() < 2.0 * DT && z.unwrap() < 0.5, "{r}");
     let t = answer(&r, 1).1.unwrap();

@@ -180,9 +180,20 @@ pub struct Measured {
 pub struct ObjectTrack {
     /// The object.
     pub object_id: u32,
-    /// Base positions (n × 3).
+    /// Base positions (n × 3); left out when `fields` asks for other columns.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub positions: Vec<Option<[f64; 3]>>,
-    /// Base orientations [x, y, z, w] (n × 4).
+    /// Base x (n; with `fields` holding "x").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<Vec<Option<f64>>>,
+    /// Base y (n; with `fields` holding "y").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<Vec<Option<f64>>>,
+    /// Base z (n; with `fields` holding "z").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z: Option<Vec<Option<f64>>>,
+    /// Base orientations [x, y, z, w] (n × 4); left out when `fields` does not ask for them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub orientations: Vec<Option<[f64; 4]>>,
     /// Linear velocities (n × 3, with include_velocities).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -34,6 +34,7 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
         include_velocities: o.include_velocities.is_some_and(|b| b.0),
         every: super::trajectory::opt_every(o.every, "observe.every")?,
         measure: o.measure.map(|m| m.0).unwrap_or_default(),
+        fields: super::trajectory::opt_fields(o.fields, "observe.fields")?,
     };
     let mut variants = Vec::with_capacity(n);
     let mut ahead = super::batch::Ahead::new(sandbox);

@@ -39,6 +39,11 @@ pub(crate) fn opt_every(v: Option<Int<u64>>, name: &str) -> Result<Option<u64>, 
     .transpose()
 }
 
+/// An optional `fields` list, checked (`trajectory::parse_fields`).
+pub(crate) fn opt_fields(v: Option<Vec<crate::params::lenient::Text>>, name: &str) -> Result<Option<Vec<String>>, Refusal> {
+    v.map(|names| trajectory::parse_fields(name, &names.into_iter().map(|t| t.0).collect::<Vec<_>>())).transpose()
+}
+
 /// An optional list of object ids.
 fn opt_ids(v: Option<Vec<ObjectId>>) -> Option<Vec<u32>> {
     v.map(|ids| ids.into_iter().map(|i| i.0).collect())
@@ -62,7 +67,7 @@ pub(crate) fn shortening(detail: Option<&crate::params::lenient::Text>, precisio
 
 /// What get_trajectory asks besides the interval: what to sample, output_path (with the form
 /// its extension asks for), shortening, measures (with whether samples are asked too).
-type Asking = (Request, Option<(String, FileForm)>, Shortening, Option<(Vec<Spec>, bool)>);
+type Asking = (Request, Option<(String, FileForm)>, Shortening, Option<(Vec<Spec>, bool)>, Option<Vec<String>>);
 
 /// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path, shortening.
 fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
@@ -79,20 +84,27 @@ fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
     if p.measure.is_some() && path.is_some() {
         return Err("measure cannot be combined with output_path: ask for the measures in a call without output_path".into());
     }
-    let samples = req.every.is_some() || req.object_ids.is_some();
-    Ok((interval, (req, path, shortening, p.measure.map(|m| (m.0, samples)))))
+    let fields = opt_fields(p.fields, "fields")?;
+    if fields.is_some() && path.is_some() {
+        return Err("fields cannot be combined with output_path: the file holds every column".into());
+    }
+    let samples = req.every.is_some() || req.object_ids.is_some() || fields.is_some();
+    Ok((interval, (req, path, shortening, p.measure.map(|m| (m.0, samples)), fields)))
 }
 
 /// get_trajectory's work: the interval sampled, and with an output path its file — written
 /// there (never over an existing file; checked before the re-simulation too) with the reply
 /// a summary; without one, the table inline (compact unless asked otherwise), held to the
 /// reply budget where the read is logged (`look_back`).
-fn sample_and_deliver((req, path, shortening, measures): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
+fn sample_and_deliver((req, path, shortening, measures, fields): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
     if let Some((specs, samples)) = measures {
-        return trajectory::sample_and_measure(lent, &req, specs, samples, shortening);
+        return trajectory::sample_and_measure(lent, &req, specs, samples, (shortening, fields.as_deref()));
     }
     let Some((user, form)) = path else {
         let mut t = trajectory::sample_interval(lent, &req)?;
+        if let Some(f) = &fields {
+            trajectory::select(&mut t, f);
+        }
         if let Some(decimals) = shortening {
             trajectory::compact(&mut t, Some(decimals));
         }
@@ -229,5 +241,7 @@ pub(crate) fn step_sampling(p: &Step) -> Result<Option<Sampling>, Refusal> {
     let compact = shortening(p.detail.as_ref(), p.precision)?;
     let samples = every.is_some() || object_ids.is_some();
     let measure = p.measure.clone().map(|m| m.0).unwrap_or_default();
-    Ok((samples || p.measure.is_some()).then_some(Sampling { every, object_ids, include_velocities: false, compact, samples, measure }))
+    let fields = opt_fields(p.fields.clone(), "fields")?;
+    let samples = samples || fields.is_some();
+    Ok((samples || p.measure.is_some()).then_some(Sampling { every, object_ids, include_velocities: false, compact, samples, measure, fields }))
 }
