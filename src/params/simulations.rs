@@ -36,9 +36,9 @@ pub struct SimRef {
 pub struct Step {
     /// Sim id.
     pub sim_id: Text,
-    /// Default 1, at most --max-steps.
+    /// Default 1.
     pub steps: Option<Int<u64>>,
-    /// Also return poses every N steps.
+    /// Sample poses every N steps.
     pub sample_every: Option<Int<u64>>,
     /// Default all.
     pub sample_objects: Option<Vec<ObjectId>>,
@@ -46,9 +46,9 @@ pub struct Step {
     pub detail: Option<Text>,
     /// Samples' decimals (default 4).
     pub precision: Option<Int<u32>>,
-    /// Per-step answers (docs/tools.md).
+    /// Per-step answers.
     pub measure: Option<super::trajectory::Measures>,
-    /// Sample columns, e.g. ["z"].
+    /// Sample columns.
     pub fields: Option<Vec<Text>>,
 }
 

@@ -16,9 +16,9 @@ pub struct Observe {
     pub include_velocities: Option<Bool>,
     /// Also sample poses every N steps.
     pub every: Option<Int<u64>>,
-    /// Per-step answers (docs/tools.md).
+    /// Per-step answers.
     pub measure: Option<super::trajectory::Measures>,
-    /// Sample columns, e.g. ["z"].
+    /// Sample columns.
     pub fields: Option<Vec<Text>>,
 }
 
@@ -28,13 +28,13 @@ pub struct Observe {
 pub struct Sweep {
     /// Sim id.
     pub sim_id: Text,
-    /// 1-256 lists of calls, one fork each.
+    /// 1-256 call lists, one fork each.
     pub variants: Vec<Vec<CallSpec>>,
     /// Steps after the calls.
     pub steps: Int<u64>,
     /// What to report (default all).
     pub observe: Option<Observe>,
-    /// Keep the forks (default false).
+    /// Keep the forks.
     pub keep: Option<Bool>,
     /// full: unmoved objects too.
     pub detail: Option<Text>,
@@ -46,7 +46,7 @@ pub struct Sweep {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RankBy {
-    /// An observe.measure index,
+    /// observe.measure index,
     pub measure: Option<Int<u32>>,
     /// or object_id
     pub object_id: Option<ObjectId>,

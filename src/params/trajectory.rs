@@ -23,13 +23,13 @@ pub struct GetTrajectory {
     pub include_velocities: Option<Bool>,
     /// New .csv/.jsonl/.mcap
     pub output_path: Option<Text>,
-    /// full: exact, unmoved objects too.
+    /// full: exact.
     pub detail: Option<Text>,
     /// Decimals (default 4).
     pub precision: Option<Int<u32>>,
-    /// Per-step answers (docs/tools.md).
+    /// Per-step answers.
     pub measure: Option<Measures>,
-    /// Columns, e.g. ["z"] (docs/tools.md).
+    /// Sample columns.
     pub fields: Option<Vec<Text>>,
 }
 

@@ -97,7 +97,7 @@ impl PhysicsServer {
 
 #[tool_router(router = sweep_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Fork per variant in parallel, apply its calls, step, summarise.
+    /// Fork per variant in parallel, apply its calls, step, summarise (docs/tools.md).
     #[tool(input_schema = schema_for_type::<params::Sweep>())]
     async fn run_sweep(
         &self,

@@ -225,7 +225,7 @@ impl PhysicsServer {
 
 #[tool_router(router = time_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Poses sampled over a past interval, re-simulated from the log (columnar).
+    /// Samples and measures of a past interval, re-simulated (docs/tools.md).
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
     async fn get_trajectory(&self, args: JsonObject, ct: CancellationToken) -> Result<Json<Trajectory>, String> {
         let sandbox = self.reg.sandbox().clone();
