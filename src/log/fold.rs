@@ -658,6 +658,17 @@ pub type Observer<'a> = &'a mut (dyn FnMut(&World, &Moment) -> bool + Send);
 /// refused over `max_work` before any event is folded; stopped at the next step when `stop`
 /// is cancelled (as by shutdown, with its own sentence).
 pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, FoldError> {
+    resimulate_stepwise(lent, every, false, observer)
+}
+
+/// `resimulate` whose observer also sees the world after every step in between the samples
+/// (`Moment::sample` false there): what measures taken at every step ride on (get_trajectory's
+/// `measure`), while the samples stay those of `every`.
+pub fn resimulate_each(lent: &Lent, every: u64, observer: Observer) -> Result<World, FoldError> {
+    resimulate_stepwise(lent, every, true, observer)
+}
+
+fn resimulate_stepwise(lent: &Lent, every: u64, each: bool, observer: Observer) -> Result<World, FoldError> {
     let every = every.max(1);
     let bounds = current_bounds();
     let (first, _) = lent.chain.first().ok_or(FoldError::Undecodable { seq: lent.interval.to_seq, why: "the chain is empty".into() })?;
@@ -693,8 +704,9 @@ pub fn resimulate(lent: &Lent, every: u64, observer: Observer) -> Result<World, 
                     return;
                 }
                 in_event += 1;
-                if cadence.step() {
-                    let m = Moment { at: At::Step, seq: e.seq, steps: cadence.steps, step_in_event: in_event, sample: true, last: false };
+                let sample = cadence.step();
+                if sample || each {
+                    let m = Moment { at: At::Step, seq: e.seq, steps: cadence.steps, step_in_event: in_event, sample, last: false };
                     stop.store(!observer(w, &m), Relaxed);
                 }
             };

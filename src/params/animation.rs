@@ -21,7 +21,7 @@ pub struct RenderAnimation {
     pub width: Option<Int<u32>>,
     /// Pixels (default 240).
     pub height: Option<Int<u32>>,
-    /// Most frames a second, 1-50 (default 30).
+    /// Max fps, 1-50 (default 30).
     pub fps: Option<Int<u32>>,
     /// Default 1: real time.
     pub speed: Option<Positive>,
@@ -29,7 +29,7 @@ pub struct RenderAnimation {
     pub overlay: Option<Text>,
     /// 16 floats (default: camera).
     pub view_matrix: Option<Matrix>,
-    /// set_camera's terms, unset ones framed (default: set_camera's at to_seq).
+    /// set_camera's terms; unset: framed.
     pub camera: Option<CameraTerms>,
     /// 16 floats (default: fov 60).
     pub projection_matrix: Option<Matrix>,

@@ -12,7 +12,7 @@ use serde_json::Value;
 pub struct CallSpec {
     /// Tool name.
     pub tool: String,
-    /// Its arguments; sim_id may be omitted.
+    /// Its arguments.
     pub arguments: Option<serde_json::Map<String, Value>>,
 }
 

@@ -101,12 +101,12 @@ pub struct CameraImage {
     pub view_matrix: Option<Matrix>,
     /// 16 floats (default: fov 60).
     pub projection_matrix: Option<Matrix>,
-    /// Ignored (PyBullet).
+    /// Ignored.
     pub renderer: Option<serde_json::Value>,
-    /// Per-pixel depth (m); inline up to ~60k px, else output_path.
+    /// Per-pixel depth (m).
     pub include_depth: Option<Bool>,
-    /// Add per-pixel object id (-1: none).
+    /// Per-pixel object id.
     pub include_segmentation: Option<Bool>,
-    /// New .png file (arrays: <stem>.depth.npy, .seg.npy).
+    /// New .png file (+ .npy arrays).
     pub output_path: Option<Text>,
 }

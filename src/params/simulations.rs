@@ -36,16 +36,20 @@ pub struct SimRef {
 pub struct Step {
     /// Sim id.
     pub sim_id: Text,
-    /// Default 1, at most --max-steps.
+    /// Default 1.
     pub steps: Option<Int<u64>>,
-    /// Also return poses every N steps.
+    /// Sample poses every N steps.
     pub sample_every: Option<Int<u64>>,
     /// Default all.
     pub sample_objects: Option<Vec<ObjectId>>,
-    /// Samples: full = exact, unmoved objects too.
+    /// full: exact samples.
     pub detail: Option<Text>,
     /// Samples' decimals (default 4).
     pub precision: Option<Int<u32>>,
+    /// Per-step answers.
+    pub measure: Option<super::trajectory::Measures>,
+    /// Sample columns.
+    pub fields: Option<Vec<Text>>,
 }
 
 /// set_timestep parameters.

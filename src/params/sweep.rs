@@ -16,6 +16,10 @@ pub struct Observe {
     pub include_velocities: Option<Bool>,
     /// Also sample poses every N steps.
     pub every: Option<Int<u64>>,
+    /// Per-step answers.
+    pub measure: Option<super::trajectory::Measures>,
+    /// Sample columns.
+    pub fields: Option<Vec<Text>>,
 }
 
 /// run_sweep parameters.
@@ -24,17 +28,17 @@ pub struct Observe {
 pub struct Sweep {
     /// Sim id.
     pub sim_id: Text,
-    /// 1-256 lists of calls, one fork each.
+    /// 1-256 call lists, one fork each.
     pub variants: Vec<Vec<CallSpec>>,
     /// Steps after the calls.
     pub steps: Int<u64>,
-    /// Default: all objects.
+    /// What to report (default all).
     pub observe: Option<Observe>,
-    /// Keep the forks (default false).
+    /// Keep the forks.
     pub keep: Option<Bool>,
     /// full: unmoved objects too.
     pub detail: Option<Text>,
-    /// Rank variants, highest first.
+    /// Order the variants (docs/tools.md).
     pub rank_by: Option<RankBy>,
 }
 
@@ -42,8 +46,10 @@ pub struct Sweep {
 #[derive(Deserialize, JsonSchema, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RankBy {
-    /// Object id.
-    pub object_id: ObjectId,
-    /// displacement, peak_speed or final_z.
-    pub metric: Text,
+    /// observe.measure index,
+    pub measure: Option<Int<u32>>,
+    /// or object_id
+    pub object_id: Option<ObjectId>,
+    /// and displacement/peak_speed/final_z.
+    pub metric: Option<Text>,
 }

@@ -23,8 +23,38 @@ pub struct GetTrajectory {
     pub include_velocities: Option<Bool>,
     /// New .csv/.jsonl/.mcap
     pub output_path: Option<Text>,
-    /// full: exact, unmoved objects too.
+    /// full: exact.
     pub detail: Option<Text>,
     /// Decimals (default 4).
     pub precision: Option<Int<u32>>,
+    /// Per-step answers.
+    pub measure: Option<Measures>,
+    /// Sample columns.
+    pub fields: Option<Vec<Text>>,
+}
+
+/// `measure` (get_trajectory, step_simulation, run_sweep's observe): a list of measures, read
+/// by `seeing::measure::parse` (each checked, a refusal naming `measure[i]`); its schema is a
+/// plain list of objects, the forms told in docs/tools.md "Measures" (tools/list stays lean).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measures(pub Vec<crate::seeing::measure::Spec>);
+
+impl<'de> serde::Deserialize<'de> for Measures {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let v = serde_json::Value::deserialize(d)?;
+        crate::seeing::measure::parse(FIELD, &v).map(Measures).map_err(D::Error::custom)
+    }
+}
+
+impl JsonSchema for Measures {
+    fn inline_schema() -> bool {
+        true
+    }
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Measures".into()
+    }
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({"type": "array", "items": {"type": "object"}})
+    }
 }

@@ -5,6 +5,7 @@ pub mod animation;
 pub mod fit;
 pub mod foxglove;
 pub mod framing;
+pub mod measure;
 pub mod overlay;
 pub mod report;
 pub mod sensing;

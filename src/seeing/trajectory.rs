@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use crate::log::fold::{self, FoldError, Interval, Lent, Moment};
+use crate::seeing::measure::{Meter, Spec};
 use crate::outputs::{ObjectTrack, Trajectory};
 use crate::value::Refusal;
 use crate::world::World;
@@ -100,6 +101,7 @@ impl Sampler {
                 objects: vec![],
                 output_path: None,
                 unmoved: vec![],
+                measures: None,
             },
             tracks: BTreeMap::new(),
             cells: 0,
@@ -124,6 +126,9 @@ impl Sampler {
             let t = self.tracks.entry(id).or_insert_with(|| ObjectTrack {
                 object_id: id,
                 positions: pad(i),
+                x: None,
+                y: None,
+                z: None,
                 orientations: pad(i),
                 linear_velocities: velocities.then(|| pad(i)),
                 angular_velocities: velocities.then(|| pad(i)),
@@ -210,6 +215,34 @@ pub fn sample_interval_with(lent: &Lent, req: &Request, also: fold::Observer) ->
     let mut sampler = Sampler::new(lent.interval, every, req);
     fold::resimulate(lent, every, &mut |w, m| sampler.observe(w, m) && also(w, m)).map_err(resim_error)?;
     sampler.finish("every")
+}
+
+/// get_trajectory with `measure`: the measures taken at every step of the same
+/// re-simulation that samples (`fold::resimulate_each`), rounded to `decimals` unless exact;
+/// with `samples` false (neither `every` nor `object_ids` asked) the trajectory holds the
+/// measures and no samples.
+pub fn sample_and_measure(lent: &Lent, req: &Request, specs: Vec<Spec>, samples: bool, (decimals, fields): (Option<u32>, Option<&[String]>)) -> Result<Trajectory, Refusal> {
+    let every = req.every.unwrap_or_else(|| default_every(lent.interval_steps()));
+    if let (true, Some(ids)) = (samples, &req.object_ids) {
+        check_cells(max_samples(lent.interval_steps(), every), ids.len() as u64, "every")?;
+    }
+    let mut sampler = Sampler::new(lent.interval, every, req);
+    let mut meter = Meter::new(specs);
+    fold::resimulate_each(lent, every, &mut |w, m| {
+        meter.see(w);
+        !samples || sampler.observe(w, m)
+    })
+    .map_err(resim_error)?;
+    meter.unseen("measure")?;
+    let mut t = sampler.finish("every")?;
+    if let Some(f) = fields {
+        select(&mut t, f);
+    }
+    if let Some(d) = decimals {
+        compact(&mut t, Some(d));
+    }
+    t.measures = Some(meter.finish(decimals));
+    Ok(t)
 }
 
 /// A re-simulation that failed: the log does not fold to what it recorded.
@@ -359,6 +392,9 @@ pub fn compact(t: &mut Trajectory, precision: Option<u32>) {
         for o in &mut t.objects {
             o.positions.iter_mut().flatten().flatten().for_each(r);
             o.orientations.iter_mut().flatten().flatten().for_each(r);
+            for v in [&mut o.x, &mut o.y, &mut o.z].into_iter().flatten() {
+                v.iter_mut().flatten().for_each(r);
+            }
             for v in [&mut o.linear_velocities, &mut o.angular_velocities].into_iter().flatten() {
                 v.iter_mut().flatten().flatten().for_each(r);
             }
@@ -370,6 +406,7 @@ pub fn compact(t: &mut Trajectory, precision: Option<u32>) {
     let still = |o: &ObjectTrack| {
         same(&o.positions)
             && same(&o.orientations)
+            && [&o.x, &o.y, &o.z].into_iter().all(|c| c.as_deref().is_none_or(same))
             && o.linear_velocities.as_deref().is_none_or(same)
             && o.angular_velocities.as_deref().is_none_or(same)
             && o.joint_positions.as_deref().is_none_or(same)
@@ -378,6 +415,52 @@ pub fn compact(t: &mut Trajectory, precision: Option<u32>) {
     let (unmoved, moved): (Vec<ObjectTrack>, Vec<ObjectTrack>) = std::mem::take(&mut t.objects).into_iter().partition(|o| t.samples > 1 && still(o));
     t.unmoved = unmoved.iter().map(|o| o.object_id).collect();
     t.objects = moved;
+}
+
+/// The columns `fields` may name (docs/tools.md "Trajectories").
+pub const FIELDS: &[&str] = &["positions", "x", "y", "z", "orientations", "linear_velocities", "angular_velocities", "joint_positions", "joint_velocities"];
+
+/// Reads `fields` (named `param`): the columns to keep, each one of `FIELDS`.
+pub fn parse_fields(param: &str, names: &[String]) -> Result<Vec<String>, Refusal> {
+    if names.is_empty() {
+        return Err(format!("{param} must name at least one of {}", FIELDS.join(", ")));
+    }
+    for n in names {
+        if !FIELDS.contains(&n.as_str()) {
+            return Err(format!("{param}: unknown field {n:?}; the fields are {}", FIELDS.join(", ")));
+        }
+    }
+    Ok(names.to_vec())
+}
+
+/// Keeps only the columns `fields` names in every track (before `compact`, so `unmoved` is
+/// judged on what is shown): "x", "y", "z" become columns of their own in place of
+/// `positions`, so "only the heights" costs one number a sample.
+pub fn select(t: &mut Trajectory, fields: &[String]) {
+    let has = |f: &str| fields.iter().any(|n| n == f);
+    for o in &mut t.objects {
+        for (k, col) in [(0, &mut o.x), (1, &mut o.y), (2, &mut o.z)] {
+            if has(["x", "y", "z"][k]) {
+                *col = Some(o.positions.iter().map(|p| p.map(|p| p[k])).collect());
+            }
+        }
+        if !has("positions") {
+            o.positions.clear();
+        }
+        if !has("orientations") {
+            o.orientations.clear();
+        }
+        for (name, col) in [("linear_velocities", &mut o.linear_velocities), ("angular_velocities", &mut o.angular_velocities)] {
+            if !has(name) {
+                *col = None;
+            }
+        }
+        for (name, col) in [("joint_positions", &mut o.joint_positions), ("joint_velocities", &mut o.joint_velocities)] {
+            if !has(name) {
+                *col = None;
+            }
+        }
+    }
 }
 
 /// The summary a reply carries when the table went to a file.

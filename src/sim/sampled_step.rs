@@ -8,6 +8,7 @@ use crate::command::Command;
 use crate::limits::Limits;
 use crate::log::fold;
 use crate::outputs::Stepped;
+use crate::seeing::measure::{self, Meter, Spec};
 use crate::seeing::trajectory::{self, Request};
 use crate::sim::Sim;
 use crate::value::{Args, Refusal};
@@ -25,6 +26,12 @@ pub struct Sampling {
     /// The samples as a model reads them by default (`trajectory::compact` at these decimals),
     /// None for the exact form (`detail: "full"`).
     pub compact: Option<u32>,
+    /// Whether samples are asked for (false: only `measure`).
+    pub samples: bool,
+    /// Measures taken after every step (`seeing::measure`), in the reply only like the samples.
+    pub measure: Vec<Spec>,
+    /// The sample columns to keep (`trajectory::select`), None for all.
+    pub fields: Option<Vec<String>>,
 }
 
 impl Sim {
@@ -53,24 +60,39 @@ impl Sim {
         let (from, seq) = (self.log().head_seq(), self.log().next_seq());
         let req = Request { every: Some(every), object_ids: sampling.object_ids.clone(), include_velocities: sampling.include_velocities };
         let mut sampler = trajectory::Sampler::new(fold::Interval { from_seq: from, to_seq: seq }, every, &req);
-        sampler.sample(self.world(), from);
+        let mut meter = Meter::new(sampling.measure.clone());
+        if sampling.samples {
+            sampler.sample(self.world(), from);
+        }
+        meter.see(self.world());
         let mut cadence = fold::Cadence::new(every);
         let mut observe = |w: &World| {
             watch(w);
-            if cadence.step() {
+            if !meter.is_empty() {
+                meter.see(w);
+            }
+            if cadence.step() && sampling.samples {
                 sampler.sample(w, seq);
             }
         };
         let outcome = self.change_observed("step_simulation", args, Ok(Command::StepSimulation { steps }), limits, control, &mut observe)?;
         let mut result = Stepped::try_from(outcome).map_err(|_| "Internal error: step_simulation gave a result of an unexpected kind".to_string())?;
-        if cadence.end() {
+        if cadence.end() && sampling.samples {
             sampler.sample(self.world(), seq);
         }
         // The samples' seq is the event's, appended right after `head_seq`.
         debug_assert_eq!(self.log().head_seq(), seq);
-        result.trajectory = sampler.finish("sample_every").ok();
+        if sampling.samples {
+            result.trajectory = sampler.finish("sample_every").ok();
+        }
+        if let (Some(t), Some(f)) = (result.trajectory.as_mut(), &sampling.fields) {
+            trajectory::select(t, f);
+        }
         if let (Some(t), Some(decimals)) = (result.trajectory.as_mut(), sampling.compact) {
             trajectory::compact(t, Some(decimals));
+        }
+        if !meter.is_empty() {
+            result.measures = Some(meter.finish(sampling.compact));
         }
         Ok(result)
     }
@@ -79,6 +101,10 @@ impl Sim {
     /// exist, too many samples, or samples whose documented size could not fit the reply.
     fn check_sampling(&self, steps: u64, sampling: &Sampling, limits: &Limits) -> Result<u64, Refusal> {
         let w = self.world();
+        measure::check_objects("measure", &sampling.measure, |id| w.has_object(id))?;
+        if !sampling.samples {
+            return Ok(steps.max(1));
+        }
         let listed: Vec<u32> = sampling.object_ids.clone().unwrap_or_else(|| w.objects().map(|(id, _)| id).collect());
         if let Some(id) = listed.iter().find(|id| !w.has_object(**id)) {
             return Err(format!("sample_objects: object {id} does not exist in simulation {}", w.simulation_id()));

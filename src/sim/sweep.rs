@@ -38,6 +38,12 @@ pub struct Observe {
     pub include_velocities: bool,
     /// Sample poses every this many steps while stepping.
     pub every: Option<u64>,
+    /// Measures taken after every step (`seeing::measure`).
+    #[serde(default)]
+    pub measure: Vec<crate::seeing::measure::Spec>,
+    /// The sample columns to keep (`trajectory::select`), None for all.
+    #[serde(default)]
+    pub fields: Option<Vec<String>>,
 }
 
 /// A sweep asked for: its variants' calls (decided), the steps, what to observe, whether to
@@ -57,8 +63,50 @@ pub struct Request {
     pub keep: bool,
     /// `detail: "full"`: unmoved objects reported too, samples not compacted.
     pub full: bool,
-    /// Rank the variants by this object's metric.
-    pub rank_by: Option<(u32, Metric)>,
+    /// How to rank the variants.
+    pub rank_by: Option<Rank>,
+}
+
+/// What a sweep ranks its variants by.
+#[derive(Clone, Copy, Debug)]
+pub enum Rank {
+    /// This object's metric, highest first.
+    Metric(u32, Metric),
+    /// The answer to `observe.measure[i]`: values highest first, moments (first,
+    /// first_contact) earliest first, never last.
+    Measure(usize),
+}
+
+/// How a sweep is decided once its variants ran: (keep, detail full, rank_by, each variant's
+/// varied arguments).
+pub(super) type How = (bool, bool, Option<Rank>, Vec<serde_json::Map<String, serde_json::Value>>);
+
+/// The arguments each variant sets differently from some other variant (`SweptVariant::varied`),
+/// from the calls as the client sent them, named "tool.argument" ("tool[k].argument" when a
+/// variant calls a tool twice); empty when the calls are not known (an in-process caller).
+fn varied(sent: &[serde_json::Value]) -> Vec<serde_json::Map<String, serde_json::Value>> {
+    use std::collections::{BTreeMap, BTreeSet};
+    let flat: Vec<BTreeMap<String, serde_json::Value>> = sent
+        .iter()
+        .map(|calls| {
+            let calls = calls.as_array().map(Vec::as_slice).unwrap_or_default();
+            let tools: Vec<&str> = calls.iter().map(|c| c.get("tool").and_then(serde_json::Value::as_str).unwrap_or("")).collect();
+            let mut m = BTreeMap::new();
+            for (k, c) in calls.iter().enumerate() {
+                let tool = tools[k];
+                let name = if tools.iter().filter(|t| **t == tool).count() > 1 { format!("{tool}[{k}]") } else { tool.to_string() };
+                for (a, v) in c.get("arguments").and_then(serde_json::Value::as_object).into_iter().flatten() {
+                    if a != "sim_id" {
+                        m.insert(format!("{name}.{a}"), v.clone());
+                    }
+                }
+            }
+            m
+        })
+        .collect();
+    let keys: BTreeSet<&String> = flat.iter().flat_map(BTreeMap::keys).collect();
+    let differing: Vec<&String> = keys.into_iter().filter(|k| flat.iter().any(|m| m.get(*k) != flat[0].get(*k))).collect();
+    flat.iter().map(|m| differing.iter().filter_map(|k| m.get(*k).map(|v| ((*k).clone(), v.clone()))).collect()).collect()
 }
 
 /// What rank_by compares (highest first).
@@ -168,7 +216,7 @@ impl Registry {
         };
         // The swept simulation is free for other calls while the variants run.
         drop(turn);
-        let how = (keep, full, rank_by);
+        let how = (keep, full, rank_by, varied(&sent));
         if let Some(nodes) = self.sweepers().filter(|_| sent.len() == variants.len()) {
             let controls = (0..sent.len()).map(|_| controls()).collect();
             let sweep = uuid::Uuid::new_v4().to_string();
@@ -226,7 +274,7 @@ impl Registry {
         parent: &crate::sim::SharedSim,
         args: &Args,
         done: Vec<Ran<F>>,
-        how: (bool, bool, Option<(u32, Metric)>),
+        how: How,
         (budget, slots): (usize, Vec<crate::sim::Slot<'_>>),
     ) -> Result<Swept, Refusal> {
         let keep = how.0;
@@ -359,13 +407,13 @@ pub(super) fn run_variant(r: Running, parent: &str, steps: u64, observe: &Observ
     // The fork is a throwaway the client never saw: a refusal names the parent instead.
     let out = worked
         .map_err(|why| format!("variants[{index}]: {}", why.replace(&fork, parent)))
-        .map(|(state_hash, objects, trajectory, unmoved)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory, unmoved });
+        .map(|(state_hash, objects, trajectory, unmoved, measures)| SweptVariant { index, simulation_id: None, state_hash, objects, trajectory, unmoved, measures, varied: None });
     (Some(sim), out)
 }
 
 /// What a variant reports: (state hash, objects, trajectory, the objects that did not move at
-/// all: no speed, no spin, the same pose and joint positions at the end).
-type Report = (String, Vec<SweptObject>, Option<crate::outputs::Trajectory>, Vec<u32>);
+/// all: no speed, no spin, the same pose and joint positions at the end, measures — exact).
+type Report = (String, Vec<SweptObject>, Option<crate::outputs::Trajectory>, Vec<u32>, Option<Vec<crate::outputs::Measured>>);
 
 fn variant_work(
     sim: &mut Sim,
@@ -389,12 +437,18 @@ fn variant_work(
     let start_poses: Vec<Option<Vec<f64>>> = ids.iter().map(|id| pose_key(sim.world(), *id)).collect();
     let mut peak = vec![0f64; ids.len()];
     let mut spun = vec![false; ids.len()];
+    crate::seeing::measure::check_objects("observe.measure", &observe.measure, |id| sim.world().has_object(id))?;
+    let mut meter = crate::seeing::measure::Meter::new(observe.measure.clone());
+    meter.see(sim.world());
     // After every step: the peak speed as get_object_state reports velocities (each component
     // rounded to its shortest decimal), computed only when the engine's speed could beat the
     // peak — the rounding moves a component by under one part in 10^7 — so the result is the
     // same as rounding every time, without formatting every velocity of every object each step
     // (that was most of a sweep's time). A component is non-zero exactly when its rounding is.
     let mut watch = |w: &crate::world::World| {
+        if !meter.is_empty() {
+            meter.see(w);
+        }
         for ((p, turning), id) in peak.iter_mut().zip(spun.iter_mut()).zip(&ids) {
             let Some((linear, angular)) = w.raw_velocities(*id) else { continue };
             *turning |= angular.iter().any(|v| *v != 0.0);
@@ -421,6 +475,9 @@ fn variant_work(
                     include_velocities: observe.include_velocities,
                     // Compacted once the sweep is done (`finish`), with the rest of the answer.
                     compact: None,
+                    samples: true,
+                    measure: Vec::new(),
+                    fields: observe.fields.clone(),
                 };
                 let s = sim.step_sampled_watched(&a, steps, &sampling, limits, &mut *control, &mut watch)?;
                 trajectory = s.trajectory.clone();
@@ -456,7 +513,8 @@ fn variant_work(
             peak_speed,
         });
     }
-    Ok((sim.state_hash().to_string(), objects, trajectory, still))
+    let measures = (!meter.is_empty()).then(|| meter.finish(None));
+    Ok((sim.state_hash().to_string(), objects, trajectory, still, measures))
 }
 
 /// An object's pose as numbers — base position and orientation, and a robot's joint positions
@@ -474,7 +532,7 @@ fn pose_key(w: &crate::world::World, id: u32) -> Option<Vec<f64>> {
 #[allow(clippy::type_complexity)]
 fn finish<F: VariantFork>(
     done: Vec<Ran<F>>,
-    (keep, full, rank_by): (bool, bool, Option<(u32, Metric)>),
+    (keep, full, rank_by, varied): How,
     budget: usize,
 ) -> Result<(Swept, Vec<F>), (Refusal, Vec<F>)> {
     let mut sims = Vec::with_capacity(done.len());
@@ -498,9 +556,22 @@ fn finish<F: VariantFork>(
             v.simulation_id = Some(sim.fork_id());
         }
     }
+    for (v, echo) in variants.iter_mut().zip(varied) {
+        v.varied = (!echo.is_empty()).then_some(echo);
+    }
     let ranking = match rank_by {
         None => None,
-        Some((id, metric)) => {
+        Some(Rank::Measure(i)) => {
+            let key = |v: &SweptVariant| v.measures.as_ref().and_then(|m| m.get(i)).and_then(crate::seeing::measure::rank_key);
+            let mut scored: Vec<(Option<f64>, usize)> = variants.iter().map(|v| (key(v), v.index)).collect();
+            // Highest first, never last; ties keep the variants' order.
+            scored.sort_by(|a, b| match (a.0, b.0) {
+                (Some(x), Some(y)) => y.total_cmp(&x),
+                (x, y) => y.is_some().cmp(&x.is_some()),
+            }.then(a.1.cmp(&b.1)));
+            Some(scored.into_iter().map(|(_, i)| i).collect())
+        }
+        Some(Rank::Metric(id, metric)) => {
             let mut scored = Vec::with_capacity(variants.len());
             for v in &variants {
                 match v.objects.iter().find(|o| o.object_id == id) {
@@ -523,6 +594,9 @@ fn finish<F: VariantFork>(
             v.unmoved = still;
             if let Some(t) = &mut v.trajectory {
                 crate::seeing::trajectory::compact(t, Some(crate::seeing::trajectory::DEFAULT_DECIMALS));
+            }
+            for m in v.measures.iter_mut().flatten() {
+                crate::seeing::measure::round(m, crate::seeing::trajectory::DEFAULT_DECIMALS);
             }
         }
     }

@@ -13,6 +13,7 @@ mod geometry_reads;
 mod ik;
 mod joint_trajectory;
 mod link_state;
+mod measures;
 mod mjcf;
 mod mjcf_actuators;
 mod mjcf_sensors;

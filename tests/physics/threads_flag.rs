@@ -89,7 +89,7 @@ fn every_world_the_server_makes_steps_on_the_threads_pool() {
             variants: vec![vec![], vec![]],
             sent: vec![json!([]), json!([])],
             steps: 5,
-            observe: Observe { object_ids: None, include_velocities: false, every: None },
+            observe: Observe { object_ids: None, include_velocities: false, every: None, measure: Vec::new(), fields: None },
             keep: true,
             full: true,
             rank_by: None,

@@ -107,6 +107,11 @@ pub struct Stepped {
     /// recorded result or its hash, so the step event is exactly a plain step's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<Trajectory>,
+    /// Answers to `measure`, computed at every step of this call. Output only, like
+    /// `trajectory`: the arguments are logged, and get_trajectory with the same `measure` over
+    /// this event re-simulates the same values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measures: Option<Vec<Measured>>,
     /// Where the call landed (event version 3 on): the head after it and the time.
     #[serde(flatten)]
     pub landed: Option<Landed>,
@@ -144,6 +149,30 @@ pub struct Trajectory {
     /// rest or static throughout); `detail: "full"` lists them too.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub unmoved: Vec<u32>,
+    /// Answers to `measure`, computed at every step of the interval (not only at samples).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measures: Option<Vec<Measured>>,
+}
+
+/// One answer to a `measure` (docs/tools.md "Measures"): what was asked, echoed, and its
+/// value and time, so an agent reads "how high, when" instead of scanning samples.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct Measured {
+    /// The object measured (object measures).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object_id: Option<u32>,
+    /// The pair measured (first_contact).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pair: Option<[u32; 2]>,
+    /// What was measured: peak_height, lowest_height, first, travel, final_tilt, first_contact.
+    pub what: String,
+    /// The condition of `first`, as asked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub when: Option<std::collections::BTreeMap<String, f64>>,
+    /// The value (m, m/s, degrees); null when the condition never held.
+    pub value: Option<f64>,
+    /// Simulated time of the value (s); null when it never held or is not a moment (travel).
+    pub time: Option<f64>,
 }
 
 /// One object's samples; null where the object does not exist at a sample.
@@ -151,9 +180,20 @@ pub struct Trajectory {
 pub struct ObjectTrack {
     /// The object.
     pub object_id: u32,
-    /// Base positions (n × 3).
+    /// Base positions (n × 3); left out when `fields` asks for other columns.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub positions: Vec<Option<[f64; 3]>>,
-    /// Base orientations [x, y, z, w] (n × 4).
+    /// Base x (n; with `fields` holding "x").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<Vec<Option<f64>>>,
+    /// Base y (n; with `fields` holding "y").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<Vec<Option<f64>>>,
+    /// Base z (n; with `fields` holding "z").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z: Option<Vec<Option<f64>>>,
+    /// Base orientations [x, y, z, w] (n × 4); left out when `fields` does not ask for them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub orientations: Vec<Option<[f64; 4]>>,
     /// Linear velocities (n × 3, with include_velocities).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -340,6 +380,13 @@ pub struct SweptVariant {
     /// them too.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub unmoved: Vec<u32>,
+    /// Answers to observe.measure, computed at every step of the variant.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measures: Option<Vec<Measured>>,
+    /// The call arguments this variant sets differently from some other variant, as
+    /// "tool.argument" (or "tool[k].argument" when a tool is called twice) → its value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub varied: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
 /// An object's final state in a sweep's variant.

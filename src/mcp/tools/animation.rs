@@ -200,7 +200,7 @@ fn reply(summary: &AnimationSummary, gif: Option<&[u8]>, workspace: &std::path::
 
 #[tool_router(router = animation_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// GIF of a past interval (default: the last step), re-simulated from the log.
+    /// GIF of a past interval, re-simulated from the log.
     #[tool(
         input_schema = schema_for_type::<params::RenderAnimation>(),
         output_schema = schema_for_output::<AnimationSummary>(),

@@ -68,7 +68,7 @@ fn decide_call(reader: &mut Reader, tool: &str, a: &Args) -> Option<Planned> {
         "remove_object" => change(tool, a, objects::decide_remove),
         "step_simulation" => change(tool, a, |p: params::Step| {
             if super::trajectory::step_sampling(&p)?.is_some() {
-                return Err("sample_every and sample_objects are not available inside a batch or sweep".into());
+                return Err("sample_every, sample_objects and measure are not available inside a batch or sweep (run_sweep has observe.measure)".into());
             }
             simulations::decide_step(&p)
         }),

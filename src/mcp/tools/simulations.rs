@@ -89,7 +89,7 @@ impl PhysicsServer {
         self.simulations_changed(out)
     }
 
-    /// Advance by steps timesteps; long runs can be cancelled.
+    /// Advance by steps timesteps; measures, samples: docs/tools.md.
     #[tool(input_schema = schema_for_type::<params::Step>())]
     async fn step_simulation(
         &self,

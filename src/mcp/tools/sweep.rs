@@ -15,7 +15,7 @@ use crate::mcp::PhysicsServer;
 use crate::sim::apply::{call_refused, Call};
 use crate::outputs::Swept;
 use crate::sim::lock_sim;
-use crate::sim::sweep::{Control, Metric, Observe, Request, MAX_VARIANTS};
+use crate::sim::sweep::{Control, Metric, Observe, Rank, Request, MAX_VARIANTS};
 use crate::value::{self, Args, Refusal};
 use serde_json::Value;
 
@@ -33,6 +33,8 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
         object_ids: o.object_ids.map(|ids| ids.into_iter().map(|i| i.0).collect()),
         include_velocities: o.include_velocities.is_some_and(|b| b.0),
         every: super::trajectory::opt_every(o.every, "observe.every")?,
+        measure: o.measure.map(|m| m.0).unwrap_or_default(),
+        fields: super::trajectory::opt_fields(o.fields, "observe.fields")?,
     };
     let mut variants = Vec::with_capacity(n);
     let mut ahead = super::batch::Ahead::new(sandbox);
@@ -44,18 +46,32 @@ fn sweep_request(sandbox: &crate::files::Sandbox, a: &Args) -> Result<Request, R
     let sent = a.get("variants").and_then(Value::as_array).cloned().unwrap_or_default();
     let rank_by = match p.rank_by {
         None => None,
-        Some(r) => Some((
-            r.object_id.0,
-            match r.metric.0.as_str() {
-                "displacement" => Metric::Displacement,
-                "peak_speed" => Metric::PeakSpeed,
-                "final_z" => Metric::FinalZ,
-                other => return Err(format!("rank_by.metric must be displacement, peak_speed or final_z; got {other:?}")),
-            },
-        )),
+        Some(r) => Some(rank_by(r, observe.measure.len())?),
     };
     let full = crate::params::lenient::full_detail(p.detail.as_ref())?;
     Ok(Request { variants, sent, steps, observe, keep: p.keep.is_some_and(|b| b.0), full, rank_by })
+}
+
+/// What rank_by asks: one of observe.measure (by index), or an object's metric.
+fn rank_by(r: crate::params::RankBy, measures: usize) -> Result<Rank, Refusal> {
+    if let Some(i) = r.measure {
+        let i = usize::try_from(i.get()).ok().filter(|i| *i < measures);
+        return match (i, r.object_id, r.metric) {
+            (Some(i), None, None) => Ok(Rank::Measure(i)),
+            (None, ..) => Err(format!("rank_by.measure must be an index into observe.measure (0 to {}); observe.measure holds {measures}", measures.max(1) - 1)),
+            _ => Err("rank_by takes either measure or object_id with metric, not both".into()),
+        };
+    }
+    let (Some(id), Some(metric)) = (r.object_id, r.metric) else {
+        return Err("rank_by needs measure (an index into observe.measure) or object_id with metric".into());
+    };
+    let metric = match metric.0.as_str() {
+        "displacement" => Metric::Displacement,
+        "peak_speed" => Metric::PeakSpeed,
+        "final_z" => Metric::FinalZ,
+        other => return Err(format!("rank_by.metric must be displacement, peak_speed or final_z; got {other:?}")),
+    };
+    Ok(Rank::Metric(id.0, metric))
 }
 
 /// One variant's calls decided (a refusal names the call).
@@ -81,7 +97,7 @@ impl PhysicsServer {
 
 #[tool_router(router = sweep_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Per variant, in parallel: fork at the head, apply its calls, step, summarise.
+    /// Fork per variant in parallel, apply its calls, step, summarise (docs/tools.md).
     #[tool(input_schema = schema_for_type::<params::Sweep>())]
     async fn run_sweep(
         &self,

@@ -16,6 +16,7 @@ use crate::log::fold::{self, Lent};
 use crate::outputs::Trajectory;
 use crate::sim::lock_sim;
 use crate::seeing::foxglove;
+use crate::seeing::measure::Spec;
 use crate::seeing::trajectory::{self, FileForm, Request};
 use crate::sim::sampled_step::Sampling;
 use crate::value::{self, Args, Refusal};
@@ -36,6 +37,11 @@ pub(crate) fn opt_every(v: Option<Int<u64>>, name: &str) -> Result<Option<u64>, 
         u64::try_from(n.get()).ok().filter(|n| *n >= 1).ok_or_else(|| format!("{name} must be an integer >= 1; got {}", n.get()))
     })
     .transpose()
+}
+
+/// An optional `fields` list, checked (`trajectory::parse_fields`).
+pub(crate) fn opt_fields(v: Option<Vec<crate::params::lenient::Text>>, name: &str) -> Result<Option<Vec<String>>, Refusal> {
+    v.map(|names| trajectory::parse_fields(name, &names.into_iter().map(|t| t.0).collect::<Vec<_>>())).transpose()
 }
 
 /// An optional list of object ids.
@@ -60,8 +66,8 @@ pub(crate) fn shortening(detail: Option<&crate::params::lenient::Text>, precisio
 }
 
 /// What get_trajectory asks besides the interval: what to sample, output_path (with the form
-/// its extension asks for), shortening.
-type Asking = (Request, Option<(String, FileForm)>, Shortening);
+/// its extension asks for), shortening, measures (with whether samples are asked too).
+type Asking = (Request, Option<(String, FileForm)>, Shortening, Option<(Vec<Spec>, bool)>, Option<Vec<String>>);
 
 /// get_trajectory's arguments: (from_seq, to_seq), what to sample, output_path, shortening.
 fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
@@ -75,16 +81,30 @@ fn trajectory_args(a: &Args) -> Result<(Asked, Asking), Refusal> {
     };
     let path = p.output_path.map(|t| t.0);
     let path = path.map(|p| trajectory::file_form(&p, "output_path", &[FileForm::Csv, FileForm::Jsonl, FileForm::Mcap]).map(|f| (p, f))).transpose()?;
-    Ok((interval, (req, path, shortening)))
+    if p.measure.is_some() && path.is_some() {
+        return Err("measure cannot be combined with output_path: ask for the measures in a call without output_path".into());
+    }
+    let fields = opt_fields(p.fields, "fields")?;
+    if fields.is_some() && path.is_some() {
+        return Err("fields cannot be combined with output_path: the file holds every column".into());
+    }
+    let samples = req.every.is_some() || req.object_ids.is_some() || fields.is_some();
+    Ok((interval, (req, path, shortening, p.measure.map(|m| (m.0, samples)), fields)))
 }
 
 /// get_trajectory's work: the interval sampled, and with an output path its file — written
 /// there (never over an existing file; checked before the re-simulation too) with the reply
 /// a summary; without one, the table inline (compact unless asked otherwise), held to the
 /// reply budget where the read is logged (`look_back`).
-fn sample_and_deliver((req, path, shortening): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
+fn sample_and_deliver((req, path, shortening, measures, fields): Asking, lent: &Lent, sandbox: &Sandbox) -> Result<Trajectory, Refusal> {
+    if let Some((specs, samples)) = measures {
+        return trajectory::sample_and_measure(lent, &req, specs, samples, (shortening, fields.as_deref()));
+    }
     let Some((user, form)) = path else {
         let mut t = trajectory::sample_interval(lent, &req)?;
+        if let Some(f) = &fields {
+            trajectory::select(&mut t, f);
+        }
         if let Some(decimals) = shortening {
             trajectory::compact(&mut t, Some(decimals));
         }
@@ -205,7 +225,7 @@ impl PhysicsServer {
 
 #[tool_router(router = time_router, vis = "pub(crate)")]
 impl PhysicsServer {
-    /// Poses sampled over a past interval, re-simulated from the log (columnar).
+    /// Samples and measures of a past interval, re-simulated (docs/tools.md).
     #[tool(input_schema = schema_for_type::<params::GetTrajectory>(), annotations(read_only_hint = true))]
     async fn get_trajectory(&self, args: JsonObject, ct: CancellationToken) -> Result<Json<Trajectory>, String> {
         let sandbox = self.reg.sandbox().clone();
@@ -219,5 +239,9 @@ pub(crate) fn step_sampling(p: &Step) -> Result<Option<Sampling>, Refusal> {
     let every = opt_every(p.sample_every, "sample_every")?;
     let object_ids = opt_ids(p.sample_objects.clone());
     let compact = shortening(p.detail.as_ref(), p.precision)?;
-    Ok((every.is_some() || object_ids.is_some()).then_some(Sampling { every, object_ids, include_velocities: false, compact }))
+    let samples = every.is_some() || object_ids.is_some();
+    let measure = p.measure.clone().map(|m| m.0).unwrap_or_default();
+    let fields = opt_fields(p.fields.clone(), "fields")?;
+    let samples = samples || fields.is_some();
+    Ok((samples || p.measure.is_some()).then_some(Sampling { every, object_ids, include_velocities: false, compact, samples, measure, fields }))
 }

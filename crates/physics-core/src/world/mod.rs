@@ -619,6 +619,7 @@ impl World {
                     steps_taken: taken,
                     current_time: self.current_time(),
                     trajectory: None,
+                    measures: None,
                 })
             }
             Command::SetTimestep { timestep, timestep_given } => {

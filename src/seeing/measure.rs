@@ -1,0 +1,342 @@
+//! Measures (docs/tools.md "Measures"): answers computed over an interval at every step — how
+//! high, how low, when a condition first held, how far, how tilted at the end, when two objects
+//! first touched — so an agent reads one number instead of scanning samples. One `Meter`
+//! serves all three tools that ask: step_simulation and run_sweep feed it the world after every
+//! step as they step, get_trajectory from the one re-simulation (`fold::resimulate_each`).
+//! Every quantity is read as the read tools report it (get_object_state's position and
+//! velocity, get_collisions_for_pair's contacts), so an answer can be checked with them.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::outputs::Measured;
+use crate::value::Refusal;
+use crate::world::World;
+
+/// The most measures one call may ask for.
+pub const MAX_MEASURES: usize = 64;
+
+/// One measure asked for.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Spec {
+    /// The object of an object measure.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object_id: Option<u32>,
+    /// The two objects of first_contact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pair: Option<[u32; 2]>,
+    /// What to measure.
+    pub what: What,
+    /// The condition of `first` (exactly one of its fields).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub when: Option<When>,
+}
+
+/// The kinds of measure.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum What {
+    /// Highest base height (z) and when it was first reached.
+    PeakHeight,
+    /// Lowest base height and when it was first reached.
+    LowestHeight,
+    /// The first moment `when` holds, and the quantity then.
+    First,
+    /// Path length of the base position, summed over every step.
+    Travel,
+    /// Tilt at the end: the angle between the object's z axis and the world's, in degrees.
+    FinalTilt,
+    /// The first moment the pair touches (a contact point at or inside zero distance, or
+    /// pushing).
+    FirstContact,
+}
+
+impl What {
+    /// The name the schema uses.
+    fn name(self) -> &'static str {
+        match self {
+            What::PeakHeight => "peak_height",
+            What::LowestHeight => "lowest_height",
+            What::First => "first",
+            What::Travel => "travel",
+            What::FinalTilt => "final_tilt",
+            What::FirstContact => "first_contact",
+        }
+    }
+
+    /// Whether its answer is a moment (compared earliest first when ranking) rather than a value.
+    pub fn is_moment(self) -> bool {
+        matches!(self, What::First | What::FirstContact)
+    }
+}
+
+/// A condition on one object (`first`).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct When {
+    /// Base height below this (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_below: Option<f64>,
+    /// Base height above this (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_above: Option<f64>,
+    /// Tilt above this many degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tilt_above: Option<f64>,
+    /// Speed of the base below this (m/s): settled.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_below: Option<f64>,
+}
+
+impl When {
+    /// The one condition given: (name, threshold).
+    fn only(&self) -> Vec<(&'static str, f64)> {
+        [("height_below", self.height_below), ("height_above", self.height_above), ("tilt_above", self.tilt_above), ("speed_below", self.speed_below)]
+            .into_iter()
+            .filter_map(|(n, v)| v.map(|v| (n, v)))
+            .collect()
+    }
+}
+
+/// Reads `measure`'s JSON: a list of specs, each checked for sense (not for the objects'
+/// existence, which depends on when): a one-sentence refusal naming `param[i]`.
+pub fn parse(param: &str, v: &serde_json::Value) -> Result<Vec<Spec>, Refusal> {
+    let list = v.as_array().ok_or_else(|| format!("{param} must be a list of measures like {{\"object_id\": 1, \"what\": \"peak_height\"}}; see docs/tools.md Measures"))?;
+    if list.len() > MAX_MEASURES {
+        return Err(format!("{param} holds {} measures; at most {MAX_MEASURES}", list.len()));
+    }
+    list.iter()
+        .enumerate()
+        .map(|(i, item)| {
+            let spec: Spec = serde_json::from_value(item.clone()).map_err(|e| {
+                format!("{param}[{i}]: {e}; give object_id and what (peak_height, lowest_height, first, travel, final_tilt) or pair and what first_contact")
+            })?;
+            spec.check().map_err(|why| format!("{param}[{i}]: {why}"))?;
+            Ok(spec)
+        })
+        .collect()
+}
+
+impl Spec {
+    /// Whether the spec makes sense: an object measure names one object, first_contact a pair
+    /// of two different objects, `first` exactly one finite condition.
+    fn check(&self) -> Result<(), Refusal> {
+        match (self.what, self.object_id, self.pair) {
+            (What::FirstContact, _, None) => return Err("first_contact needs pair: [a, b]".into()),
+            (What::FirstContact, Some(_), _) => return Err("first_contact takes pair, not object_id".into()),
+            (What::FirstContact, None, Some([a, b])) if a == b => return Err(format!("pair must name two different objects; got [{a}, {b}]")),
+            (What::FirstContact, None, Some(_)) => {}
+            (w, None, _) => return Err(format!("{} needs object_id", w.name())),
+            (w, Some(_), Some(_)) => return Err(format!("{} takes object_id, not pair", w.name())),
+            (_, Some(_), None) => {}
+        }
+        match (self.what, &self.when) {
+            (What::First, None) => Err("first needs when: {height_below | height_above | tilt_above | speed_below: number}".into()),
+            (What::First, Some(when)) => match when.only()[..] {
+                [(name, v)] if !v.is_finite() => Err(format!("when.{name} must be a finite number; got {v}")),
+                [_] => Ok(()),
+                _ => Err("when must hold exactly one of height_below, height_above, tilt_above, speed_below".into()),
+            },
+            (w, Some(_)) => Err(format!("when is only for what: first, not {}", w.name())),
+            (_, None) => Ok(()),
+        }
+    }
+
+    /// The objects this spec reads.
+    pub fn objects(&self) -> Vec<u32> {
+        self.object_id.into_iter().chain(self.pair.into_iter().flatten()).collect()
+    }
+}
+
+/// The first spec naming an object that `exists` says is missing: a refusal naming `param[i]`.
+pub fn check_objects(param: &str, specs: &[Spec], exists: impl Fn(u32) -> bool) -> Result<(), Refusal> {
+    for (i, s) in specs.iter().enumerate() {
+        if let Some(id) = s.objects().into_iter().find(|id| !exists(*id)) {
+            return Err(format!("{param}[{i}]: object {id} does not exist"));
+        }
+    }
+    Ok(())
+}
+
+/// Tilt of orientation `q` ([x, y, z, w]) in degrees: the angle between the body's z axis and
+/// the world's (0 upright, 90 on its side, 180 upside down).
+pub fn tilt_degrees(q: [f64; 4]) -> f64 {
+    let [x, y, z, w] = q;
+    let n = x * x + y * y + z * z + w * w;
+    // The z component of the rotated z axis, for a quaternion of any length.
+    let cos = if n > 0.0 { 1.0 - 2.0 * (x * x + y * y) / n } else { 1.0 };
+    cos.clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// What one spec has found so far.
+#[derive(Clone, Copy, Debug, Default)]
+struct Found {
+    /// The value (height, quantity, path length, tilt).
+    value: Option<f64>,
+    /// When it was found.
+    time: Option<f64>,
+    /// The last position seen (travel).
+    last: Option<[f64; 3]>,
+    /// Whether its objects existed in some state seen.
+    seen: bool,
+}
+
+/// Accumulates the answers to some specs over states seen in order (the observer's state).
+pub struct Meter {
+    specs: Vec<Spec>,
+    found: Vec<Found>,
+}
+
+impl Meter {
+    /// A meter for `specs`, nothing seen yet.
+    pub fn new(specs: Vec<Spec>) -> Meter {
+        let found = vec![Found::default(); specs.len()];
+        Meter { specs, found }
+    }
+
+    /// Whether there is nothing to measure (the observer can be left out).
+    pub fn is_empty(&self) -> bool {
+        self.specs.is_empty()
+    }
+
+    /// Sees one state: the interval's first, the state after every step, and after any other
+    /// change. An object that does not exist in this state is skipped.
+    pub fn see(&mut self, w: &World) {
+        let time = w.current_time();
+        for (spec, f) in self.specs.iter().zip(&mut self.found) {
+            if spec.what.is_moment() && f.time.is_some() {
+                continue;
+            }
+            f.seen |= spec.objects().iter().all(|id| w.has_object(*id));
+            if let (What::FirstContact, Some([a, b])) = (spec.what, spec.pair) {
+                let touching = crate::seeing::sensing::contacts::contacts(w, Some((a, b)))
+                    .iter()
+                    .any(|c| c.contact_distance <= 0.0 || c.normal_force > 0.0);
+                if touching {
+                    f.time = Some(time);
+                }
+                continue;
+            }
+            let Some(s) = spec.object_id.and_then(|id| w.object_state(id)) else { continue };
+            let z = s.position[2];
+            match spec.what {
+                What::PeakHeight if f.value.is_none_or(|v| z > v) => (f.value, f.time) = (Some(z), Some(time)),
+                What::LowestHeight if f.value.is_none_or(|v| z < v) => (f.value, f.time) = (Some(z), Some(time)),
+                What::Travel => {
+                    let step = f.last.map_or(0.0, |p| (0..3).map(|k| (s.position[k] - p[k]).powi(2)).sum::<f64>().sqrt());
+                    f.value = Some(f.value.unwrap_or(0.0) + step);
+                    f.last = Some(s.position);
+                }
+                What::FinalTilt => (f.value, f.time) = (Some(tilt_degrees(s.orientation)), Some(time)),
+                What::First => {
+                    let Some(&(name, limit)) = spec.when.as_ref().and_then(|w| w.only().first().copied()).as_ref() else { continue };
+                    let speed = || s.linear_velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    let (quantity, holds) = match name {
+                        "height_below" => (z, z < limit),
+                        "height_above" => (z, z > limit),
+                        "tilt_above" => {
+                            let t = tilt_degrees(s.orientation);
+                            (t, t > limit)
+                        }
+                        _ => {
+                            let v = speed();
+                            (v, v < limit)
+                        }
+                    };
+                    if holds {
+                        (f.value, f.time) = (Some(quantity), Some(time));
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// Why the answers cannot be given: a spec whose objects never existed together in any
+    /// state seen (a refusal naming `param[i]`, as for get_trajectory's object_ids).
+    pub fn unseen(&self, param: &str) -> Result<(), Refusal> {
+        match self.found.iter().position(|f| !f.seen) {
+            Some(i) => Err(format!("{param}[{i}]: {} not exist at any step of the interval", match self.specs[i].pair {
+                Some([a, b]) => format!("objects {a} and {b} do"),
+                None => format!("object {} does", self.specs[i].object_id.unwrap_or_default()),
+            })),
+            None => Ok(()),
+        }
+    }
+
+    /// The answers, in the order asked; with `decimals`, values and times rounded to that many
+    /// decimals (the compact form), else exact.
+    pub fn finish(self, decimals: Option<u32>) -> Vec<Measured> {
+        let mut out: Vec<Measured> = self.specs
+            .into_iter()
+            .zip(self.found)
+            .map(|(spec, f)| Measured {
+                object_id: spec.object_id,
+                pair: spec.pair,
+                what: spec.what.name().to_string(),
+                when: spec.when.map(|w| w.only().into_iter().map(|(n, v)| (n.to_string(), v)).collect::<BTreeMap<_, _>>()),
+                value: f.value,
+                time: f.time,
+            })
+            .collect();
+        if let Some(d) = decimals {
+            out.iter_mut().for_each(|m| round(m, d));
+        }
+        out
+    }
+}
+
+/// Rounds an answer's value and time to `decimals` decimals (the compact form).
+pub fn round(m: &mut Measured, decimals: u32) {
+    let scale = 10f64.powi(decimals as i32);
+    for x in [&mut m.value, &mut m.time].into_iter().flatten() {
+        *x = (*x * scale).round() / scale;
+    }
+}
+
+/// The number a ranking compares for a measure's answer: a moment's time (earlier is better,
+/// so negated), else its value; None when it never held (ranked last).
+pub fn rank_key(m: &Measured) -> Option<f64> {
+    if m.what == What::First.name() || m.what == What::FirstContact.name() {
+        m.time.map(|t| -t)
+    } else {
+        m.value
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn tilt_is_the_angle_of_the_z_axis() {
+        assert!(tilt_degrees([0.0, 0.0, 0.0, 1.0]).abs() < 1e-12);
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((tilt_degrees([h, 0.0, 0.0, h]) - 90.0).abs() < 1e-9);
+        assert!((tilt_degrees([0.0, 0.0, h, h])).abs() < 1e-9, "a turn about z is no tilt");
+        assert!((tilt_degrees([1.0, 0.0, 0.0, 0.0]) - 180.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn specs_that_make_no_sense_are_refused_naming_the_entry() {
+        let bad = [
+            (json!([{"what": "peak_height"}]), "measure[0]: peak_height needs object_id"),
+            (json!([{"object_id": 1, "what": "first"}]), "measure[0]: first needs when"),
+            (json!([{"object_id": 1, "what": "first", "when": {"speed_below": 1, "tilt_above": 3}}]), "exactly one"),
+            (json!([{"object_id": 1, "what": "first_contact"}]), "first_contact needs pair"),
+            (json!([{"pair": [2, 2], "what": "first_contact"}]), "two different objects"),
+            (json!([{"object_id": 1, "what": "travel", "when": {"speed_below": 1}}]), "when is only for what: first"),
+            (json!([{"object_id": 1, "what": "highest"}]), "measure[0]: unknown variant `highest`"),
+            (json!({"object_id": 1}), "must be a list"),
+        ];
+        for (v, said) in bad {
+            let why = parse("measure", &v).unwrap_err();
+            assert!(why.contains(said), "{v}: {why}");
+        }
+        let ok = parse("measure", &json!([{"object_id": 1, "what": "first", "when": {"speed_below": 0.01}}, {"pair": [1, 2], "what": "first_contact"}])).unwrap();
+        assert_eq!(ok.len(), 2);
+    }
+}
