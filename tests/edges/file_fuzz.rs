@@ -135,6 +135,7 @@ const MJCF_ELEMENTS: &[&str] = &[
     r#"<contact><exclude body1="nosuch" body2="x"/></contact>"#,
     r#"<actuator><motor joint="nosuch"/></actuator>"#,
     r#"<sensor><jointpos joint="nosuch"/></sensor>"#,
+    r#"<sensor><force site="nosuch"/><framepos objtype="body" objname="world"/><subtreecom body="world"/><gyro/><actuatorfrc actuator="nosuch"/></sensor>"#,
     r#"<keyframe><key name="k" qpos="1 2 3 NaN"/></keyframe>"#,
     r#"<default class="fz"><geom size="0.1"/></default>"#,
     r#"<compiler angle="degree" eulerseq="zyx" autolimits="false" meshdir="/"/>"#,
@@ -717,6 +718,7 @@ impl Fuzz {
                 }
                 if let Some(id) = v["object_id"].as_u64() {
                     let _ = self.answer(&what, "get_object_state", json!({"sim_id": sim, "object_id": id})).await;
+                    let _ = self.answer(&what, "get_sensor_data", json!({"sim_id": sim, "object_id": id})).await;
                 }
                 let verified = self.answer(&what, "verify_simulation", json!({"sim_id": sim})).await;
                 assert!(verified.as_ref().is_ok_and(|v| v["ok"] == json!(true)), "{what}: then verify_simulation: {verified:?}");

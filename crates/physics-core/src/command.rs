@@ -36,7 +36,8 @@ use crate::world::World;
 /// 7: set_joint_trajectory (a new command; get_joint_state of a joint following one adds
 /// `trajectory`); get_closest_points (a new read);
 /// load_mjcf records `actuators` and builds the model's MuJoCo actuators (its result lists
-/// them); set_actuator_controls; older loads fold as before (their actuators stay ignored).
+/// them) and keeps its sensors (get_sensor_data); set_actuator_controls; older loads fold as
+/// before (their actuators and sensors stay ignored).
 /// Every other result of version 6 is unchanged.
 pub const EVENT_VERSION: u32 = 7;
 
@@ -612,10 +613,10 @@ pub enum Command {
         /// and fold as they did.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         use_model_options: bool,
-        /// The model's `<actuator>`s are simulated (`world::actuators`; event version 7): set by
-        /// every load_mjcf since. Events recorded before decode as false and fold as they did
-        /// (the actuators listed in `ignored`); omitted when false, so they re-encode byte for
-        /// byte.
+        /// The model's `<actuator>`s are simulated (`world::actuators`) and its `<sensor>`s kept
+        /// for get_sensor_data (`world::sensors`), event version 7: set by every load_mjcf
+        /// since. Events recorded before decode as false and fold as they did (actuators and
+        /// sensors listed in `ignored`); omitted when false, so they re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         actuators: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
