@@ -542,7 +542,7 @@ async def ramp_sweep(t):
     centre = [0, 0, 1.0]
     on_ramp = [centre[k] + normal[k] * (0.05 + 0.1 + 0.001) for k in range(3)]
     built = (await t.call("batch", {"sim_id": sim, "calls": [
-        {"tool": "add_box", "arguments": {"dimensions": [1.0, 0.5, 0.05], "position": centre, "orientation": q, "mass": 0}},
+        {"tool": "add_box", "arguments": {"dimensions": [2.0, 0.5, 0.05], "position": centre, "orientation": q, "mass": 0}},
         {"tool": "add_box", "arguments": {"dimensions": [0.1, 0.1, 0.1], "position": on_ramp, "orientation": q}},
     ]}))["results"]
     ramp, box = built[0]["object_id"], built[1]["object_id"]
@@ -554,6 +554,11 @@ async def ramp_sweep(t):
     stays = min((mu for mu, d in slid.items() if d < 0.05), default=None)
     t.note(f"slid (m) by friction: {slid}; it stays from mu = {stays} (tan 20° = {math.tan(a):.3f})")
     t.check(all((d > 0.05) == (mu < math.tan(a)) for mu, d in slid.items()), f"slides where mu < tan 20°, stays where above: {slid}")
+    # Sliding for 1 s: ½ g (sin θ − μ cos θ) t², within 5 cm (the landing on the ramp adds ~3 cm).
+    for mu, d in slid.items():
+        if mu < math.tan(a):
+            want = 0.5 * G * (math.sin(a) - mu * math.cos(a))
+            t.check(abs(d - want) <= 0.05, f"mu = {mu}: slid {d} m in 1 s; ½ g (sin θ − μ cos θ) t² = {want:.3f} m")
     t.check(sweep["ranking"][0] == 0, f"the slipperiest box did not slide furthest: ranking {sweep['ranking']}")
 
 
