@@ -147,8 +147,8 @@ impl RobotModel {
     /// Every moving joint's axis normalised to a direction (see `robot::axis_refusal`; the
     /// axes are stored normalised, so an axis that overflowed is zero here).
     pub fn joints_usable(&self) -> Result<(), Refusal> {
-        let moving = self.links.iter().filter_map(|l| l.joint.as_ref()).filter(|j| j.kind.movable());
-        moving.map(|j| super::robot::axis_refusal(&j.name, j.axis)).collect()
+        let mut moving = self.links.iter().filter_map(|l| l.joint.as_ref()).filter(|j| j.kind.movable());
+        moving.try_for_each(|j| super::robot::axis_refusal(&j.name, j.axis))
     }
 }
 
