@@ -612,6 +612,22 @@ async def run(url, show_calls):
     return done
 
 
+def totals(tasks):
+    """(calls, reply bytes, (largest reply, its tool, its task)) of some tasks together."""
+    biggest = max(((t.largest[1], t.largest[0], t.name) for t in tasks), default=(0, "-", "-"))
+    return sum(t.n_calls for t in tasks), sum(t.total for t in tasks), biggest
+
+
+def budget_targets(who, measured, limits, largest_what):
+    """The three budget targets (calls, reply text, largest reply) of a group: (what, met, figure)."""
+    (calls, total, biggest), (max_calls, max_bytes, max_largest) = measured, limits
+    return [
+        (f"{who} in <= {max_calls} calls", calls <= max_calls, f"{calls} calls"),
+        (f"{who} in <= {max_bytes // KB} KB of reply text", total <= max_bytes, f"{total / KB:.1f} KB"),
+        (largest_what, biggest[0] <= max_largest, f"largest {biggest[0] / KB:.1f} KB: {biggest[1]} in {biggest[2]}"),
+    ]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("url")
@@ -633,27 +649,12 @@ def main():
             print(f"       FAILED: {f}")
 
     five = [t for t in done if t.number in THE_FIVE]
-    calls = sum(t.n_calls for t in five)
-    total = sum(t.total for t in five)
-    biggest = max(((t.largest[1], t.largest[0], t.name) for t in done), default=(0, "-", "-"))
-    targets = [
-        (f"the five tasks in <= {TARGET_CALLS} calls", calls <= TARGET_CALLS, f"{calls} calls"),
-        (f"the five tasks in <= {TARGET_BYTES // KB} KB of reply text", total <= TARGET_BYTES, f"{total / KB:.1f} KB"),
-        (
-            f"no single default reply over {TARGET_LARGEST // KB} KB (all tasks)",
-            biggest[0] <= TARGET_LARGEST,
-            f"largest {biggest[0] / KB:.1f} KB: {biggest[1]} in {biggest[2]}",
-        ),
-    ]
-    answer = [t for t in done if t.number in THE_ANSWERS]
-    a_calls = sum(t.n_calls for t in answer)
-    a_total = sum(t.total for t in answer)
-    a_big = max(((t.largest[1], t.largest[0], t.name) for t in answer), default=(0, "-", "-"))
-    answer_targets = [
-        (f"the answer tasks in <= {ANSWER_CALLS} calls", a_calls <= ANSWER_CALLS, f"{a_calls} calls"),
-        (f"the answer tasks in <= {ANSWER_BYTES // KB} KB of reply text", a_total <= ANSWER_BYTES, f"{a_total / KB:.1f} KB"),
-        (f"no answer-task reply over {ANSWER_LARGEST // KB} KB", a_big[0] <= ANSWER_LARGEST, f"largest {a_big[0] / KB:.1f} KB: {a_big[1]} in {a_big[2]}"),
-    ]
+    calls, total, _ = totals(five)
+    targets = budget_targets("the five tasks", (calls, total, totals(done)[2]), (TARGET_CALLS, TARGET_BYTES, TARGET_LARGEST),
+                             f"no single default reply over {TARGET_LARGEST // KB} KB (all tasks)")
+    a_calls, a_total, a_big = totals([t for t in done if t.number in THE_ANSWERS])
+    answer_targets = budget_targets("the answer tasks", (a_calls, a_total, a_big), (ANSWER_CALLS, ANSWER_BYTES, ANSWER_LARGEST),
+                                    f"no answer-task reply over {ANSWER_LARGEST // KB} KB")
     targets += answer_targets
     print()
     print("the answer tasks (bounce, reach, dominoes + undo, ramp sweep, ant), asking for measures:")
