@@ -7,7 +7,7 @@ URL is a running physics-mcp's `/mcp` endpoint whose workspace holds a copy of t
 at `tests/fixtures/` (scripts/agent_tasks.sh starts such a server and runs this script).
 
 The script is an agent: the Python `mcp` SDK's `Client` (streamable HTTP, the SDK's default
-mode) and `call_tool`, nothing else. It runs ten tasks written as a sensible agent calls
+mode) and `call_tool`, nothing else. It runs fifteen tasks; the first ten written as a sensible agent calls
 today's tools — the server's default arguments only (no detail switches; no `output_path`, no
 `observe`, no `every`), one call per thing the agent wants to know, and the agent's own Python
 for whatever the tools do not compute (how many boxes moved, when a box landed). The tasks
@@ -40,6 +40,14 @@ Counts of calls and bytes are deterministic: fixed positions and seeds, fixed st
 call whose presence or size depends on wall time, and the number of calls never depends on an
 outcome (a failed outcome check is recorded, the task goes on).
 
+Tasks (11)-(15) are the answer tasks (issue 45), written as an agent that asks for answers
+(`measure`, run_sweep's `rank_by` a measure and `varied`) rather than series: a ball bouncing
+on a box (when it hit, how high it bounced: free fall and e²), the KUKA reaching a point
+(lower-case control mode), ten dominoes pushed over then undone and pushed half as hard (did
+each fall, when), a box on a 20° ramp swept over five frictions (slides exactly below tan 20°),
+and MuJoCo's ant standing (upright, torso off the floor, settled). Their targets together: at
+most 30 calls, 60 KB of reply text, and no single reply over 16 KB.
+
 The budget targets are checked on "the five tasks" — tower look-back (1), 100-box
 pile (2), sweep (3), robots (4 and 5: KUKA and the wheeled base), timeline ops (6) — together:
 at most 40 calls and 120 KB of reply text; and no single default reply over 32 KB, checked over
@@ -64,6 +72,10 @@ KB = 1000
 TARGET_CALLS = 40
 TARGET_BYTES = 120 * KB
 TARGET_LARGEST = 32 * KB
+# The answer tasks (11-15, issue 45) together: calls, reply text, and no single reply over this.
+ANSWER_CALLS = 30
+ANSWER_BYTES = 60 * KB
+ANSWER_LARGEST = 16 * KB
 SUMMARY_OVER = 64 * 1024  # the server's text copy is a summary above this (docs/tools.md)
 
 IIWA = "tests/fixtures/iiwa14.urdf"
@@ -436,6 +448,136 @@ async def five_poses(t):
     t.check(miss <= 0.01, f"the gripper ended {miss * 100:.2f} cm from the last target (> 1 cm)")
 
 
+# ----------------------------------------------------------------------------------------
+# The answer tasks (issue 45): an agent asks for answers (`measure`), not series. Each
+# physics answer is checked against analytic physics or a plain physical bound.
+
+G = 9.81
+DT = 1.0 / 240.0
+
+
+def answers(result):
+    """`measures` of a reply as (value, time) pairs, in the order asked."""
+    return [(m.get("value"), m.get("time")) for m in (result or {}).get("measures", [])]
+
+
+async def bounce(t):
+    """A ball (restitution 0.9) dropped on a box (restitution 1): when it hits, how high it bounces."""
+    sim = (await t.call("create_simulation", {}))["simulation_id"]
+    built = (await t.call("batch", {"sim_id": sim, "calls": [
+        {"tool": "add_box", "arguments": {"dimensions": [0.25, 0.25, 0.25], "position": [0, 0, 0.25], "mass": 0}},
+        {"tool": "add_sphere", "arguments": {"radius": 0.1, "position": [0, 0, 1.5]}},
+    ]}))["results"]
+    box, ball = built[0]["object_id"], built[1]["object_id"]
+    await t.call("batch", {"sim_id": sim, "calls": [
+        {"tool": "change_dynamics", "arguments": {"object_id": box, "restitution": 1.0}},
+        {"tool": "change_dynamics", "arguments": {"object_id": ball, "restitution": 0.9, "linear_damping": 0}},
+    ]})
+    hit = answers(await t.call("step_simulation", {"sim_id": sim, "steps": 120, "measure": [{"pair": [ball, box], "what": "first_contact"}]}))
+    up = answers(await t.call("step_simulation", {"sim_id": sim, "steps": 120, "measure": [{"object_id": ball, "what": "peak_height"}]}))
+    fall = math.sqrt(2 * 0.9 / G)  # its bottom from 1.4 m to the box's top at 0.5 m
+    when, peak = hit[0][1], up[0][0]
+    rebound = 0.6 + 0.9 ** 2 * 0.9  # centre height: e² of the drop above where it touched
+    t.note(f"hit the box at {when} s (free fall {fall:.4f} s); bounced to {peak} m (e² × drop: {rebound:.3f} m)")
+    t.check(when is not None and abs(when - fall) <= 3 * DT, f"hit at {when} s; free fall says {fall:.4f} s")
+    t.check(peak is not None and abs(peak - rebound) <= 0.1 * (rebound - 0.6), f"bounced to {peak} m; e = 0.9 says {rebound:.3f} m")
+
+
+BOUNCE_REACH = [0.4, -0.3, 0.5]
+
+
+async def reach_point(t):
+    """The KUKA iiwa14 (fixed base) to a point: IK, position motors (lower-case mode), where the end effector is."""
+    sim = (await t.call("create_simulation", {}))["simulation_id"]
+    arm = ids(await t.call("load_urdf", {"sim_id": sim, "file_path": IIWA, "use_fixed_base": True}))
+    ik = await t.call("calculate_inverse_kinematics", {"sim_id": sim, "object_id": arm, "end_effector_link_index": IIWA_EE, "target_position": BOUNCE_REACH})
+    qs = ik["joint_positions"][:IIWA_MOVABLE]
+    await t.call("set_joint_motor_control_array", {"sim_id": sim, "object_id": arm, "joint_indices": list(range(len(qs))), "control_mode": "position", "target_positions": qs})
+    await t.call("step_simulation", {"sim_id": sim, "steps": 720})
+    ee = (await t.call("get_link_state", {"sim_id": sim, "object_id": arm, "link_index": IIWA_EE}))["link_world_position"]
+    miss = dist(ee, BOUNCE_REACH)
+    t.note(f"the end effector is {miss * 100:.2f} cm from the target")
+    t.check(miss <= 0.01, f"the end effector ended {miss * 100:.2f} cm from the target (> 1 cm)")
+
+
+DOMINOES = 10
+DOMINO_HALF = [0.02, 0.1, 0.2]
+DOMINO_GAP = 0.25
+PUSH = 3.0  # rad/s about y: the first domino tips towards the others
+
+
+async def dominoes(t):
+    """Ten dominoes pushed over; did every one fall, and when? Then undo, push half as hard, ask again."""
+    sim = (await t.call("create_simulation", {}))["simulation_id"]
+    calls = [{"tool": "load_urdf", "arguments": {"file_path": "plane.urdf"}}]
+    calls += [{"tool": "add_box", "arguments": {"dimensions": DOMINO_HALF, "position": [i * DOMINO_GAP, 0, DOMINO_HALF[2]], "mass": 0.2}} for i in range(DOMINOES)]
+    made = [r["object_id"] for r in (await t.call("batch", {"sim_id": sim, "calls": calls}))["results"][1:]]
+    fell = [{"object_id": d, "what": "first", "when": {"tilt_above": 45}} for d in made]
+
+    async def push(speed):
+        await t.call("set_object_velocity", {"sim_id": sim, "object_id": made[0], "angular_velocity": [0, speed, 0]})
+        return [tm for _, tm in answers(await t.call("step_simulation", {"sim_id": sim, "steps": 720, "measure": fell}))]
+
+    full = await push(PUSH)
+    await t.call("undo", {"sim_id": sim, "count": 2})
+    half = await push(PUSH / 2)
+    fallen = [tm for tm in full if tm is not None]
+    half_fallen = [tm for tm in half if tm is not None]
+    t.note(f"full push: {len(fallen)} of {DOMINOES} fell, the last at {fallen[-1] if fallen else None} s; half push: {len(half_fallen)} fell")
+    t.check(len(fallen) == DOMINOES, f"only {len(fallen)} of {DOMINOES} dominoes fell")
+    t.check(fallen == sorted(fallen), f"they did not fall in order: {full}")
+    t.check(len(half_fallen) < DOMINOES or all(h > f for h, f in zip(half, full)), f"half the push felled them as fast: {half} vs {full}")
+
+
+RAMP_DEG = 20.0
+FRICTIONS = [0.1, 0.2, 0.3, 0.5, 0.7]  # tan 20° = 0.364: the first three slide
+
+
+async def ramp_sweep(t):
+    """A box on a 20° ramp, five frictions in one run_sweep ranked by how far it slid: where does it stop sliding?"""
+    sim = (await t.call("create_simulation", {}))["simulation_id"]
+    a = math.radians(RAMP_DEG)
+    q = [0, math.sin(-a / 2), 0, math.cos(-a / 2)]  # about -y: the ramp falls towards +x
+    normal = [math.sin(a), 0, math.cos(a)]
+    centre = [0, 0, 1.0]
+    on_ramp = [centre[k] + normal[k] * (0.05 + 0.1 + 0.001) for k in range(3)]
+    built = (await t.call("batch", {"sim_id": sim, "calls": [
+        {"tool": "add_box", "arguments": {"dimensions": [2.0, 0.5, 0.05], "position": centre, "orientation": q, "mass": 0}},
+        {"tool": "add_box", "arguments": {"dimensions": [0.1, 0.1, 0.1], "position": on_ramp, "orientation": q}},
+    ]}))["results"]
+    ramp, box = built[0]["object_id"], built[1]["object_id"]
+    await t.call("change_dynamics", {"sim_id": sim, "object_id": ramp, "lateral_friction": 1.0})
+    variants = [[{"tool": "change_dynamics", "arguments": {"object_id": box, "lateral_friction": mu}}] for mu in FRICTIONS]
+    sweep = await t.call("run_sweep", {"sim_id": sim, "variants": variants, "steps": 240,
+                                       "observe": {"object_ids": [box], "measure": [{"object_id": box, "what": "travel"}]}, "rank_by": {"measure": 0}})
+    slid = {v["varied"]["change_dynamics.lateral_friction"]: v["measures"][0]["value"] for v in sweep["variants"]}
+    stays = min((mu for mu, d in slid.items() if d < 0.05), default=None)
+    t.note(f"slid (m) by friction: {slid}; it stays from mu = {stays} (tan 20° = {math.tan(a):.3f})")
+    t.check(all((d > 0.05) == (mu < math.tan(a)) for mu, d in slid.items()), f"slides where mu < tan 20°, stays where above: {slid}")
+    # Sliding for 1 s: ½ g (sin θ − μ cos θ) t², within 5 cm (the landing on the ramp adds ~3 cm).
+    for mu, d in slid.items():
+        if mu < math.tan(a):
+            want = 0.5 * G * (math.sin(a) - mu * math.cos(a))
+            t.check(abs(d - want) <= 0.05, f"mu = {mu}: slid {d} m in 1 s; ½ g (sin θ − μ cos θ) t² = {want:.3f} m")
+    t.check(sweep["ranking"][0] == 0, f"the slipperiest box did not slide furthest: ranking {sweep['ranking']}")
+
+
+async def ant_stands(t):
+    """MuJoCo's ant on its legs (released 0.75 m up, as the model places it): upright, torso off the floor, settled?"""
+    sim = (await t.call("create_simulation", {}))["simulation_id"]
+    ant = ids(await t.call("load_mjcf", {"sim_id": sim, "file_path": "mujoco/ant.xml"}))  # torso 0.75 m above its floor
+    got = answers(await t.call("step_simulation", {"sim_id": sim, "steps": 720, "measure": [
+        {"object_id": ant, "what": "final_tilt"},
+        {"object_id": ant, "what": "lowest_height"},
+        {"object_id": ant, "what": "settled", "when": {"speed_below": 0.01}},
+    ]}))
+    (tilt, _), (low, _), (_, settled) = got
+    t.note(f"final tilt {tilt}°, torso never below {low} m, settled at {settled} s")
+    t.check(tilt is not None and tilt < 20, f"it ended tilted {tilt}°")
+    t.check(low is not None and low > 0.2, f"its torso came down to {low} m (on the floor)")
+    t.check(settled is not None and settled > 0, f"it did not come to rest after landing (settled at {settled} s)")
+
+
 TASKS = [
     (1, "tower look-back", tower_lookback),
     (2, "100-box pile (batch)", box_pile),
@@ -447,7 +589,13 @@ TASKS = [
     (8, "MJCF reacher motors", mjcf_reacher),
     (9, "first box to land", first_landing),
     (10, "arm through five poses", five_poses),
+    (11, "ball bounce (measures)", bounce),
+    (12, "KUKA reach a point", reach_point),
+    (13, "dominoes + undo", dominoes),
+    (14, "ramp friction sweep", ramp_sweep),
+    (15, "MuJoCo ant stands", ant_stands),
 ]
+THE_ANSWERS = {11, 12, 13, 14, 15}  # the answer tasks: bounce, reach, dominoes, ramp sweep, ant
 THE_FIVE = {1, 2, 3, 4, 5, 6}  # tower, pile, sweep, robots (4 and 5 together), timeline ops
 
 
@@ -462,6 +610,22 @@ async def run(url, show_calls):
                 t.failures.append(str(e))
             done.append(t)
     return done
+
+
+def totals(tasks):
+    """(calls, reply bytes, (largest reply, its tool, its task)) of some tasks together."""
+    biggest = max(((t.largest[1], t.largest[0], t.name) for t in tasks), default=(0, "-", "-"))
+    return sum(t.n_calls for t in tasks), sum(t.total for t in tasks), biggest
+
+
+def budget_targets(who, measured, limits, largest_what):
+    """The three budget targets (calls, reply text, largest reply) of a group: (what, met, figure)."""
+    (calls, total, biggest), (max_calls, max_bytes, max_largest) = measured, limits
+    return [
+        (f"{who} in <= {max_calls} calls", calls <= max_calls, f"{calls} calls"),
+        (f"{who} in <= {max_bytes // KB} KB of reply text", total <= max_bytes, f"{total / KB:.1f} KB"),
+        (largest_what, biggest[0] <= max_largest, f"largest {biggest[0] / KB:.1f} KB: {biggest[1]} in {biggest[2]}"),
+    ]
 
 
 def main():
@@ -485,22 +649,22 @@ def main():
             print(f"       FAILED: {f}")
 
     five = [t for t in done if t.number in THE_FIVE]
-    calls = sum(t.n_calls for t in five)
-    total = sum(t.total for t in five)
-    biggest = max(((t.largest[1], t.largest[0], t.name) for t in done), default=(0, "-", "-"))
-    targets = [
-        (f"the five tasks in <= {TARGET_CALLS} calls", calls <= TARGET_CALLS, f"{calls} calls"),
-        (f"the five tasks in <= {TARGET_BYTES // KB} KB of reply text", total <= TARGET_BYTES, f"{total / KB:.1f} KB"),
-        (
-            f"no single default reply over {TARGET_LARGEST // KB} KB (all tasks)",
-            biggest[0] <= TARGET_LARGEST,
-            f"largest {biggest[0] / KB:.1f} KB: {biggest[1]} in {biggest[2]}",
-        ),
-    ]
+    calls, total, _ = totals(five)
+    targets = budget_targets("the five tasks", (calls, total, totals(done)[2]), (TARGET_CALLS, TARGET_BYTES, TARGET_LARGEST),
+                             f"no single default reply over {TARGET_LARGEST // KB} KB (all tasks)")
+    a_calls, a_total, a_big = totals([t for t in done if t.number in THE_ANSWERS])
+    answer_targets = budget_targets("the answer tasks", (a_calls, a_total, a_big), (ANSWER_CALLS, ANSWER_BYTES, ANSWER_LARGEST),
+                                    f"no answer-task reply over {ANSWER_LARGEST // KB} KB")
+    targets += answer_targets
+    print()
+    print("the answer tasks (bounce, reach, dominoes + undo, ramp sweep, ant), asking for measures:")
+    print(f"  {a_calls} calls, {a_total:,} B ({a_total / KB:.1f} KB) of reply text")
+    for what, ok, figure in answer_targets:
+        print(f"  target: {what:<52} {'PASS' if ok else 'FAIL'}  ({figure})")
     print()
     print("the five tasks (tower look-back, 100-box pile, sweep, robots = KUKA + wheeled base, timeline ops):")
     print(f"  {calls} calls, {total:,} B ({total / KB:.1f} KB) of reply text")
-    for what, ok, figure in targets:
+    for what, ok, figure in targets[: len(targets) - len(answer_targets)]:
         print(f"  target: {what:<52} {'PASS' if ok else 'FAIL'}  ({figure})")
 
     outcomes_ok = all(t.ok for t in done)

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # What an agent spends: the Python `mcp` SDK (pinned, from PyPI, in a venv) runs
-# scripts/agent_tasks.py's ten tasks against a server with a copy of tests/fixtures in its
+# scripts/agent_tasks.py's fifteen tasks against a server with a copy of tests/fixtures in its
 # workspace, and prints per task the calls, the reply bytes a model reads and whether the
 # physical outcome is right, then the budget targets. Arguments go to the script:
 # --report (measurement only, exit 0), --enforce-targets (a missed target fails), --calls.

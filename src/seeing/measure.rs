@@ -48,6 +48,9 @@ pub enum What {
     Travel,
     /// Tilt at the end: the angle between the object's z axis and the world's, in degrees.
     FinalTilt,
+    /// When the object settled: the start of the last stretch, lasting to the end, in which its
+    /// speed stayed below `when.speed_below` (an object at rest from the start settled then).
+    Settled,
     /// The first moment the pair touches (a contact point at or inside zero distance, or
     /// pushing).
     FirstContact,
@@ -62,13 +65,14 @@ impl What {
             What::First => "first",
             What::Travel => "travel",
             What::FinalTilt => "final_tilt",
+            What::Settled => "settled",
             What::FirstContact => "first_contact",
         }
     }
 
     /// Whether its answer is a moment (compared earliest first when ranking) rather than a value.
     pub fn is_moment(self) -> bool {
-        matches!(self, What::First | What::FirstContact)
+        matches!(self, What::First | What::FirstContact | What::Settled)
     }
 }
 
@@ -111,7 +115,7 @@ pub fn parse(param: &str, v: &serde_json::Value) -> Result<Vec<Spec>, Refusal> {
         .enumerate()
         .map(|(i, item)| {
             let spec: Spec = serde_json::from_value(item.clone()).map_err(|e| {
-                format!("{param}[{i}]: {e}; give object_id and what (peak_height, lowest_height, first, travel, final_tilt) or pair and what first_contact")
+                format!("{param}[{i}]: {e}; give object_id and what (peak_height, lowest_height, first, settled, travel, final_tilt) or pair and what first_contact")
             })?;
             spec.check().map_err(|why| format!("{param}[{i}]: {why}"))?;
             Ok(spec)
@@ -139,7 +143,9 @@ impl Spec {
                 [_] => Ok(()),
                 _ => Err("when must hold exactly one of height_below, height_above, tilt_above, speed_below".into()),
             },
-            (w, Some(_)) => Err(format!("when is only for what: first, not {}", w.name())),
+            (What::Settled, Some(When { speed_below: Some(v), height_below: None, height_above: None, tilt_above: None })) if v.is_finite() => Ok(()),
+            (What::Settled, _) => Err("settled needs when: {speed_below: number} (and nothing else)".into()),
+            (w, Some(_)) => Err(format!("when is only for what: first or settled, not {}", w.name())),
             (_, None) => Ok(()),
         }
     }
@@ -206,7 +212,7 @@ impl Meter {
     pub fn see(&mut self, w: &World) {
         let time = w.current_time();
         for (spec, f) in self.specs.iter().zip(&mut self.found) {
-            if spec.what.is_moment() && f.time.is_some() {
+            if matches!(spec.what, What::First | What::FirstContact) && f.time.is_some() {
                 continue;
             }
             f.seen |= spec.objects().iter().all(|id| w.has_object(*id));
@@ -230,6 +236,14 @@ impl Meter {
                     f.last = Some(s.position);
                 }
                 What::FinalTilt => (f.value, f.time) = (Some(tilt_degrees(s.orientation)), Some(time)),
+                What::Settled => {
+                    let speed = s.linear_velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    let below = spec.when.as_ref().and_then(|w| w.speed_below).is_some_and(|limit| speed < limit);
+                    // The value is the speed in the last state seen; the time, when the last
+                    // stretch below the limit began (none while it is above).
+                    f.value = below.then_some(speed);
+                    f.time = if below { f.time.or(Some(time)) } else { None };
+                }
                 What::First => {
                     let Some(&(name, limit)) = spec.when.as_ref().and_then(|w| w.only().first().copied()).as_ref() else { continue };
                     let speed = || s.linear_velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -299,7 +313,7 @@ pub fn round(m: &mut Measured, decimals: u32) {
 /// The number a ranking compares for a measure's answer: a moment's time (earlier is better,
 /// so negated), else its value; None when it never held (ranked last).
 pub fn rank_key(m: &Measured) -> Option<f64> {
-    if m.what == What::First.name() || m.what == What::FirstContact.name() {
+    if [What::First, What::FirstContact, What::Settled].iter().any(|w| m.what == w.name()) {
         m.time.map(|t| -t)
     } else {
         m.value
@@ -328,7 +342,8 @@ mod tests {
             (json!([{"object_id": 1, "what": "first", "when": {"speed_below": 1, "tilt_above": 3}}]), "exactly one"),
             (json!([{"object_id": 1, "what": "first_contact"}]), "first_contact needs pair"),
             (json!([{"pair": [2, 2], "what": "first_contact"}]), "two different objects"),
-            (json!([{"object_id": 1, "what": "travel", "when": {"speed_below": 1}}]), "when is only for what: first"),
+            (json!([{"object_id": 1, "what": "travel", "when": {"speed_below": 1}}]), "when is only for what: first or settled"),
+            (json!([{"object_id": 1, "what": "settled", "when": {"tilt_above": 1}}]), "settled needs when: {speed_below"),
             (json!([{"object_id": 1, "what": "highest"}]), "measure[0]: unknown variant `highest`"),
             (json!({"object_id": 1}), "must be a list"),
         ];

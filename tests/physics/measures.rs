@@ -78,6 +78,7 @@ async fn measures_answer_what_free_flight_and_free_fall_say() {
         {"object_id": ball, "what": "first", "when": {"height_below": 0.5}},
         {"pair": [ball, ground], "what": "first_contact"},
         {"object_id": ball, "what": "first", "when": {"height_above": 2}},
+        {"object_id": ball, "what": "settled", "when": {"speed_below": 0.01}},
     ]);
     let r = c.call("step_simulation", json!({"sim_id": sim, "steps": 240, "measure": asked, "sample_every": 60, "fields": ["z"]})).await;
     let tracks = r["trajectory"]["objects"].as_array().unwrap();
@@ -88,6 +89,11 @@ async fn measures_answer_what_free_flight_and_free_fall_say() {
     let t = answer(&r, 1).1.unwrap();
     assert!((t - (1.8 / G).sqrt()).abs() < 3.0 * DT, "first contact at {t}");
     assert_eq!(answer(&r, 2), (None, None), "never above 2 m");
+    // At rest at the start, it did not settle then: it settled after landing (and any bounce).
+    let (v, t) = answer(&r, 3);
+    assert!(v.unwrap() < 0.01 && t.unwrap() > (1.8 / G).sqrt(), "{r}");
+    let now = c.state(&sim, ball).await["linear_velocity"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap().powi(2)).sum::<f64>().sqrt();
+    assert!(now < 0.01);
 
     // Without gravity: a box spinning at 1 rad/s about x tilts past 45° at π/4 s; a box drifting
     // at 1 m/s travels 1 m in 1 s; a box set at 30° reads 30°.

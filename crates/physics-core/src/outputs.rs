@@ -164,7 +164,7 @@ pub struct Measured {
     /// The pair measured (first_contact).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pair: Option<[u32; 2]>,
-    /// What was measured: peak_height, lowest_height, first, travel, final_tilt, first_contact.
+    /// What was measured: peak_height, lowest_height, first, settled, travel, final_tilt, first_contact.
     pub what: String,
     /// The condition of `first`, as asked.
     #[serde(default, skip_serializing_if = "Option::is_none")]
