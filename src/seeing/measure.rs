@@ -69,11 +69,6 @@ impl What {
             What::FirstContact => "first_contact",
         }
     }
-
-    /// Whether its answer is a moment (compared earliest first when ranking) rather than a value.
-    pub fn is_moment(self) -> bool {
-        matches!(self, What::First | What::FirstContact | What::Settled)
-    }
 }
 
 /// A condition on one object (`first`).
@@ -101,6 +96,14 @@ impl When {
             .into_iter()
             .filter_map(|(n, v)| v.map(|v| (n, v)))
             .collect()
+    }
+
+    /// The first condition given (the one `Spec::check` allows), without building a list: read
+    /// after every step.
+    fn condition(&self) -> Option<(&'static str, f64)> {
+        [("height_below", self.height_below), ("height_above", self.height_above), ("tilt_above", self.tilt_above), ("speed_below", self.speed_below)]
+            .into_iter()
+            .find_map(|(n, v)| v.map(|v| (n, v)))
     }
 }
 
@@ -151,15 +154,15 @@ impl Spec {
     }
 
     /// The objects this spec reads.
-    pub fn objects(&self) -> Vec<u32> {
-        self.object_id.into_iter().chain(self.pair.into_iter().flatten()).collect()
+    pub fn objects(&self) -> impl Iterator<Item = u32> {
+        self.object_id.into_iter().chain(self.pair.into_iter().flatten())
     }
 }
 
 /// The first spec naming an object that `exists` says is missing: a refusal naming `param[i]`.
 pub fn check_objects(param: &str, specs: &[Spec], exists: impl Fn(u32) -> bool) -> Result<(), Refusal> {
     for (i, s) in specs.iter().enumerate() {
-        if let Some(id) = s.objects().into_iter().find(|id| !exists(*id)) {
+        if let Some(id) = s.objects().find(|id| !exists(*id)) {
             return Err(format!("{param}[{i}]: object {id} does not exist"));
         }
     }
@@ -215,7 +218,7 @@ impl Meter {
             if matches!(spec.what, What::First | What::FirstContact) && f.time.is_some() {
                 continue;
             }
-            f.seen |= spec.objects().iter().all(|id| w.has_object(*id));
+            f.seen |= spec.objects().all(|id| w.has_object(id));
             if let (What::FirstContact, Some([a, b])) = (spec.what, spec.pair) {
                 let touching = crate::seeing::sensing::contacts::contacts(w, Some((a, b)))
                     .iter()
@@ -245,7 +248,7 @@ impl Meter {
                     f.time = if below { f.time.or(Some(time)) } else { None };
                 }
                 What::First => {
-                    let Some(&(name, limit)) = spec.when.as_ref().and_then(|w| w.only().first().copied()).as_ref() else { continue };
+                    let Some((name, limit)) = spec.when.as_ref().and_then(When::condition) else { continue };
                     let speed = || s.linear_velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
                     let (quantity, holds) = match name {
                         "height_below" => (z, z < limit),

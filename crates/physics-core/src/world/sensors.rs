@@ -349,13 +349,17 @@ impl World {
     /// MuJoCo's `sensordata` values each.
     pub fn sensor_data(&self, id: u32, names: Option<&[String]>) -> Result<SensorData, Refusal> {
         let sensors = self.sensors(id).ok_or_else(|| format!("object_id {id} has no sensors (only MJCF models loaded with them do)"))?;
+        // Looked up by set, not by scanning the sensors for each name: a long `names` against a
+        // model of many sensors stays linear-logarithmic.
+        let asked: Option<std::collections::BTreeSet<&str>> = names.map(|ns| ns.iter().map(String::as_str).collect());
         if let Some(names) = names {
-            if let Some(n) = names.iter().find(|n| !sensors.iter().any(|s| &s.name == *n)) {
+            let have: std::collections::BTreeSet<&str> = sensors.iter().map(|s| s.name.as_str()).collect();
+            if let Some(n) = names.iter().find(|n| !have.contains(n.as_str())) {
                 let all: Vec<&str> = sensors.iter().map(|s| s.name.as_str()).collect();
                 return Err(format!("names lists no sensor {n:?} of object {id}; its sensors are {all:?}"));
             }
         }
-        let wanted = |s: &Sensor| names.is_none_or(|ns| ns.contains(&s.name));
+        let wanted = |s: &Sensor| asked.as_ref().is_none_or(|a| a.contains(s.name.as_str()));
         let forces = self.actuator_forces(id);
         let mut wrenches = None;
         let mut out = Vec::new();
