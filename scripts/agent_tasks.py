@@ -40,7 +40,7 @@ Counts of calls and bytes are deterministic: fixed positions and seeds, fixed st
 call whose presence or size depends on wall time, and the number of calls never depends on an
 outcome (a failed outcome check is recorded, the task goes on).
 
-Tasks (11)-(15) are the answer tasks (issue 45), written as an agent that asks for answers
+Tasks (11)-(15) are the answer tasks, written as an agent that asks for answers
 (`measure`, run_sweep's `rank_by` a measure and `varied`) rather than series: a ball bouncing
 on a box (when it hit, how high it bounced: free fall and e²), the KUKA reaching a point
 (lower-case control mode), ten dominoes pushed over then undone and pushed half as hard (did
@@ -72,7 +72,7 @@ KB = 1000
 TARGET_CALLS = 40
 TARGET_BYTES = 120 * KB
 TARGET_LARGEST = 32 * KB
-# The answer tasks (11-15, issue 45) together: calls, reply text, and no single reply over this.
+# The answer tasks (11-15) together: calls, reply text, and no single reply over this.
 ANSWER_CALLS = 30
 ANSWER_BYTES = 60 * KB
 ANSWER_LARGEST = 16 * KB
@@ -449,7 +449,7 @@ async def five_poses(t):
 
 
 # ----------------------------------------------------------------------------------------
-# The answer tasks (issue 45): an agent asks for answers (`measure`), not series. Each
+# The answer tasks: an agent asks for answers (`measure`), not series. Each
 # physics answer is checked against analytic physics or a plain physical bound.
 
 G = 9.81
