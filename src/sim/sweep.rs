@@ -484,7 +484,7 @@ fn variant_work(
                 s.steps_taken
             }
             None => {
-                let out = sim.change_observed("step_simulation", &a, Ok(Command::StepSimulation { steps }), limits, &mut *control, &mut watch)?;
+                let out = sim.change_observed("step_simulation", &a, Ok(Command::step(steps)), limits, &mut *control, &mut watch)?;
                 out.steps_taken().unwrap_or(steps)
             }
         };
