@@ -121,8 +121,16 @@ async fn a_sweep_summarises_ranks_and_names_the_parent_in_refusals() {
         .await
         .unwrap_err();
     assert!(e.contains("variants[1]") && e.contains("calls[0]") && e.contains(&sim), "{e}");
-    let full = c.call("run_sweep", json!({"sim_id": sim, "variants": [[]], "steps": 10, "detail": "full"})).await;
+    let full = c.call("run_sweep", json!({"sim_id": sim, "variants": [[]], "steps": 120, "detail": "full"})).await;
     assert_eq!(full["variants"][0]["objects"].as_array().unwrap().len(), 2);
+    // The compact summary gives the f32 the exact figures come to (the poses' own precision).
+    let exact = &full["variants"][0]["objects"][0];
+    for key in ["displacement", "peak_speed"] {
+        let x = exact[key].as_f64().unwrap();
+        let shown: f64 = format!("{}", x as f32).parse().unwrap();
+        assert_eq!(o[key].as_f64(), Some(shown), "{key}: {x} shown as {}", o[key]);
+    }
+    assert!(exact["displacement"].to_string().len() > o["displacement"].to_string().len(), "{exact} {o}");
     let e = c.try_call("run_sweep", json!({"sim_id": sim, "variants": [[]], "steps": 1, "rank_by": {"object_id": ball, "metric": "height"}})).await.unwrap_err();
     assert!(e.contains("rank_by.metric"), "{e}");
 }
