@@ -4,15 +4,11 @@
 //! them (a recorded answer changed in a copy, its hash made to match, is a divergence), and a
 //! step recorded under version 7 (measures in the reply only) still folds as it did.
 
+use crate::cancelled_step::replay_cli;
 use crate::common;
 
 use common::Server;
 use serde_json::{json, Value};
-
-fn replay_cli(log: &std::path::Path) -> (bool, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_physics-mcp")).arg("replay").arg(log).output().unwrap();
-    (out.status.success(), format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr)))
-}
 
 /// A copy of `log` in `dir` with event `seq`'s command and result rewritten by `edit`
 /// (and the result hash made to match the new result, as a careful forger would).
