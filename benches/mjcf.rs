@@ -55,7 +55,7 @@ fn step_cost(name: &str, bytes: &[u8], dt: f64, steps: u64, runs: usize) -> (f64
         w.apply(&Command::SetTimestep { timestep: dt as f32, timestep_given: Some(dt) }, &mut |_| true);
         drive(&mut w);
         let t = Instant::now();
-        w.apply(&Command::StepSimulation { steps }, &mut |_| true);
+        w.apply(&Command::step(steps), &mut |_| true);
         per_step.push(t.elapsed().as_secs_f64() / steps as f64);
     }
     let min = per_step.iter().copied().fold(f64::INFINITY, f64::min);

@@ -29,7 +29,7 @@ use serde_json::{json, Value};
 const PILE_RUNS: usize = 5;
 
 fn step(w: &mut World, n: u64) {
-    w.apply(&Command::StepSimulation { steps: n }, &mut |_| true);
+    w.apply(&Command::step(n), &mut |_| true);
 }
 
 fn bench_pile_steps(c: &mut Criterion) {
@@ -155,7 +155,7 @@ fn bench_log_and_sync(c: &mut Criterion) {
         let (tool, a, cmd) = if i % 2 == 0 {
             ("apply_force", &force, Command::ApplyForce { object_id: 0, force: [1.0, 0.0, 0.0], position: None, link_index: -1 })
         } else {
-            ("step_simulation", &one_step, Command::StepSimulation { steps: 1 })
+            ("step_simulation", &one_step, Command::step(1))
         };
         sim.change(tool, a, Ok(cmd), &limits, &mut |_| true).unwrap();
         sim.read("get_object_state", &state, |s| Ok(s.world().object_state(0))).unwrap();
@@ -258,7 +258,7 @@ fn bench_over_http(c: &mut Criterion) {
         let mut sim = pile_sim(dir.path(), &format!("local{round}"), SyncMode::Normal);
         std::thread::sleep(Duration::from_secs(3));
         let t = Instant::now();
-        sim.change("step_simulation", &args(json!({"steps": 1000})), Ok(Command::StepSimulation { steps: 1000 }), &Limits::default(), &mut |_| true).unwrap();
+        sim.change("step_simulation", &args(json!({"steps": 1000})), Ok(Command::step(1000)), &Limits::default(), &mut |_| true).unwrap();
         local_ms.push(t.elapsed().as_secs_f64() * 1e3);
         assert_eq!(sim.world().state_hash(), http_hash, "HTTP and in-process runs differ");
     }

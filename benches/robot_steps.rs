@@ -95,7 +95,7 @@ fn cost(build: &dyn Fn() -> World, steps: u64, runs: usize) -> (f64, f64) {
         .map(|_| {
             let mut w = build();
             let t = Instant::now();
-            apply(&mut w, &Command::StepSimulation { steps });
+            apply(&mut w, &Command::step(steps));
             t.elapsed().as_secs_f64() * 1e3 / steps as f64
         })
         .collect();

@@ -190,7 +190,7 @@ fn steps_on(snapshot: &[u8], threads: usize) -> (f64, String) {
     let mut w = physics_mcp::world::World::restore("scene", false, snapshot).unwrap();
     assert_eq!(w.num_threads(), threads);
     let t = Instant::now();
-    w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    w.apply(&Command::step(100), &mut |_| true);
     (t.elapsed().as_secs_f64() * 1e3 / 100.0, w.state_hash())
 }
 
@@ -224,7 +224,7 @@ fn live_paired(name: &str, snapshot: &[u8]) -> Paired {
         let mut ms = [0.0; 2];
         for i in if round % 2 == 0 { [0, 1] } else { [1, 0] } {
             let t = Instant::now();
-            twins[i].apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+            twins[i].apply(&Command::step(100), &mut |_| true);
             ms[i] = t.elapsed().as_secs_f64() * 1e3 / 100.0;
         }
         assert_eq!(twins[0].state_hash(), twins[1].state_hash(), "{name}: 1 and 2 threads differ after round {round}");
@@ -235,7 +235,7 @@ fn live_paired(name: &str, snapshot: &[u8]) -> Paired {
 
 /// Both thread comparisons of `world` settled 100 steps, as REPORT lines.
 fn report_threads(what: &str, mut world: physics_mcp::world::World, decimals: usize) {
-    world.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    world.apply(&Command::step(100), &mut |_| true);
     let snapshot = world.snapshot();
     let live = live_paired(what, &snapshot);
     println!("REPORT {what} step, live simulation (in-process, rounds of 100 steps): {}", live.report("1 thread", "2 threads", decimals));
@@ -250,7 +250,7 @@ fn bench_pile_threads(c: &mut Criterion) {
     report_threads("pile (1000 boxes)", pile::pile_world(), 2);
     report_threads("64 URDF arms", pile::arms_world(), 3);
     let mut w = pile::pile_world();
-    w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    w.apply(&Command::step(100), &mut |_| true);
     let snapshot = w.snapshot();
     let mut g = c.benchmark_group("pile_100_steps_threads");
     g.sample_size(10);

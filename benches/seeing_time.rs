@@ -64,7 +64,7 @@ fn dropped_100() -> Lent {
     }
     let start = w.snapshot();
     let first = event(1, Kind::Root, "create_simulation", &w);
-    let step = Command::StepSimulation { steps: STEPS };
+    let step = Command::step(STEPS);
     w.apply(&step, &mut |_| true);
     let last = event(2, Kind::Change, "step_simulation", &w);
     Lent {

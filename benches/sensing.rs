@@ -32,7 +32,7 @@ fn pile_rays() -> Vec<([f32; 3], [f32; 3])> {
 
 fn collapsed_pile() -> World {
     let mut w = pile::pile_world();
-    w.apply(&Command::StepSimulation { steps: 400 }, &mut |_| true);
+    w.apply(&Command::step(400), &mut |_| true);
     w
 }
 

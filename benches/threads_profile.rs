@@ -32,7 +32,7 @@ fn main() {
         }
         _ => pile::pile_world(),
     };
-    w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    w.apply(&Command::step(100), &mut |_| true);
     physics_mcp::cli::step_on_threads(threads).expect("stepping threads");
     let mut w = physics_mcp::world::World::restore("scene", false, &w.snapshot()).unwrap();
     // Optional: steps (default 1,000) and a chunk size, to see the cost after the restore step by
@@ -43,7 +43,7 @@ fn main() {
     let mut chunks = Vec::new();
     for _ in 0..steps / chunk {
         let c = std::time::Instant::now();
-        w.apply(&Command::StepSimulation { steps: chunk }, &mut |_| true);
+        w.apply(&Command::step(chunk), &mut |_| true);
         chunks.push(format!("{:.3}", c.elapsed().as_secs_f64() * 1e3 / chunk as f64));
     }
     let ms_per_step = t.elapsed().as_secs_f64() * 1e3 / (steps / chunk * chunk) as f64;

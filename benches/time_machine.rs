@@ -51,7 +51,7 @@ fn pile(reg: &Registry, id: &str) {
         };
         sim.change("add_box", &a, Ok(cmd), &l, &mut |_| true).unwrap();
     }
-    sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 300 }), &l, &mut |_| true).unwrap();
+    sim.change("step_simulation", &a, Ok(Command::step(300)), &l, &mut |_| true).unwrap();
 }
 
 /// `n` further events: velocity changes on rotating bodies, a one-step advance every 100.
@@ -61,7 +61,7 @@ fn more_events(reg: &Registry, id: &str, n: u64) {
     let (a, l) = (Args::new(), Limits::default());
     for i in 0..n {
         let cmd = if i % 100 == 99 {
-            Command::StepSimulation { steps: 1 }
+            Command::step(1)
         } else {
             let id = 1 + (i % 1000) as u32;
             Command::SetObjectVelocity { object_id: id, linear_velocity: Some([0.0, 0.0, 0.01 * (i % 7) as f32]), angular_velocity: None }

@@ -50,10 +50,10 @@ fn build(reg: &Registry, id: &str, padding: usize) -> (u64, u64) {
         sim.change("set_camera", &a, Ok(cam), &l, &mut |_| true).unwrap();
     }
     // 100 steps × 1001 bodies is a snapshot's worth of work: the interval starts at one.
-    sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 100 }), &l, &mut |_| true).unwrap();
+    sim.change("step_simulation", &a, Ok(Command::step(100)), &l, &mut |_| true).unwrap();
     let from = sim.log().head_seq();
     assert!(sim.log().snapshot_at(from).unwrap().is_some(), "a snapshot at the interval's start");
-    sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 1000 }), &l, &mut |_| true).unwrap();
+    sim.change("step_simulation", &a, Ok(Command::step(1000)), &l, &mut |_| true).unwrap();
     (from, sim.log().head_seq())
 }
 
@@ -92,7 +92,7 @@ fn bench_trajectory(c: &mut Criterion) {
         b.iter(|| {
             let mut w = World::restore("pile", false, &snapshot).unwrap();
             let t = Instant::now();
-            w.apply(&Command::StepSimulation { steps: 1000 }, &mut |_| true);
+            w.apply(&Command::step(1000), &mut |_| true);
             let st = t.elapsed().as_secs_f64();
             let tr = look_back(&reg, "pile", from, to, &req);
             stepped.push(st);

@@ -15,7 +15,7 @@ use physics_mcp::world::World;
 
 fn collapsed_pile() -> World {
     let mut w = pile::pile_world();
-    w.apply(&Command::StepSimulation { steps: 400 }, &mut |_| true);
+    w.apply(&Command::step(400), &mut |_| true);
     w
 }
 

@@ -24,7 +24,7 @@ const WARM: u64 = 100;
 const TIMED: u64 = 300;
 
 fn step(w: &mut World, n: u64) {
-    w.apply(&Command::StepSimulation { steps: n }, &mut |_| true);
+    w.apply(&Command::step(n), &mut |_| true);
 }
 
 /// This process's time on a CPU so far (ns; Linux: the sum over its threads, the stepping

@@ -28,7 +28,7 @@
 //!   token from a file or the environment, the process-wide shutdown, test-only crash points.
 #![warn(missing_docs)]
 
-pub use physics_core::{command, digest, engine, limits, outputs, value, world};
+pub use physics_core::{command, digest, engine, limits, measure, outputs, value, world};
 
 pub mod cli;
 pub mod cluster;

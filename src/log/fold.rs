@@ -128,7 +128,7 @@ pub struct Folded {
 /// Simulation work a command did, in body-steps (the snapshot policy's measure).
 pub fn work(cmd: &Command, world: &World) -> u64 {
     match cmd {
-        Command::StepSimulation { steps } => steps * (world.object_count() as u64).max(1),
+        Command::StepSimulation { steps, .. } => steps * (world.object_count() as u64).max(1),
         _ => 0,
     }
 }
@@ -210,6 +210,29 @@ pub fn check_hash(world: &World, e: &Event) -> Result<(), FoldError> {
     }
 }
 
+/// Applies an accepted command to `world` under the rules of event version `version`, with
+/// `World::apply_observed`'s hooks: the one place a change's result is computed, live
+/// (`sim::apply`) and in every fold, so replay re-derives what the log recorded. A step that
+/// asks `measure` (from `measure::RECORDED_SINCE`) is measured over its first state and every
+/// step it takes (`seeing::measure::Meter`), the exact answers part of its result; an older
+/// event's step is applied as it was (its result had none).
+pub fn apply(world: &mut World, cmd: &Command, version: u32, control: crate::world::StepControl, observe: crate::world::StepObserver) -> Outcome {
+    let specs = match cmd {
+        Command::StepSimulation { measure: Some(specs), .. } if version >= crate::measure::RECORDED_SINCE && !specs.is_empty() => specs,
+        _ => return world.apply_observed(cmd, control, observe),
+    };
+    let mut meter = crate::seeing::measure::Meter::new(specs.clone());
+    meter.see(world);
+    let mut out = world.apply_observed(cmd, control, &mut |w: &World| {
+        observe(w);
+        meter.see(w);
+    });
+    if let Outcome::Stepped(stepped) = &mut out {
+        stepped.measures = Some(meter.finish(None));
+    }
+    out
+}
+
 /// Folds one state-changing event onto `world`: decode, check against the world and `limits`,
 /// apply (a fork's or load's root in a chain changes nothing; a second create_simulation is
 /// refused), and compare the recorded hash when `verify` says so. Returns the command and
@@ -227,7 +250,7 @@ pub fn fold_event(
 
 /// `fold_event` for an already decoded command, with the step hooks of `World::apply_observed`
 /// (`control` may stop a step early; `observe` sees the world after every step). The one
-/// place an event's command reaches `World::apply`.
+/// place an event's command reaches `World::apply` (through `apply`).
 pub fn fold_decoded(
     world: &mut World,
     e: &Event,
@@ -255,7 +278,7 @@ pub fn fold_decoded(
                 }
             }
             cmd.validate(world, limits).map_err(|why| FoldError::Refused { seq: e.seq, why })?;
-            Some(world.apply_observed(&cmd, control, observe).land(e.seq, world.current_time()))
+            Some(apply(world, &cmd, e.version, control, observe).land(e.seq, world.current_time()))
         }
     };
     if verify {
@@ -395,7 +418,7 @@ impl Lent {
             .iter()
             .filter(|(e, _)| e.seq > self.interval.from_seq)
             .map(|(_, c)| match c {
-                Command::StepSimulation { steps } => *steps,
+                Command::StepSimulation { steps, .. } => *steps,
                 _ => 0,
             })
             .sum()
@@ -423,7 +446,7 @@ impl Price {
                 match cmd {
                     Command::AddBody { .. } | Command::LoadUrdf { .. } | Command::LoadMjcf { .. } => objects += 1,
                     Command::RemoveObject { .. } => objects = objects.saturating_sub(1),
-                    Command::StepSimulation { steps } => {
+                    Command::StepSimulation { steps, .. } => {
                         let steps = match lent.until_step {
                             Some(k) if e.seq == lent.interval.to_seq => k.min(*steps),
                             _ => *steps,
@@ -769,9 +792,9 @@ mod tests {
         let mut out = vec![];
         for c in cmds {
             match c {
-                Command::StepSimulation { steps } => {
+                Command::StepSimulation { steps, .. } => {
                     for _ in 0..*steps {
-                        w.apply(&Command::StepSimulation { steps: 1 }, &mut |_| true);
+                        w.apply(&Command::step(1), &mut |_| true);
                         out.push(w.object_state(1).unwrap().position);
                     }
                 }
@@ -803,9 +826,9 @@ mod tests {
         let cmds = vec![
             body(-0.5, 0.0),
             body(2.0, 1.0),
-            Command::StepSimulation { steps: 30 },
+            Command::step(30),
             Command::SetObjectPose { object_id: 1, position: [0.0, 0.0, 3.0], orientation: [0.0, 0.0, 0.0, 1.0] },
-            Command::StepSimulation { steps: 45 },
+            Command::step(45),
         ];
         let s = reg.get("s").unwrap();
         let mut sim = lock_sim(&s);
@@ -855,7 +878,7 @@ mod tests {
         let mut sim = lock_sim(&s);
         let root = sim.log().head_seq();
         // Two objects, 30 steps (60 body-steps); a third, 45 steps (135).
-        for c in [body(-0.5, 0.0), body(2.0, 1.0), Command::StepSimulation { steps: 30 }, body(4.0, 1.0), Command::StepSimulation { steps: 45 }] {
+        for c in [body(-0.5, 0.0), body(2.0, 1.0), Command::step(30), body(4.0, 1.0), Command::step(45)] {
             sim.change("t", &Args::new(), Ok(c), &Limits::default(), &mut |_| true).unwrap();
         }
         let head = sim.log().head_seq();

@@ -168,7 +168,7 @@ impl Replayer<'_> {
                     FoldError::Refused { why, .. } => Self::diverged(e, "command", "an acceptable command", &why),
                     other => ReplayError::Store(other.into()),
                 })?;
-                if let Command::StepSimulation { steps } = cmd {
+                if let Command::StepSimulation { steps, .. } = cmd {
                     self.summary.steps += steps;
                 }
                 Self::check_result(e, &result.map_or(Value::Null, |r| r.to_value()))?;
@@ -287,7 +287,7 @@ pub fn replay_saved(path: &Path, mut progress: impl FnMut(u64, u64)) -> Result<S
     let steps = chain
         .iter()
         .filter_map(|e| match fold::decode(e, &crate::command::NoBlobs) {
-            Ok(Some(Command::StepSimulation { steps })) => Some(steps),
+            Ok(Some(Command::StepSimulation { steps, .. })) => Some(steps),
             _ => None,
         })
         .sum();

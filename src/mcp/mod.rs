@@ -291,7 +291,7 @@ impl PhysicsServer {
                 // A running step shows its progress in the viewer (read-only copies of the
                 // poses about every 100 ms; results and hashes are untouched).
                 let total = match &decided {
-                    Ok(Command::StepSimulation { steps }) => *steps,
+                    Ok(Command::StepSimulation { steps, .. }) => *steps,
                     _ => 0,
                 };
                 // Whether its frames show contacts: read off the chain only while a viewer watches.

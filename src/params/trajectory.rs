@@ -34,16 +34,16 @@ pub struct GetTrajectory {
 }
 
 /// `measure` (get_trajectory, step_simulation, run_sweep's observe): a list of measures, read
-/// by `seeing::measure::parse` (each checked, a refusal naming `measure[i]`); its schema is a
+/// by `measure::parse` (each checked, a refusal naming `measure[i]`); its schema is a
 /// plain list of objects, the forms told in docs/tools.md "Measures" (tools/list stays lean).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Measures(pub Vec<crate::seeing::measure::Spec>);
+pub struct Measures(pub Vec<crate::measure::Spec>);
 
 impl<'de> serde::Deserialize<'de> for Measures {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         use serde::de::Error as _;
         let v = serde_json::Value::deserialize(d)?;
-        crate::seeing::measure::parse(FIELD, &v).map(Measures).map_err(D::Error::custom)
+        crate::measure::parse(FIELD, &v).map(Measures).map_err(D::Error::custom)
     }
 }
 

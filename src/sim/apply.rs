@@ -90,7 +90,7 @@ fn check_steps(calls: &[Call], limits: &Limits) -> Result<(), Refusal> {
     let steps: u64 = calls
         .iter()
         .map(|c| match &c.planned {
-            Planned::Change(Ok(Command::StepSimulation { steps })) => *steps,
+            Planned::Change(Ok(Command::StepSimulation { steps, .. })) => *steps,
             _ => 0,
         })
         .fold(0u64, u64::saturating_add);
@@ -337,11 +337,11 @@ fn work_out(
             Planned::Change(decided) => {
                 let cmd = decided.and_then(|c| c.validate(world, limits).map(|()| c)).map_err(refused)?;
                 let asked = match &cmd {
-                    Command::StepSimulation { steps } => Some(*steps),
+                    Command::StepSimulation { steps, .. } => Some(*steps),
                     _ => None,
                 };
                 blobs.extend(cmd.blobs().into_iter().cloned());
-                let result = world.apply_observed(&cmd, &mut *control, &mut *observe).land(seq, world.current_time());
+                let result = crate::log::fold::apply(world, &cmd, crate::command::EVENT_VERSION, &mut *control, &mut *observe).land(seq, world.current_time());
                 let cancelled = asked.is_some_and(|a| result.steps_taken().is_some_and(|t| t < a));
                 if cancelled && !alone {
                     return Err(format!("The batch was cancelled at calls[{i}] ({}) and changed nothing", call.tool));

@@ -1,14 +1,15 @@
-//! A step with samples — step_simulation's `sample_every`/`sample_objects` and run_sweep's
-//! `observe.every` — taken through the one apply path with a `Sampler` watching: the event,
-//! its recorded result and hash are a plain step's; the samples (the interval sampling rule,
-//! `fold::Cadence`) go to the reply only. Bounds are checked before stepping, since a step
-//! cannot be refused after it is taken.
+//! A step with samples or measures — step_simulation's `sample_every`/`sample_objects`/
+//! `measure` and run_sweep's `observe.every` — taken through the one apply path with a
+//! `Sampler` watching: the event and its hash are a plain step's, its `measure` part of its
+//! command and its answers of its recorded result (`fold::apply`); the samples (the interval
+//! sampling rule, `fold::Cadence`) go to the reply only. Bounds are checked before stepping,
+//! since a step cannot be refused after it is taken.
 
 use crate::command::Command;
 use crate::limits::Limits;
 use crate::log::fold;
 use crate::outputs::Stepped;
-use crate::seeing::measure::{self, Meter, Spec};
+use crate::seeing::measure::{self, Spec};
 use crate::seeing::trajectory::{self, Request};
 use crate::sim::Sim;
 use crate::value::{Args, Refusal};
@@ -28,7 +29,8 @@ pub struct Sampling {
     pub compact: Option<u32>,
     /// Whether samples are asked for (false: only `measure`).
     pub samples: bool,
-    /// Measures taken after every step (`seeing::measure`), in the reply only like the samples.
+    /// Measures taken after every step (`seeing::measure`): part of the step's command, so its
+    /// recorded result holds their exact answers (the reply rounds them like the samples).
     pub measure: Vec<Spec>,
     /// The sample columns to keep (`trajectory::select`), None for all.
     pub fields: Option<Vec<String>>,
@@ -60,22 +62,18 @@ impl Sim {
         let (from, seq) = (self.log().head_seq(), self.log().next_seq());
         let req = Request { every: Some(every), object_ids: sampling.object_ids.clone(), include_velocities: sampling.include_velocities };
         let mut sampler = trajectory::Sampler::new(fold::Interval { from_seq: from, to_seq: seq }, every, &req);
-        let mut meter = Meter::new(sampling.measure.clone());
         if sampling.samples {
             sampler.sample(self.world(), from);
         }
-        meter.see(self.world());
         let mut cadence = fold::Cadence::new(every);
         let mut observe = |w: &World| {
             watch(w);
-            if !meter.is_empty() {
-                meter.see(w);
-            }
             if cadence.step() && sampling.samples {
                 sampler.sample(w, seq);
             }
         };
-        let outcome = self.change_observed("step_simulation", args, Ok(Command::StepSimulation { steps }), limits, control, &mut observe)?;
+        let measure = (!sampling.measure.is_empty()).then(|| sampling.measure.clone());
+        let outcome = self.change_observed("step_simulation", args, Ok(Command::StepSimulation { steps, measure }), limits, control, &mut observe)?;
         let mut result = Stepped::try_from(outcome).map_err(|_| "Internal error: step_simulation gave a result of an unexpected kind".to_string())?;
         if cadence.end() && sampling.samples {
             sampler.sample(self.world(), seq);
@@ -91,8 +89,8 @@ impl Sim {
         if let (Some(t), Some(decimals)) = (result.trajectory.as_mut(), sampling.compact) {
             trajectory::compact(t, Some(decimals));
         }
-        if !meter.is_empty() {
-            result.measures = Some(meter.finish(sampling.compact));
+        if let (Some(m), Some(decimals)) = (result.measures.as_mut(), sampling.compact) {
+            m.iter_mut().for_each(|m| measure::round(m, decimals));
         }
         Ok(result)
     }

@@ -484,7 +484,7 @@ fn variant_work(
                 s.steps_taken
             }
             None => {
-                let out = sim.change_observed("step_simulation", &a, Ok(Command::StepSimulation { steps }), limits, &mut *control, &mut watch)?;
+                let out = sim.change_observed("step_simulation", &a, Ok(Command::step(steps)), limits, &mut *control, &mut watch)?;
                 out.steps_taken().unwrap_or(steps)
             }
         };
@@ -592,6 +592,12 @@ fn finish<F: VariantFork>(
             let still = std::mem::take(&mut v.unmoved);
             v.objects.retain(|o| !still.contains(&o.object_id));
             v.unmoved = still;
+            // Computed in f64 from the f32 poses and velocities the engine holds: the f32 they
+            // come to keeps all they know, at half the digits (`detail: "full"`: every bit).
+            for o in &mut v.objects {
+                o.displacement = crate::value::r32(o.displacement as f32);
+                o.peak_speed = crate::value::r32(o.peak_speed as f32);
+            }
             if let Some(t) = &mut v.trajectory {
                 crate::seeing::trajectory::compact(t, Some(crate::seeing::trajectory::DEFAULT_DECIMALS));
             }

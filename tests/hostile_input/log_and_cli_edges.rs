@@ -36,7 +36,7 @@ fn make_log(dir: &Path, id: &str) -> PathBuf {
         let mut sim = lock_sim(&shared);
         let (a, l) = (Args::new(), Limits::default());
         sim.change("add_sphere", &a, Ok(sphere()), &l, &mut |_| true).unwrap();
-        sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 3 }), &l, &mut |_| true).unwrap();
+        sim.change("step_simulation", &a, Ok(Command::step(3)), &l, &mut |_| true).unwrap();
         sim.read("get_simulation_info", &a, |s| Ok(s.state_hash().to_string())).unwrap();
         sim.flush();
     }
@@ -109,7 +109,7 @@ fn a_destroyed_simulation_refuses_late_writers_and_stays_deleted() {
         let sim = late.clone();
         std::thread::spawn(move || {
             lock_sim(&sim)
-                .change("step_simulation", &Args::new(), Ok(Command::StepSimulation { steps: 20_000 }), &Limits::default(), &mut |_| true)
+                .change("step_simulation", &Args::new(), Ok(Command::step(20_000)), &Limits::default(), &mut |_| true)
                 .map(|_| ())
         })
     };

@@ -83,7 +83,7 @@ fn robots_under_rule_2_stay_within_tolerance_of_rule_1_for_two_seconds() {
     for (urdf, motors) in [("iiwa14.urdf", true), ("panda_dynamics.urdf", true), ("iiwa14.urdf", false), ("panda_dynamics.urdf", false)] {
         let run = |rule| {
             let (mut w, id) = robot(rule, urdf, motors);
-            apply(&mut w, &Command::StepSimulation { steps: 480 });
+            apply(&mut w, &Command::step(480));
             let (q, tau) = joints(&w, id);
             (positions(&w), q, tau, w.state_hash())
         };
@@ -132,7 +132,7 @@ fn non_chaotic_gymnasium_models_under_rule_2_stay_within_tolerance_of_rule_1_for
         let run = |rule| {
             let mut w = mjcf(rule, model);
             let steps = (2.0 / w.timestep_given()).round() as u64;
-            apply(&mut w, &Command::StepSimulation { steps });
+            apply(&mut w, &Command::step(steps));
             positions(&w)
         };
         let d = distance(&run(EngineRule::Upstream), &run(EngineRule::TreeMultibody));
@@ -150,14 +150,14 @@ fn non_chaotic_gymnasium_models_under_rule_2_stay_within_tolerance_of_rule_1_for
 fn the_rule_travels_with_the_snapshot() {
     for rule in [EngineRule::Upstream, EngineRule::TreeMultibody] {
         let (mut w, _) = robot(rule, "iiwa14.urdf", true);
-        apply(&mut w, &Command::StepSimulation { steps: 30 });
+        apply(&mut w, &Command::step(30));
         let bytes = w.snapshot();
         // The version leads the encoding (a postcard varint: one byte below 128).
         assert_eq!(bytes[0] as u32, if rule == EngineRule::Upstream { 6 } else { 7 });
         let mut r = World::restore("rules", false, &bytes).unwrap();
         assert_eq!(r.engine_rule(), rule);
-        apply(&mut w, &Command::StepSimulation { steps: 30 });
-        apply(&mut r, &Command::StepSimulation { steps: 30 });
+        apply(&mut w, &Command::step(30));
+        apply(&mut r, &Command::step(30));
         assert_eq!(w.state_hash(), r.state_hash(), "{rule:?}: restore → continue");
         assert_eq!(w.snapshot(), r.snapshot(), "{rule:?}: the same snapshot bytes");
         let copy = w.duplicate();
@@ -199,7 +199,7 @@ fn the_free_pandas_gap_between_rules_is_its_sensitivity_to_rounding() {
     let (mut rules_peak, mut nudge_peak) = (0.0_f32, 0.0_f32);
     for step in 1..=480 {
         for w in [&mut rule_1, &mut rule_2, &mut rule_1_nudged] {
-            apply(w, &Command::StepSimulation { steps: 1 });
+            apply(w, &Command::step(1));
         }
         let reference = positions(&rule_1);
         let (rules, nudge) = (distance(&reference, &positions(&rule_2)), distance(&reference, &positions(&rule_1_nudged)));

@@ -114,7 +114,7 @@ fn every_gymnasium_model_rests_on_its_floor_without_penetrating_or_gaining_energ
         let settled_from = (SETTLE_S / dt).round() as u64;
         let (mut deepest, mut deepest_at, mut resting, mut own) = (0.0f32, 0u64, 0.0f32, 0.0f32);
         let mut step = 0u64;
-        w.apply_observed(&Command::StepSimulation { steps }, &mut |_| true, &mut |w| {
+        w.apply_observed(&Command::step(steps), &mut |_| true, &mut |w| {
             step += 1;
             let (d, o) = penetration(w);
             if d > deepest {
@@ -160,7 +160,7 @@ fn use_model_options_imposes_the_models_timestep_and_gravity_and_old_events_fold
     let out = w.apply(&load(true), &mut |_| true);
     assert_eq!((w.timestep(), w.timestep_given(), w.gravity()), (0.01, 0.01, [0.0, 0.0, 0.0]));
     assert!(ignored(&out).ends_with("applied to the simulation (use_model_options)"), "{}", ignored(&out));
-    w.apply(&Command::StepSimulation { steps: 100 }, &mut |_| true);
+    w.apply(&Command::step(100), &mut |_| true);
     assert!((w.current_time() - 1.0).abs() < 1e-12, "100 steps of 0.01 s: {}", w.current_time());
 
     let (mut plain, _) = World::create(&root).unwrap();

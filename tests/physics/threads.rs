@@ -49,7 +49,7 @@ fn scenes() -> Vec<Scene> {
 }
 
 fn step(w: &mut World, n: u64) {
-    w.apply(&Command::StepSimulation { steps: n }, &mut |_| true);
+    w.apply(&Command::step(n), &mut |_| true);
 }
 
 fn apply(w: &mut World, c: Command) -> serde_json::Value {

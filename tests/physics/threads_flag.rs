@@ -50,7 +50,7 @@ fn stepping_threads(what: &str, sim: &SharedSim) -> usize {
         record.lock().unwrap().push(format!("{name} of {n}"));
     };
     let mut s = lock_sim(sim);
-    let step = Ok(Command::StepSimulation { steps: 2 });
+    let step = Ok(Command::step(2));
     s.change_observed("step_simulation", &Args::new(), step, &Limits::default(), &mut |_| true, &mut observe).expect("step");
     let names = seen.lock().unwrap().clone();
     let on_pool = |n: &String| n.starts_with("physics-step-") && n.ends_with(&format!(" of {THREADS}"));
@@ -226,7 +226,7 @@ fn steps_called_from_rayon_workers_at_once_all_finish() {
         std::thread::spawn(move || {
             rapier3d::rayon::scope(|_| {
                 for _ in 0..5 {
-                    w.apply(&Command::StepSimulation { steps: 400 }, &mut |_| true);
+                    w.apply(&Command::step(400), &mut |_| true);
                 }
             });
             done.send(w.state_hash()).unwrap();

@@ -2,8 +2,8 @@
 //! the same on each tool (`detail: "full"`): get_trajectory lists objects that never moved
 //! by id instead of repeating their samples and rounds on request; a batch answers each
 //! change with its ids and values; run_sweep summarises each object (displacement, peak
-//! speed — checked against free fall), ranks the variants, and names the parent, never a
-//! throwaway fork, in a refusal.
+//! speed — checked against free fall — as the f32 they come to), samples in get_trajectory's
+//! compact form, ranks the variants, and names the parent, never a throwaway fork, in a refusal.
 
 use crate::common;
 
@@ -121,8 +121,24 @@ async fn a_sweep_summarises_ranks_and_names_the_parent_in_refusals() {
         .await
         .unwrap_err();
     assert!(e.contains("variants[1]") && e.contains("calls[0]") && e.contains(&sim), "{e}");
-    let full = c.call("run_sweep", json!({"sim_id": sim, "variants": [[]], "steps": 10, "detail": "full"})).await;
+    let full = c.call("run_sweep", json!({"sim_id": sim, "variants": [[]], "steps": 120, "detail": "full"})).await;
     assert_eq!(full["variants"][0]["objects"].as_array().unwrap().len(), 2);
+    // The compact summary gives the f32 the exact figures come to (the poses' own precision).
+    let exact = &full["variants"][0]["objects"][0];
+    for key in ["displacement", "peak_speed"] {
+        let x = exact[key].as_f64().unwrap();
+        let shown: f64 = format!("{}", x as f32).parse().unwrap();
+        assert_eq!(o[key].as_f64(), Some(shown), "{key}: {x} shown as {}", o[key]);
+    }
+    assert!(exact["displacement"].to_string().len() > o["displacement"].to_string().len(), "{exact} {o}");
+    // Its samples are get_trajectory's compact default: 4 decimals, the still box by id only.
+    let sampled = c.call("run_sweep", json!({"sim_id": sim, "variants": [[]], "steps": 12, "observe": {"every": 4}})).await;
+    let t = &sampled["variants"][0]["trajectory"];
+    assert_eq!(t["unmoved"], json!([still]), "{t}");
+    for x in t["objects"][0]["positions"].as_array().unwrap().iter().flat_map(|p| p.as_array().unwrap()) {
+        let x = x.as_f64().unwrap();
+        assert_eq!((x * 1e4).round() / 1e4, x, "{x} has more than 4 decimals");
+    }
     let e = c.try_call("run_sweep", json!({"sim_id": sim, "variants": [[]], "steps": 1, "rank_by": {"object_id": ball, "metric": "height"}})).await.unwrap_err();
     assert!(e.contains("rank_by.metric"), "{e}");
 }

@@ -3,7 +3,8 @@
 //! undo/redo and an undone step. The page plots the objects that moved (and only those) in their
 //! own colours, the second red box dashed, the fixed-base arm by its end effector, the arm's
 //! joints; the undone step is marked with its time; its counts add up to replay's; arguments never
-//! break inside a token; the read runs are folded. In a real browser (ignored here; `.ci/run`
+//! break inside a token; the read runs are folded; its thumbnails and movie frame the whole
+//! scene even when the only mover barely moves. In a real browser (ignored here; `.ci/run`
 //! runs it): no two pieces of text overlap, line colours are the objects' colours, no console
 //! message, no request.
 
@@ -78,6 +79,53 @@ async fn record(dir: &Path) -> Session {
     let log = dir.join("session.sqlite");
     std::fs::copy(&live, &log).unwrap();
     Session { while_running, log, falling, sliding, still, arm }
+}
+
+/// The report's one camera frames the whole scene, not what moves: two static boxes 4 m apart
+/// and a ball between them that barely rolls — framed on the mover (render_animation's
+/// default), the boxes fall out of the picture; the last thumbnail and the movie's last frame
+/// show both.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_reports_pictures_keep_the_scene_when_the_mover_barely_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(dir.path(), &[]);
+    let c = server.client().await;
+    let sim = c.new_sim(json!({})).await;
+    c.ground(&sim).await;
+    for (x, color) in [(-2, RED), (2, GREEN)] {
+        c.call("add_box", json!({"sim_id": sim, "dimensions": [0.2, 0.2, 0.2], "position": [x, 0, 0.2], "color": color, "mass": 0})).await;
+    }
+    let ball = c.call("add_sphere", json!({"sim_id": sim, "radius": 0.05, "position": [0, 0, 0.05]})).await["object_id"].clone();
+    c.call("set_object_velocity", json!({"sim_id": sim, "object_id": ball, "linear_velocity": [0.02, 0, 0]})).await;
+    c.step(&sim, 60).await;
+    let log = server.data.join(format!("{sim}.sqlite"));
+    server.terminate();
+    let out = dir.path().join("report.html");
+    report(&log, &out);
+    let page = std::fs::read_to_string(&out).unwrap();
+    let decode = |b64: &str| base64::Engine::decode(&base64::engine::general_purpose::STANDARD, b64).unwrap();
+    let images = |mime: &str| -> Vec<Vec<u8>> {
+        let key = format!("src=\"data:{mime};base64,");
+        page.match_indices(&key).map(|(i, _)| decode(&page[i + key.len()..i + key.len() + page[i + key.len()..].find('"').unwrap()])).collect()
+    };
+    // Red and green as lit faces show them (either side of the light).
+    let shows = |rgb: &[u8]| {
+        let (mut red, mut green) = (0, 0);
+        for p in rgb.chunks(3) {
+            let (r, g, b) = (i32::from(p[0]), i32::from(p[1]), i32::from(p[2]));
+            red += usize::from(r > 60 && r > 2 * g && r > 2 * b);
+            green += usize::from(g > 60 && g > 2 * r && g > 2 * b);
+        }
+        (red, green)
+    };
+    let thumbs = images("image/png");
+    assert!(thumbs.len() >= 2, "{} thumbnails", thumbs.len());
+    let (w, h, last) = common::pictures::png_rgb(thumbs.last().unwrap());
+    let (red, green) = shows(&last);
+    assert!(red > 0 && green > 0, "the last thumbnail ({w}x{h}) shows {red} red and {green} green pixels: a box is out of the picture");
+    let movie = common::pictures::Gif::decode(&images("image/gif")[0]);
+    let (red, green) = shows(&movie.rgb(movie.frames.len() - 1));
+    assert!(red > 0 && green > 0, "the movie's last frame shows {red} red and {green} green pixels");
 }
 
 /// `physics-mcp report LOG -o OUT`.

@@ -28,7 +28,8 @@ async fn cancelled_step(c: &Client, sim: &str, steps: u64, after: Duration) -> u
     now - before
 }
 
-fn replay_cli(log: &std::path::Path) -> (bool, String) {
+/// `physics-mcp replay LOG`: (success, stdout and stderr).
+pub(crate) fn replay_cli(log: &std::path::Path) -> (bool, String) {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_physics-mcp")).arg("replay").arg(log).output().unwrap();
     (out.status.success(), format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr)))
 }

@@ -40,7 +40,7 @@ fn simulation(reg: &Registry, id: &str) {
         collides: true,
     };
     sim.change("add_sphere", &a, Ok(add), &l, &mut |_| true).unwrap();
-    sim.change("step_simulation", &a, Ok(Command::StepSimulation { steps: 20 }), &l, &mut |_| true).unwrap();
+    sim.change("step_simulation", &a, Ok(Command::step(20)), &l, &mut |_| true).unwrap();
 }
 
 #[test]

@@ -12,6 +12,7 @@ mod engine_build;
 mod fork_chains;
 mod incremental_hash;
 mod properties;
+mod recorded_measures;
 mod record_replays;
 mod replays;
 mod snapshot_roundtrip;

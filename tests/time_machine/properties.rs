@@ -99,7 +99,7 @@ fn apply(sim: &SharedSim, op: &Op) -> String {
             shape: Shape::Sphere { radius: 0.1 }, position, orientation: ident, mass: 1.0, color: None,
             collides: true,
         },
-        Op::Step(steps) => Command::StepSimulation { steps },
+        Op::Step(steps) => Command::step(steps),
         Op::Force(object_id, force) => Command::ApplyForce { object_id, force, position: None, link_index: -1 },
         Op::Torque(object_id, torque) => Command::ApplyTorque { object_id, torque, link_index: -1 },
         Op::Pose(object_id, position) => Command::SetObjectPose { object_id, position, orientation: [0.0, 0.6, 0.0, 0.8] },

@@ -104,7 +104,7 @@ fn disturb(w: &mut World, k: u32) {
     if k == 300 {
         apply(w, Command::RemoveConstraint { constraint_id: 1 });
     }
-    apply(w, Command::StepSimulation { steps: 1 });
+    apply(w, Command::step(1));
 }
 
 fn body_bits(w: &World) -> Vec<u32> {
@@ -235,8 +235,8 @@ fn filtered_worlds_of_both_rules_restore_and_continue_bit_identically() {
         assert_eq!(r.state_hash(), w.state_hash());
         assert_eq!(r.snapshot(), bytes, "re-serialised");
         for k in 0..3 {
-            apply(&mut w, Command::StepSimulation { steps: 60 });
-            apply(&mut r, Command::StepSimulation { steps: 60 });
+            apply(&mut w, Command::step(60));
+            apply(&mut r, Command::step(60));
             assert_eq!(body_bits(&w), body_bits(&r), "pybullet_test {pybullet_test}, round {k}");
         }
         hashes.push(w.state_hash());

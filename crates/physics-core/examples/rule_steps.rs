@@ -77,7 +77,7 @@ fn main() {
         }
     }
     let t = Instant::now();
-    apply(&mut w, &Command::StepSimulation { steps });
+    apply(&mut w, &Command::step(steps));
     let ms = t.elapsed().as_secs_f64() * 1e3 / steps as f64;
     println!("{scene} rule {}: {ms:.4} ms/step over {steps} steps; state hash {}", rule as u32, w.state_hash());
 }

@@ -58,7 +58,7 @@ fn pile() -> World {
             }
         }
     }
-    apply(&mut w, &Command::StepSimulation { steps: 100 });
+    apply(&mut w, &Command::step(100));
     w
 }
 
@@ -81,11 +81,11 @@ fn main() {
     for n in counts {
         use_threads(n);
         let mut p = World::restore("cost", false, &pile_snapshot).unwrap();
-        let pile_us = timed(300, || apply(&mut p, &Command::StepSimulation { steps: 300 }));
+        let pile_us = timed(300, || apply(&mut p, &Command::step(300)));
         let mut t = ground();
         add_box(&mut t, 0.1, [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0], 1.0);
-        let long_us = timed(20_000, || apply(&mut t, &Command::StepSimulation { steps: 20_000 }));
-        let short_us = timed(2_000, || (0..2_000).for_each(|_| apply(&mut t, &Command::StepSimulation { steps: 1 })));
+        let long_us = timed(20_000, || apply(&mut t, &Command::step(20_000)));
+        let short_us = timed(2_000, || (0..2_000).for_each(|_| apply(&mut t, &Command::step(1))));
         let now = (p.state_hash(), t.state_hash());
         let same = hashes.as_ref().is_none_or(|h| *h == now);
         hashes.get_or_insert(now);

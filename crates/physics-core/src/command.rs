@@ -39,7 +39,9 @@ use crate::world::World;
 /// them) and keeps its sensors (get_sensor_data); set_actuator_controls; older loads fold as
 /// before (their actuators and sensors stay ignored).
 /// Every other result of version 6 is unchanged.
-pub const EVENT_VERSION: u32 = 7;
+/// 8: step_simulation's `measure` is part of its command and its answers (exact) of its
+/// recorded result (`measure::RECORDED_SINCE`); a version-7 step was measured in the reply only.
+pub const EVENT_VERSION: u32 = 8;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;
@@ -370,6 +372,11 @@ pub enum Command {
     StepSimulation {
         /// Number of steps actually taken (a cancelled call records the steps it did).
         steps: u64,
+        /// The measures asked (event version `measure::RECORDED_SINCE` on): their answers,
+        /// taken at every step, are part of the recorded result. Absent when none were asked,
+        /// so such a step is encoded as before.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        measure: Option<Vec<crate::measure::Spec>>,
     },
     /// Change the fixed timestep.
     SetTimestep {
@@ -934,11 +941,16 @@ impl Command {
         }
     }
 
+    /// A plain step_simulation of `steps` steps (no measures).
+    pub fn step(steps: u64) -> Command {
+        Command::StepSimulation { steps, measure: None }
+    }
+
     /// `as_done` given the steps a step_simulation took (None: not a step result).
     pub fn as_taken(self, steps_taken: Option<u64>) -> Command {
         match self {
-            Command::StepSimulation { steps } => {
-                Command::StepSimulation { steps: steps_taken.filter(|t| *t < steps).unwrap_or(steps) }
+            Command::StepSimulation { steps, measure } => {
+                Command::StepSimulation { steps: steps_taken.filter(|t| *t < steps).unwrap_or(steps), measure }
             }
             other => other,
         }
@@ -951,7 +963,7 @@ impl Command {
         match self {
             Command::CreateSimulation { gravity, name, .. } => finite("gravity", gravity).and_then(|()| labelled(name)),
             Command::ForkSimulation { name, .. } | Command::LoadSimulation { name, .. } => labelled(name),
-            Command::StepSimulation { .. } => Ok(()),
+            Command::StepSimulation { measure, .. } => crate::measure::check_values("measure", measure.as_deref().unwrap_or_default()),
             Command::SetTimestep { timestep, timestep_given } => {
                 positive("timestep", *timestep)?;
                 match timestep_given {
@@ -1104,14 +1116,14 @@ impl Command {
             Command::CreateSimulation { .. }
             | Command::ForkSimulation { .. }
             | Command::LoadSimulation { .. } => Err("a root event cannot be applied here".into()),
-            Command::StepSimulation { steps } => {
+            Command::StepSimulation { steps, measure } => {
                 if *steps == 0 || *steps > limits.max_steps {
                     Err(format!(
                         "steps must be an integer from 1 to {} (--max-steps); got {steps}",
                         limits.max_steps
                     ))
                 } else {
-                    Ok(())
+                    crate::measure::check_objects("measure", measure.as_deref().unwrap_or_default(), |id| world.has_object(id))
                 }
             }
             Command::SetTimestep { .. }

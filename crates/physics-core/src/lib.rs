@@ -14,6 +14,7 @@
 //! - `digest`  — content hashes of snapshots and blobs (blake3, parallel when large).
 //! - `engine`  — the engine build every root event records: a crate → version map of the
 //!   result-affecting crates, taken from `Cargo.lock` by `build.rs` at compile time.
+//! - `measure` — what a `measure` asks (step_simulation's is part of its command).
 //! - `limits`  — the limits every request is checked against (a plain struct; the CLI's flags
 //!   for them live in the server crate).
 #![warn(missing_docs)]
@@ -22,6 +23,7 @@ pub mod command;
 pub mod digest;
 pub mod engine;
 pub mod limits;
+pub mod measure;
 pub mod outputs;
 pub mod value;
 pub mod world;

@@ -107,9 +107,9 @@ pub struct Stepped {
     /// recorded result or its hash, so the step event is exactly a plain step's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<Trajectory>,
-    /// Answers to `measure`, computed at every step of this call. Output only, like
-    /// `trajectory`: the arguments are logged, and get_trajectory with the same `measure` over
-    /// this event re-simulates the same values.
+    /// Answers to `measure`, computed at every step of this call. Part of the recorded result
+    /// (exact) from event version 8 (`measure::RECORDED_SINCE`), so replay re-checks them; the
+    /// reply rounds them like the samples unless `detail: "full"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measures: Option<Vec<Measured>>,
     /// Where the call landed (event version 3 on): the head after it and the time.

@@ -20,7 +20,9 @@ pub(super) fn decide_step(p: &Step) -> Result<Command, Refusal> {
         .ok()
         .filter(|s| *s > 0)
         .ok_or_else(|| format!("steps must be an integer >= 1; got {steps}"))?;
-    Ok(Command::StepSimulation { steps })
+    // An empty list asks nothing: the step is a plain one.
+    let measure = p.measure.as_ref().map(|m| m.0.clone()).filter(|m| !m.is_empty());
+    Ok(Command::StepSimulation { steps, measure })
 }
 
 pub(super) fn decide_timestep(p: SetTimestep) -> Result<Command, Refusal> {

@@ -137,7 +137,7 @@ impl PhysicsServer {
             .with_sim("step_simulation", args, move |sim, a, limits| {
                 let parsed = params::parse::<Step>("step_simulation", a).and_then(|p| {
                     let steps = match super::simulations::decide_step(&p)? {
-                        crate::command::Command::StepSimulation { steps } => steps,
+                        crate::command::Command::StepSimulation { steps, .. } => steps,
                         _ => 0,
                     };
                     Ok((steps, step_sampling(&p)?.unwrap_or_default()))

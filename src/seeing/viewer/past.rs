@@ -81,7 +81,7 @@ impl Clock {
     /// version 3 on, and a load's, whose world came from a file) sets it.
     fn pass(&mut self, cmd: Option<&Command>, result: Option<&str>) -> f64 {
         match cmd {
-            Some(Command::StepSimulation { steps }) => self.steps += steps,
+            Some(Command::StepSimulation { steps, .. }) => self.steps += steps,
             Some(Command::SetTimestep { timestep, timestep_given }) => {
                 let now = self.now();
                 (self.dt, self.time_at, self.steps_at) = (timestep_given.unwrap_or_else(|| crate::value::r32(*timestep)), now, self.steps);
@@ -120,7 +120,7 @@ fn read_timeline(sim: &Sim, before: Option<&Timeline>) -> Result<Timeline, Strin
     for e in &newer {
         let cmd = fold::decode(e, sim.log()).ok().flatten();
         let steps = match cmd {
-            Some(Command::StepSimulation { steps }) => steps,
+            Some(Command::StepSimulation { steps, .. }) => steps,
             _ => 0,
         };
         if matches!(cmd, Some(Command::SetDebugVisualization { .. })) && t.debug_since.is_none() {
@@ -227,7 +227,7 @@ pub fn request(sim: &Sim, seq: u64, step: Option<u64>) -> Result<Request, String
         Some(k) => {
             let e = sim.log().event(seq).map_err(|e| e.to_string())?.ok_or_else(|| format!("seq {seq} is not an event of this simulation"))?;
             let steps = match fold::decode(&e, sim.log()) {
-                Ok(Some(Command::StepSimulation { steps })) => steps,
+                Ok(Some(Command::StepSimulation { steps, .. })) => steps,
                 _ => return Err(format!("step is only meaningful inside a step_simulation event; seq {seq} is {}", e.tool)),
             };
             if k == 0 || k > steps {

@@ -205,7 +205,7 @@ mod tests {
     fn the_key_follows_contents_not_poses() {
         let mut w = world_with(Shape::Sphere { radius: 0.5 }, Some([1.0, 0.0, 0.0, 1.0]));
         let before = key(&Scene::capture(&w));
-        w.apply(&Command::StepSimulation { steps: 10 }, &mut |_| true);
+        w.apply(&Command::step(10), &mut |_| true);
         assert_eq!(key(&Scene::capture(&w)), before, "moving changes no key");
         let other = world_with(Shape::Sphere { radius: 0.5 }, Some([0.0, 1.0, 0.0, 1.0]));
         assert_ne!(key(&Scene::capture(&other)), before, "a colour is part of the key");

@@ -611,7 +611,7 @@ impl World {
             | Command::LoadSimulation { .. } => {
                 Outcome::Message(Message::new("a root event changes nothing in an existing world"))
             }
-            Command::StepSimulation { steps } => {
+            Command::StepSimulation { steps, .. } => {
                 let taken = self.step(*steps, control, observe);
                 Outcome::Stepped(Stepped {
                     landed: None,

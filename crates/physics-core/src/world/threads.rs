@@ -132,10 +132,10 @@ mod tests {
         set_step_threads(3);
         let root = Command::CreateSimulation { simulation_id: "t".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(crate::engine::ENGINE_RULE) };
         let (mut w, _) = World::create(&root).unwrap();
-        w.apply(&Command::StepSimulation { steps: 3 }, &mut |_| true);
+        w.apply(&Command::step(3), &mut |_| true);
         let mut r = World::restore("t", false, &w.snapshot()).unwrap();
         let mut seen = Vec::new();
-        let step = Command::StepSimulation { steps: 2 };
+        let step = Command::step(2);
         r.apply_observed(&step, &mut |_| true, &mut |_| {
             seen.push((rapier3d::rayon::current_num_threads(), std::thread::current().name().map(String::from)))
         });
