@@ -39,7 +39,11 @@ use crate::world::World;
 /// them) and keeps its sensors (get_sensor_data); set_actuator_controls; older loads fold as
 /// before (their actuators and sensors stay ignored).
 /// Every other result of version 6 is unchanged.
-pub const EVENT_VERSION: u32 = 7;
+/// 8: load_mjcf records `constraints` and builds the model's `<equality>` constraints
+/// (`connect`, `weld`, linear `joint`) and fixed tendons as actuator transmissions
+/// (`world::mjcf_equality`); its `ignored` names only what of them is not built. Older loads
+/// fold as before (these elements stay ignored).
+pub const EVENT_VERSION: u32 = 8;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;
@@ -619,6 +623,12 @@ pub enum Command {
         /// sensors listed in `ignored`); omitted when false, so they re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         actuators: bool,
+        /// The model's `<equality>` constraints and fixed tendons (actuator transmissions) are
+        /// built (`world::mjcf_equality`), event version 8: set by every load_mjcf since.
+        /// Events recorded before decode as false and fold as they did (listed in `ignored`);
+        /// omitted when false, so they re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        constraints: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,

@@ -356,7 +356,7 @@ impl World {
             let have: std::collections::BTreeSet<&str> = sensors.iter().map(|s| s.name.as_str()).collect();
             if let Some(n) = names.iter().find(|n| !have.contains(n.as_str())) {
                 let all: Vec<&str> = sensors.iter().map(|s| s.name.as_str()).collect();
-                return Err(format!("names lists no sensor {n:?} of object {id}; its sensors are {all:?}"));
+                return Err(format!("names lists no sensor {n:?} of object {id}; its sensors are {}", crate::limits::some_names(&all)));
             }
         }
         let wanted = |s: &Sensor| asked.as_ref().is_none_or(|a| a.contains(s.name.as_str()));
