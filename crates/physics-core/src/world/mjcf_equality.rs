@@ -26,6 +26,10 @@ use super::robot::Robot;
 use super::urdf::JointKind;
 use super::World;
 
+/// The largest `polycoef[1]` (ratio of two joints' motions) built: real couplings are gear
+/// ratios near 1; beyond this the f32 solver has nothing finite to work with.
+const MAX_COUPLING_RATIO: f64 = 1e3;
+
 /// Where an MJCF body is in the world we built: its rapier body (the owner it was merged into)
 /// and its frame in that body's frame, and its pose at qpos0 in the model's own frame.
 #[derive(Clone, Copy, Debug)]
@@ -94,6 +98,22 @@ pub fn uses_world(model: &Model) -> bool {
     })
 }
 
+/// A connect's or weld's two bodies (body2 omitted: the world), or why it is not built.
+fn endpoints(
+    common: &rapier3d_mjcf::mjcf_rs::equality::EqualityCommon,
+    body1: &str,
+    body2: Option<&str>,
+    frame_of: &dyn Fn(&str) -> Result<BodyFrame, String>,
+) -> Result<(BodyFrame, BodyFrame), String> {
+    if !common.active {
+        return Err("inactive (active=\"false\")".into());
+    }
+    if body1.is_empty() {
+        return Err("the site1/site2 form is not supported (name body1 and body2)".into());
+    }
+    Ok((frame_of(body1)?, frame_of(body2.unwrap_or("world"))?))
+}
+
 /// An equality's name for notes (`#k` when unnamed).
 fn label(name: &Option<String>, k: usize) -> String {
     name.clone().unwrap_or_else(|| format!("#{k}"))
@@ -121,13 +141,10 @@ impl World {
                 Equality::Connect(c) => {
                     let name = label(&c.common.name, k);
                     let built = (|| {
-                        if !c.common.active {
-                            return Err("inactive (active=\"false\")".to_string());
+                        if !c.anchor.iter().all(|x| x.abs() <= crate::limits::MAX_EXTENT_M) {
+                            return Err(format!("its anchor is not finite numbers within {} m", crate::limits::MAX_EXTENT_M));
                         }
-                        if c.body1.is_empty() {
-                            return Err("the site1/site2 form is not supported (name body1 and body2)".into());
-                        }
-                        let (b1, b2) = (frame_of(&c.body1)?, frame_of(c.body2.as_deref().unwrap_or("world"))?);
+                        let (b1, b2) = endpoints(&c.common, &c.body1, c.body2.as_deref(), &frame_of)?;
                         let anchor = Vector::new(c.anchor[0] as f32, c.anchor[1] as f32, c.anchor[2] as f32);
                         let in2 = b2.at_qpos0.inverse() * b1.at_qpos0 * Pose::from_translation(anchor);
                         let f1 = b1.in_body * Pose::from_translation(anchor);
@@ -139,13 +156,7 @@ impl World {
                 Equality::Weld(w) => {
                     let name = label(&w.common.name, k);
                     let built = (|| {
-                        if !w.common.active {
-                            return Err("inactive (active=\"false\")".to_string());
-                        }
-                        if w.body1.is_empty() {
-                            return Err("the site1/site2 form is not supported (name body1 and body2)".into());
-                        }
-                        let (b1, b2) = (frame_of(&w.body1)?, frame_of(w.body2.as_deref().unwrap_or("world"))?);
+                        let (b1, b2) = endpoints(&w.common, &w.body1, w.body2.as_deref(), &frame_of)?;
                         // MuJoCo: relpose is body2's pose in body1's frame; a zero quaternion
                         // (the default) means "as at qpos0".
                         let rel = match w.relpose.filter(|r| r.rotation.length() > 0.0) {
@@ -200,8 +211,9 @@ impl World {
         };
         let resolve = |name: &str| (at.joint_of)(name).ok_or_else(|| format!("joint {name} is not a hinge or slide joint of the model"));
         let (i1, i2) = (resolve(&j.joint1)?, resolve(joint2)?);
-        if !p[..2].iter().all(|c| (*c as f32).is_finite()) {
-            return Err("polycoef is not finite f32 numbers".into());
+        // A coupling of ratio 1e30 leaves the solver nothing finite to work with.
+        if !(p[0].abs() <= crate::limits::MAX_EXTENT_M && p[1].abs() <= MAX_COUPLING_RATIO) {
+            return Err(format!("polycoef's p0 must be within {} and p1 within {MAX_COUPLING_RATIO} in magnitude", crate::limits::MAX_EXTENT_M));
         }
         let link = |i: u32| &at.robot.links[i as usize];
         let (l1, l2) = (link(i1), link(i2));
