@@ -18,6 +18,7 @@ mod mjcf;
 mod mjcf_actuators;
 mod mjcf_equality;
 mod mjcf_sensors;
+mod mjcf_touch;
 mod mjcf_rest;
 mod physical_facts;
 mod robot_dynamics;

@@ -41,8 +41,8 @@ use crate::world::World;
 /// Every other result of version 6 is unchanged.
 /// 8: load_mjcf records `constraints` and builds the model's `<equality>` constraints
 /// (`connect`, `weld`, linear `joint`) and fixed tendons as actuator transmissions
-/// (`world::mjcf_equality`); its `ignored` names only what of them is not built. Older loads
-/// fold as before (these elements stay ignored).
+/// (`world::mjcf_equality`) and keeps its `touch` sensors; its `ignored` names only what of
+/// them is not built. Older loads fold as before (these elements stay ignored).
 pub const EVENT_VERSION: u32 = 8;
 
 /// The event version from which a chain's root records state hash v2.

@@ -776,7 +776,7 @@ impl World {
             let actuator_names: Vec<String> = self.tables.actuation.get(&id).map(|a| a.actuators.iter().map(|x| x.name.clone()).collect()).unwrap_or_default();
             let actuator_of = |name: &str| actuator_names.iter().position(|x| x == name);
             let resolver = super::sensors::Resolver { model: &model, placed: &placed, joint_of: &joint_of, actuator_of: &actuator_of };
-            let (sensors, notes) = super::sensors::build(text, &resolver);
+            let (sensors, notes) = super::sensors::build(text, &resolver, with_constraints);
             ignored.retain(|s| s != SENSORS_IGNORED);
             ignored.extend(notes);
             ignored.extend(super::actuators::unapplied_attributes(text));
