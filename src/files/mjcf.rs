@@ -146,6 +146,7 @@ fn mjcf_command(mut files: ModelFiles, at: PathBuf, user: &str) -> Result<Comman
         parent_filter: true,
         use_model_options: false,
         actuators: true,
+        constraints: true,
         parsed: Default::default(),
     })
 }

@@ -17,6 +17,7 @@ pub fn load_mjcf(file_path: &str, bytes: &[u8], use_model_options: bool) -> Comm
         parent_filter: true,
         use_model_options,
         actuators: true,
+        constraints: true,
         parsed: Default::default(),
     }
 }

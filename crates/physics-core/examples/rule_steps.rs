@@ -69,6 +69,7 @@ fn main() {
                 parent_filter: true,
                 use_model_options: false,
                 actuators: false,
+                constraints: false,
                 parsed: Default::default(),
             };
             let out = apply(&mut w, &load);

@@ -41,6 +41,10 @@ use crate::world::World;
 /// Every other result of version 6 is unchanged.
 /// 8: step_simulation's `measure` is part of its command and its answers (exact) of its
 /// recorded result (`measure::RECORDED_SINCE`); a version-7 step was measured in the reply only.
+/// 8 also: load_mjcf records `constraints` and builds the model's `<equality>` constraints
+/// (`connect`, `weld`, linear `joint`) and fixed tendons as actuator transmissions
+/// (`world::mjcf_equality`) and keeps its `touch` sensors; its `ignored` names only what of
+/// them is not built. Older loads fold as before (these elements stay ignored).
 pub const EVENT_VERSION: u32 = 8;
 
 /// The event version from which a chain's root records state hash v2.
@@ -626,6 +630,12 @@ pub enum Command {
         /// sensors listed in `ignored`); omitted when false, so they re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         actuators: bool,
+        /// The model's `<equality>` constraints and fixed tendons (actuator transmissions) are
+        /// built (`world::mjcf_equality`), event version 8: set by every load_mjcf since.
+        /// Events recorded before decode as false and fold as they did (listed in `ignored`);
+        /// omitted when false, so they re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        constraints: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,

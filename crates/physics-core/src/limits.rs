@@ -92,6 +92,24 @@ pub const MAX_SPEED: f64 = 1e5;
 /// fits in a small file made a single step run for hours; real robots have tens of joints.
 pub const MAX_MODEL_JOINTS: usize = 512;
 
+/// Actuators, sensors, equality constraints and tendons one MJCF model may have, each: every
+/// step walks every actuator and every read of get_sensor_data every sensor, and each
+/// equality constraint is a joint the solver carries; Menagerie's largest robots have tens.
+pub const MAX_MODEL_ELEMENTS: usize = 1024;
+
+/// How many names a refusal lists when it shows what exists (the rest are counted), so a
+/// refusal against a model of many sensors stays one short sentence.
+pub const NAMES_SHOWN: usize = 8;
+
+/// `names` as a refusal shows them: the first [`NAMES_SHOWN`], then how many more.
+pub fn some_names(names: &[&str]) -> String {
+    let shown: Vec<&str> = names.iter().copied().take(NAMES_SHOWN).collect();
+    match names.len().saturating_sub(NAMES_SHOWN) {
+        0 => format!("{shown:?}"),
+        more => format!("{shown:?} and {more} more"),
+    }
+}
+
 /// Refuses a model with more joints than [`MAX_MODEL_JOINTS`], naming the parameter.
 pub fn check_model_joints(joints: usize) -> Result<(), crate::value::Refusal> {
     if joints > MAX_MODEL_JOINTS {

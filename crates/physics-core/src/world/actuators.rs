@@ -115,6 +115,20 @@ pub struct Actuation {
     pub driving: Vec<bool>,
 }
 
+/// A fixed tendon driven by an actuator (loads of event version 8): MuJoCo's transmission,
+/// length `Σ coef·q` and each joint pushed by `coef·gear·force`. Kept beside the actuator
+/// (`Tables::transmissions`), whose `joint` is the tendon's first joint.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Transmission {
+    /// The tendon's name.
+    pub tendon: String,
+    /// Its joints (joint index) and coefficients, in file order.
+    pub joints: Vec<(u32, f64)>,
+}
+
+/// Resolves a fixed tendon's name to its joints and coefficients, or why it cannot drive.
+pub type TendonOf<'a> = &'a dyn Fn(&str) -> Result<Vec<(u32, f64)>, String>;
+
 /// What the parser gives and the actuator table needs, per `<actuator>` child in file order,
 /// read from the text (the parser keeps no `actrange`).
 #[derive(Clone, Debug, Default)]
@@ -168,16 +182,26 @@ pub fn unapplied_attributes(xml: &str) -> Vec<String> {
     notes
 }
 
-/// The model's actuators on our joints (`joint_of`: a joint name → its index), and a sentence
-/// for each one that is not simulated.
-pub fn build(model: &Model, extras: &[ActuatorExtras], joint_of: &dyn Fn(&str) -> Option<u32>) -> (Actuation, Vec<String>) {
+/// The model's actuators on our joints (`joint_of`: a joint name → its index; `tendon_of`, for
+/// loads of event version 8: fixed tendons as transmissions), a sentence for each one that is
+/// not simulated, and the tendon transmissions by actuator slot.
+pub fn build(
+    model: &Model,
+    extras: &[ActuatorExtras],
+    joint_of: &dyn Fn(&str) -> Option<u32>,
+    tendon_of: Option<TendonOf<'_>>,
+) -> (Actuation, Vec<String>, BTreeMap<u32, Transmission>) {
     let autolimits = model.compiler.autolimits;
     let mut out = Actuation::default();
     let mut ignored = Vec::new();
+    let mut transmissions = BTreeMap::new();
     for (k, a) in model.actuators.iter().enumerate() {
         let name = a.name.clone().unwrap_or_else(|| format!("#{k}"));
-        match resolve(a, extras.get(k), autolimits, joint_of) {
-            Ok(act) => {
+        match resolve(a, extras.get(k), autolimits, joint_of, tendon_of) {
+            Ok((act, tendon)) => {
+                if let Some(t) = tendon {
+                    transmissions.insert(out.actuators.len() as u32, t);
+                }
                 out.actuators.push(Actuator { name, ..act });
                 out.ctrl.push(0.0);
                 out.act.push(0.0);
@@ -186,7 +210,7 @@ pub fn build(model: &Model, extras: &[ActuatorExtras], joint_of: &dyn Fn(&str) -
             Err(why) => ignored.push(format!("actuator {name}: {why}")),
         }
     }
-    (out, ignored)
+    (out, ignored, transmissions)
 }
 
 /// One parsed actuator → ours, or why it is not simulated.
@@ -195,10 +219,20 @@ fn resolve(
     extras: Option<&ActuatorExtras>,
     autolimits: bool,
     joint_of: &dyn Fn(&str) -> Option<u32>,
-) -> Result<Actuator, String> {
+    tendon_of: Option<TendonOf<'_>>,
+) -> Result<(Actuator, Option<Transmission>), String> {
+    let mut tendon = None;
     let joint = match (&a.joint, &a.tendon, &a.site, &a.body) {
         (Some(j), ..) => joint_of(j).ok_or_else(|| format!("joint {j} is not a hinge or slide joint of the model; not simulated"))?,
-        (None, Some(t), ..) => return Err(format!("tendon {t} transmissions are not simulated")),
+        (None, Some(t), ..) => match tendon_of {
+            Some(of) => {
+                let joints = of(t).map_err(|why| format!("{why}; not simulated"))?;
+                let first = joints[0].0;
+                tendon = Some(Transmission { tendon: t.clone(), joints });
+                first
+            }
+            None => return Err(format!("tendon {t} transmissions are not simulated")),
+        },
         (None, None, Some(s), _) => return Err(format!("site {s} transmissions are not simulated")),
         (None, None, None, Some(b)) => return Err(format!("body {b} (adhesion) transmissions are not simulated")),
         _ => return Err("it has no transmission".into()),
@@ -254,7 +288,7 @@ fn resolve(
     if !finite(&gain) || !finite(&bias) || !gear.is_finite() || !ranges_ok {
         return Err("its gear, gains or ranges are not finite f32 numbers (a range must be [low, high])".into());
     }
-    Ok(Actuator {
+    let actuator = Actuator {
         name: String::new(),
         kind,
         joint,
@@ -265,7 +299,8 @@ fn resolve(
         gain,
         bias,
         integrator,
-    })
+    };
+    Ok((actuator, tendon))
 }
 
 /// load_mjcf's compact view of the actuators.
@@ -306,7 +341,7 @@ impl World {
                 match by.keys().find(|n| !a.actuators.iter().any(|x| &x.name == *n)) {
                     Some(n) => {
                         let names: Vec<&str> = a.actuators.iter().map(|x| x.name.as_str()).collect();
-                        Err(format!("controls names no actuator {n:?} of object {id}; its actuators are {names:?}"))
+                        Err(format!("controls names no actuator {n:?} of object {id}; its actuators are {}", crate::limits::some_names(&names)))
                     }
                     None => Ok(()),
                 }
@@ -329,7 +364,10 @@ impl World {
         for (&k, &u) in &set {
             a.ctrl[k] = u;
             a.driving[k] = true;
-            joints.push(a.actuators[k].joint);
+            match self.tables.transmissions.get(&(id, k as u32)) {
+                Some(t) => joints.extend(t.joints.iter().map(|(j, _)| *j)),
+                None => joints.push(a.actuators[k].joint),
+            }
         }
         for j in joints {
             self.remove_motor(id, j);
@@ -340,9 +378,11 @@ impl World {
 
     /// set_joint_motor_control on joint `joint` of `id`: its actuators stop driving it.
     pub(super) fn release_actuators(&mut self, id: u32, joint: u32) {
+        let transmissions = &self.tables.transmissions;
         if let Some(a) = self.tables.actuation.get_mut(&id) {
             for (k, x) in a.actuators.iter().enumerate() {
-                if x.joint == joint {
+                let via_tendon = transmissions.get(&(id, k as u32)).is_some_and(|t| t.joints.iter().any(|(j, _)| *j == joint));
+                if x.joint == joint || via_tendon {
                     a.driving[k] = false;
                 }
             }
@@ -361,9 +401,16 @@ impl World {
             let outputs = self.actuator_outputs(id);
             let (Some(a), Some(robot)) = (self.tables.actuation.get(&id), self.robot(id)) else { continue };
             let mut effort: BTreeMap<u32, f64> = BTreeMap::new();
-            for (x, out) in a.actuators.iter().zip(&outputs) {
-                if let Some((joint, force)) = out {
-                    *effort.entry(*joint).or_default() += x.gear * force;
+            for (k, (x, out)) in a.actuators.iter().zip(&outputs).enumerate() {
+                let Some((joint, force)) = out else { continue };
+                match self.tables.transmissions.get(&(id, k as u32)) {
+                    // A tendon pushes each of its joints by coef · gear · force.
+                    Some(t) => {
+                        for (j, coef) in &t.joints {
+                            *effort.entry(*j).or_default() += x.gear * coef * force;
+                        }
+                    }
+                    None => *effort.entry(*joint).or_default() += x.gear * force,
                 }
             }
             // An effort beyond f32 (a gear of 1e300) would be ±inf in the engine: none is applied.
@@ -414,8 +461,19 @@ impl World {
             .enumerate()
             .map(|(k, x)| {
                 let link = robot.links.get(x.joint as usize).filter(|_| a.driving[k])?;
-                let (q, v) = self.joint_coordinates(link.body, link.joint.kind);
                 let input = if x.integrator { a.act[k] } else { x.clamp_ctrl(a.ctrl[k]) };
+                if let Some(t) = self.tables.transmissions.get(&(id, k as u32)) {
+                    // A tendon's length and velocity: Σ coef·q, Σ coef·q̇.
+                    let (mut len, mut vel) = (0.0, 0.0);
+                    for (j, coef) in &t.joints {
+                        let l = robot.links.get(*j as usize)?;
+                        let (q, v) = self.joint_coordinates(l.body, l.joint.kind);
+                        len += coef * q as f64;
+                        vel += coef * v as f64;
+                    }
+                    return Some((x.joint, x.force(input, len, vel)));
+                }
+                let (q, v) = self.joint_coordinates(link.body, link.joint.kind);
                 Some((x.joint, x.force(input, q as f64, v as f64)))
             })
             .collect()

@@ -145,6 +145,7 @@ impl World {
                 self.tables.joint_trajectories.retain(|(id, _), _| id != object_id);
                 self.tables.actuation.remove(object_id);
                 self.tables.mjcf_sensors.remove(object_id);
+                self.tables.transmissions.retain(|(id, _), _| id != object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }

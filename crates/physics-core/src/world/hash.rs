@@ -342,6 +342,10 @@ fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
     if !w.tables.mjcf_sensors.is_empty() {
         bytes.extend(encode(&("mjcf_sensors", &w.tables.mjcf_sensors)));
     }
+    // MJCF tendon transmissions likewise (event version 8).
+    if !w.tables.transmissions.is_empty() {
+        bytes.extend(encode(&("transmissions", &w.tables.transmissions)));
+    }
 }
 
 /// One body of a robot: its dynamic state, materials and parent joint coordinates.

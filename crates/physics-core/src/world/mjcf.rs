@@ -94,6 +94,14 @@ const ACTUATORS_IGNORED: &str = "<actuator>: actuators are not simulated; drive 
 /// keeps them.
 const SENSORS_IGNORED: &str = "<sensor>: sensors are not simulated; read state with the sensing tools";
 
+/// The note `scan` writes for a model with tendons, replaced by per-tendon notes when a load
+/// builds them (event version 8).
+const TENDONS_IGNORED: &str = "<tendon>: fixed tendons are not simulated";
+
+/// The note `scan` writes for a model with equality constraints, replaced by notes for the
+/// ones not built when a load builds them (event version 8).
+const EQUALITY_IGNORED: &str = "<equality>: equality constraints are not simulated";
+
 /// Elements the engine cannot simulate and the server refuses (docs/tools.md "MJCF models") (never dropped silently).
 const REFUSED_ELEMENTS: [(&str, &str); 6] = [
     ("spatial", "spatial tendons are not supported"),
@@ -190,8 +198,8 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
     }
     for (tag, why) in [
         ("actuator", ACTUATORS_IGNORED),
-        ("tendon", "<tendon>: fixed tendons are not simulated"),
-        ("equality", "<equality>: equality constraints are not simulated"),
+        ("tendon", TENDONS_IGNORED),
+        ("equality", EQUALITY_IGNORED),
         ("sensor", SENSORS_IGNORED),
         ("pair", "<contact><pair>: explicit contact pairs are not applied"),
     ] {
@@ -266,11 +274,19 @@ impl Prepared {
         super::mjcf_options::ModelOptions { timestep: self.model.option.timestep, gravity: self.model.option.gravity }
     }
 
-    /// Joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
+    /// At most [`crate::limits::MAX_MODEL_ELEMENTS`] actuators, sensors, equality constraints
+    /// and tendons, and joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
     /// at 1e308 m loads, then panics rapier's joint-limit solve on every step. Checked at the
     /// edge only (`Command::within_extent`), not in [`prepare`], which every fold runs: logs that
     /// loaded such a model before the bound fold as they always did.
     pub fn joints_within_extent(&self) -> Result<(), Refusal> {
+        let most = crate::limits::MAX_MODEL_ELEMENTS;
+        let m = &self.model;
+        for (what, count) in [("actuators", m.actuators.len()), ("sensors", m.sensors.len()), ("equality constraints", m.equality.len()), ("tendons", m.tendons.len())] {
+            if count > most {
+                return Err(format!("file_path has {count} {what}; a model may have at most {most}"));
+            }
+        }
         let bound = crate::limits::MAX_EXTENT_M;
         for (id, entry) in self.model.bodies_iter() {
             for j in &entry.body.joints {
@@ -470,7 +486,7 @@ impl World {
         file_path: &str,
         (blob, meshes): (&Blob, &BTreeMap<String, Blob>),
         pose: Pose,
-        (fixed_base, parent_filter, with_actuators): (bool, bool, bool),
+        (fixed_base, parent_filter, with_actuators, with_constraints): (bool, bool, bool, bool),
         keyframe: Option<&str>,
     ) -> MjcfLoaded {
         let Prepared { model, robot, mut ignored, keyframe_qpos, keyframe_ctrl, actuator_extras } = prepared;
@@ -574,6 +590,11 @@ impl World {
                 world_colliders.push(self.physics.insert_collider(c, Some(h)));
             }
             world_body = Some(h);
+        }
+        // A free-base model whose connect or weld names the world, with no world geoms: the
+        // world gets a static body for the constraint to hold on to.
+        if with_constraints && base != 0 && world_body.is_none() && super::mjcf_equality::uses_world(&model) {
+            world_body = Some(self.physics.insert_body(RigidBodyBuilder::fixed().pose(place(&world_pose[0]))));
         }
         // `<exclude>` pairs by the rapier bodies that carry them; their colliders ask the filter.
         let body_of = |name: &str| -> Option<RigidBodyHandle> {
@@ -700,9 +721,32 @@ impl World {
         let num_joints = robot.links.len();
         let id = self.tables.next_object_id;
         let mut actuator_infos = Vec::new();
+        let joint_of = |name: &str| robot.links.iter().position(|l| !name.is_empty() && l.joint.name == name).map(|i| i as u32);
+        let text = std::str::from_utf8(&blob.bytes).unwrap_or("");
+        if with_constraints {
+            // Each MJCF body's rapier body and frame, then the equality constraints on them.
+            let frames: Vec<Option<super::mjcf_equality::BodyFrame>> = (0..model.bodies.len())
+                .map(|m| {
+                    let k = (0..n).find(|k| !mbodies[*k].is_intermediate && mbodies[*k].mjcf_body_id == m)?;
+                    let o = owner[k];
+                    let body = handle_of.get(&o).copied().or(if o == 0 { world_body } else { None })?;
+                    Some(super::mjcf_equality::BodyFrame { body, in_body: rel(&world_pose[o], &world_pose[k]), at_qpos0: world_pose[k] })
+                })
+                .collect();
+            let joint_ref = |li: u32| dof_joints.get(li as usize).and_then(|ji| ref_of.get(ji)).copied().unwrap_or(0.0) as f64;
+            let at = super::mjcf_equality::Placement { frames: &frames, joint_of: &joint_of, robot: &robot, joint_ref: &joint_ref };
+            let notes = self.build_mjcf_equalities(&model, &at);
+            ignored.retain(|s| s != EQUALITY_IGNORED && s != TENDONS_IGNORED);
+            ignored.extend(notes);
+            ignored.extend(super::mjcf_equality::tendon_notes(text));
+        }
         if with_actuators {
-            let joint_of = |name: &str| robot.links.iter().position(|l| !name.is_empty() && l.joint.name == name).map(|i| i as u32);
-            let (mut actuation, notes) = super::actuators::build(&model, &actuator_extras, &joint_of);
+            let tendon_of = |name: &str| super::mjcf_equality::tendon_joints(&model, name, &joint_of);
+            let tendons: Option<super::actuators::TendonOf<'_>> = if with_constraints { Some(&tendon_of) } else { None };
+            let (mut actuation, notes, transmissions) = super::actuators::build(&model, &actuator_extras, &joint_of, tendons);
+            for (k, t) in transmissions {
+                self.tables.transmissions.insert((id, k), t);
+            }
             ignored.retain(|s| s != ACTUATORS_IGNORED);
             ignored.extend(notes);
             if !actuation.actuators.is_empty() {
@@ -732,10 +776,10 @@ impl World {
             let actuator_names: Vec<String> = self.tables.actuation.get(&id).map(|a| a.actuators.iter().map(|x| x.name.clone()).collect()).unwrap_or_default();
             let actuator_of = |name: &str| actuator_names.iter().position(|x| x == name);
             let resolver = super::sensors::Resolver { model: &model, placed: &placed, joint_of: &joint_of, actuator_of: &actuator_of };
-            let (sensors, notes) = super::sensors::build(std::str::from_utf8(&blob.bytes).unwrap_or(""), &resolver);
+            let (sensors, notes) = super::sensors::build(text, &resolver, with_constraints);
             ignored.retain(|s| s != SENSORS_IGNORED);
             ignored.extend(notes);
-            ignored.extend(super::actuators::unapplied_attributes(std::str::from_utf8(&blob.bytes).unwrap_or("")));
+            ignored.extend(super::actuators::unapplied_attributes(text));
             if !sensors.is_empty() {
                 self.tables.mjcf_sensors.insert(id, sensors);
             }

@@ -18,6 +18,7 @@ mod hash_tree;
 pub mod ik;
 pub mod joint_trajectory;
 pub mod mjcf;
+pub mod mjcf_equality;
 pub mod mjcf_mesh;
 pub mod mjcf_options;
 mod robot;
@@ -259,6 +260,11 @@ pub struct Tables {
     /// written only when a robot has actuators or sensors.
     #[serde(skip)]
     pub mjcf_sensors: BTreeMap<u32, Vec<sensors::Sensor>>,
+    /// MJCF actuators driving a fixed tendon, by (object id, actuator index) (loads of event
+    /// version 8 on). Not in the table encodings: snapshot version 11 carries it after version
+    /// 10's extensions, written only when a robot has one.
+    #[serde(skip)]
+    pub transmissions: BTreeMap<(u32, u32), actuators::Transmission>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -307,6 +313,7 @@ impl From<TablesV3> for Tables {
             joint_trajectories: BTreeMap::new(),
             actuation: BTreeMap::new(),
             mjcf_sensors: BTreeMap::new(),
+            transmissions: BTreeMap::new(),
         }
     }
 }
@@ -348,6 +355,7 @@ impl TablesV2 {
             joint_trajectories: BTreeMap::new(),
             actuation: BTreeMap::new(),
             mjcf_sensors: BTreeMap::new(),
+            transmissions: BTreeMap::new(),
         }
     }
 }
@@ -658,6 +666,7 @@ impl World {
                 parent_filter,
                 use_model_options,
                 actuators,
+                constraints,
                 parsed,
             } => {
                 let prepared = match parsed.get() {
@@ -671,7 +680,7 @@ impl World {
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
                         let options = prepared.options();
-                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter, *actuators), keyframe.as_deref());
+                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter, *actuators, *constraints), keyframe.as_deref());
                         if *use_model_options {
                             self.use_model_options(&mut loaded, options);
                         }
@@ -802,7 +811,12 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if !t.actuation.is_empty() || !t.mjcf_sensors.is_empty() {
+        let encoded = if !t.transmissions.is_empty() {
+            // Version 11: version 10's followed by the tendon transmissions.
+            let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
+            let ext = SnapshotExtensions { actuation: t.actuation.clone(), mjcf_sensors: t.mjcf_sensors.clone() };
+            postcard::to_extend(&(11u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories, ext, &t.transmissions), out)
+        } else if !t.actuation.is_empty() || !t.mjcf_sensors.is_empty() {
             // Version 10: version 9's followed by the MJCF actuators and their held controls.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
             let ext = SnapshotExtensions { actuation: t.actuation.clone(), mjcf_sensors: t.mjcf_sensors.clone() };
@@ -889,6 +903,26 @@ impl World {
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
         let (mut physics, tables) = match version {
+            11 => {
+                type V11 = (
+                    u32,
+                    PhysicsWorld,
+                    Tables,
+                    SnapshotRules,
+                    BTreeSet<(u32, u32)>,
+                    BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>,
+                    SnapshotExtensions,
+                    BTreeMap<(u32, u32), actuators::Transmission>,
+                );
+                let (_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions): V11 = postcard::from_bytes(bytes).map_err(bad)?;
+                rules = recorded;
+                tables.joint_sensors = sensors;
+                tables.joint_trajectories = trajectories;
+                tables.actuation = ext.actuation;
+                tables.mjcf_sensors = ext.mjcf_sensors;
+                tables.transmissions = transmissions;
+                (physics, tables)
+            }
             10 => {
                 type V10 = (u32, PhysicsWorld, Tables, SnapshotRules, BTreeSet<(u32, u32)>, BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>, SnapshotExtensions);
                 let (_, physics, mut tables, recorded, sensors, trajectories, ext): V10 = postcard::from_bytes(bytes).map_err(bad)?;
@@ -1001,9 +1035,10 @@ impl World {
 /// joint trajectories being followed (`Tables::joint_trajectories`), written only for a world
 /// with one; 10 is 9's followed by [`SnapshotExtensions`] (the MJCF actuators and their held
 /// controls, and the MJCF sensors), written only for a world with some (9 and 10 are both event version 7's: two
-/// features of one release, merged); every other world is written as before, byte for byte; 1
+/// features of one release, merged); 11 is 10's followed by the MJCF tendon transmissions
+/// (`Tables::transmissions`, event version 8), written only for a world with one; every other world is written as before, byte for byte; 1
 /// to 5 still restore, under state hash v1 and engine rule 1, 6 under v2 and rule 1).
-pub const SNAPSHOT_VERSION: u32 = 10;
+pub const SNAPSHOT_VERSION: u32 = 11;
 
 /// The state a version-10 snapshot carries after version 9's.
 #[derive(Serialize, Deserialize, Clone, Debug, Default)]

@@ -46,6 +46,9 @@ pub enum SensorType {
     Force,
     /// `torque`: the matching moment about the site.
     Torque,
+    /// `touch`: the sum of the normal forces of the contacts inside a site's volume (loads of
+    /// event version 8 on).
+    Touch,
 }
 
 impl SensorType {
@@ -64,6 +67,7 @@ impl SensorType {
             "subtreecom" => SensorType::Subtreecom,
             "force" => SensorType::Force,
             "torque" => SensorType::Torque,
+            "touch" => SensorType::Touch,
             _ => return None,
         })
     }
@@ -84,6 +88,7 @@ impl SensorType {
             SensorType::Subtreecom => "subtreecom",
             SensorType::Force => "force",
             SensorType::Torque => "torque",
+            SensorType::Touch => "touch",
         }
     }
 }
@@ -120,6 +125,53 @@ pub enum SensorSource {
         /// The site.
         site: BodyFrame,
     },
+    /// A site's volume: the contacts of its rapier body inside it.
+    Volume {
+        /// The site's frame.
+        site: BodyFrame,
+        /// Its shape and size.
+        shape: SiteVolume,
+    },
+}
+
+/// A site's volume as MuJoCo sizes it (half sizes, m).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub enum SiteVolume {
+    /// Radius.
+    Sphere(f64),
+    /// Radius, half length along z.
+    Capsule(f64, f64),
+    /// Semi-axes.
+    Ellipsoid([f64; 3]),
+    /// Radius, half height along z.
+    Cylinder(f64, f64),
+    /// Half extents.
+    Box([f64; 3]),
+}
+
+impl SiteVolume {
+    fn of(site: &rapier3d_mjcf::mjcf_rs::body::Site) -> SiteVolume {
+        use rapier3d_mjcf::mjcf_rs::body::SiteType;
+        let s = site.size;
+        match site.type_ {
+            SiteType::Sphere => SiteVolume::Sphere(s[0]),
+            SiteType::Capsule => SiteVolume::Capsule(s[0], s[1]),
+            SiteType::Ellipsoid => SiteVolume::Ellipsoid(s),
+            SiteType::Cylinder => SiteVolume::Cylinder(s[0], s[1]),
+            SiteType::Box => SiteVolume::Box(s),
+        }
+    }
+
+    /// Whether point `p` (in the site's frame) is inside.
+    fn contains(&self, p: DVec3) -> bool {
+        match *self {
+            SiteVolume::Sphere(r) => p.length() <= r,
+            SiteVolume::Capsule(r, h) => DVec3::new(p.x, p.y, p.z.clamp(-h, h)).distance(p) <= r,
+            SiteVolume::Ellipsoid(a) => (p / DVec3::from_array(a)).length_squared() <= 1.0,
+            SiteVolume::Cylinder(r, h) => p.z.abs() <= h && (p.x * p.x + p.y * p.y).sqrt() <= r,
+            SiteVolume::Box(b) => p.x.abs() <= b[0] && p.y.abs() <= b[1] && p.z.abs() <= b[2],
+        }
+    }
 }
 
 /// One kept sensor.
@@ -180,13 +232,14 @@ fn written(xml: &str) -> Vec<Written> {
 }
 
 /// The model's sensors (from its text, includes spliced) resolved in our world, and a
-/// sentence for each one that is not computed.
-pub fn build(xml: &str, r: &Resolver) -> (Vec<Sensor>, Vec<String>) {
+/// sentence for each one that is not computed (`touch` only for loads of event version 8 on).
+pub fn build(xml: &str, r: &Resolver, touch: bool) -> (Vec<Sensor>, Vec<String>) {
     let mut kept = Vec::new();
     let mut ignored = Vec::new();
     for (k, w) in written(xml).into_iter().enumerate() {
         let name = w.name.clone().unwrap_or_else(|| format!("#{k}"));
         let resolved = SensorType::parse(&w.tag)
+            .filter(|kind| touch || *kind != SensorType::Touch)
             .ok_or_else(|| format!("type {} is not computed", w.tag))
             .and_then(|kind| resolve(kind, &w, r).map(|source| Sensor { name: name.clone(), kind, source }));
         match resolved {
@@ -211,15 +264,16 @@ fn resolve(kind: SensorType, w: &Written, r: &Resolver) -> Result<SensorSource, 
         r.model.body_id_by_name(name).ok_or_else(|| format!("body {name} is not in the model"))
     };
     let placed = |b: usize| r.placed.get(b).copied().flatten().ok_or_else(|| "its body is the worldbody beside a free base, which carries no frame".to_string());
-    let site = |name: &str| -> Result<(Placed, Pose), String> {
+    let site_of = |name: &str| -> Result<(Placed, Pose, SiteVolume), String> {
         for (b, entry) in r.model.bodies.iter().enumerate() {
             if let Some(s) = entry.body.sites.iter().find(|s| s.name.as_deref() == Some(name)) {
                 let p = placed(b)?;
-                return Ok((p, p.in_body * Pose::from(s.pose)));
+                return Ok((p, p.in_body * Pose::from(s.pose), SiteVolume::of(s)));
             }
         }
         Err(format!("site {name} is not in the model"))
     };
+    let site = |name: &str| site_of(name).map(|(p, at, _)| (p, at));
     let frame = |p: Placed, at: Pose, inertial: bool| {
         let (pos, rot) = pose_parts(&at);
         BodyFrame { body: p.body, pos, rot, inertial }
@@ -276,6 +330,10 @@ fn resolve(kind: SensorType, w: &Written, r: &Resolver) -> Result<SensorSource, 
         SensorType::Subtreecom => {
             let b = body_id(need("body")?)?;
             subtree(r, b).map(SensorSource::Subtree)
+        }
+        SensorType::Touch => {
+            let (p, at, shape) = site_of(need("site")?)?;
+            Ok(SensorSource::Volume { site: frame(p, at, false), shape })
         }
     }
 }
@@ -356,7 +414,7 @@ impl World {
             let have: std::collections::BTreeSet<&str> = sensors.iter().map(|s| s.name.as_str()).collect();
             if let Some(n) = names.iter().find(|n| !have.contains(n.as_str())) {
                 let all: Vec<&str> = sensors.iter().map(|s| s.name.as_str()).collect();
-                return Err(format!("names lists no sensor {n:?} of object {id}; its sensors are {all:?}"));
+                return Err(format!("names lists no sensor {n:?} of object {id}; its sensors are {}", crate::limits::some_names(&all)));
             }
         }
         let wanted = |s: &Sensor| asked.as_ref().is_none_or(|a| a.contains(s.name.as_str()));
@@ -404,6 +462,10 @@ impl World {
                     let inv = st.rot.inverse();
                     if s.kind == SensorType::Force { vec_of(inv * *f) } else { vec_of(inv * at_site) }
                 }
+                SensorSource::Volume { site, shape } => {
+                    let Some(st) = self.frame_state(site) else { continue };
+                    vec![self.touch(site.body, &st, shape)]
+                }
             };
             out.push(SensorReading { name: s.name.clone(), r#type: s.kind.name().to_string(), data });
         }
@@ -416,6 +478,32 @@ impl World {
         let model = self.robot_dynamics(id)?;
         let (q, qd) = self.robot_configuration(id)?;
         Some(model.newton_euler(&q, &qd, &vec![0.0; model.dofs], dv(self.physics.gravity)))
+    }
+
+    /// MuJoCo's `touch`: the normal forces (impulse over the step, as get_contact_points
+    /// reports them) of every contact of `body`'s colliders whose point — midway between the
+    /// two surfaces, as MuJoCo places it — lies inside the site's volume.
+    fn touch(&self, body: RigidBodyHandle, site: &FrameState, shape: &SiteVolume) -> f64 {
+        let dt = self.physics.integration_parameters.dt as f64;
+        let Some(b) = self.physics.bodies.get(body) else { return 0.0 };
+        let inv = site.rot.inverse();
+        let mut sum = 0.0;
+        for &ch in b.colliders() {
+            for cp in self.physics.contact_pairs_with(ch) {
+                let (Some(c1), Some(c2)) = (self.physics.colliders.get(cp.collider1), self.physics.colliders.get(cp.collider2)) else { continue };
+                for m in cp.manifolds() {
+                    for p in &m.points {
+                        let on1 = dv(c1.position().transform_point(p.local_p1));
+                        let on2 = dv(c2.position().transform_point(p.local_p2));
+                        let local = inv * ((on1 + on2) * 0.5 - site.pos);
+                        if p.data.impulse > 0.0 && shape.contains(local) {
+                            sum += p.data.impulse as f64 / dt;
+                        }
+                    }
+                }
+            }
+        }
+        sum
     }
 
     /// The link of robot `id` whose rapier body is `body`.
