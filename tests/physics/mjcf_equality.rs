@@ -74,6 +74,24 @@ async fn bounded_counts_and_names(c: &Client, server: &Server) {
     let sim = c.new_sim(json!({})).await;
     let refused = c.try_call("load_mjcf", json!({"sim_id": sim, "file_path": "many_actuators.xml"})).await.unwrap_err();
     assert!(refused.contains(&format!("file_path has {} actuators; a model may have at most {most}", most + 1)), "{refused}");
+    // One tendon listing a joint `most` times under two actuators: its terms are bounded too.
+    let terms: String = (0..most).map(|_| r#"<joint joint="j" coef="1"/>"#).collect();
+    let tendon = format!(
+        r#"<mujoco><worldbody><body name="a"><joint name="j" type="hinge"/><geom type="sphere" size="0.1" mass="1"/></body></worldbody>
+        <tendon><fixed name="t">{terms}</fixed></tendon><actuator><motor tendon="t"/><motor tendon="t"/></actuator></mujoco>"#
+    );
+    std::fs::write(server.workspace.join("long_tendon.xml"), tendon).unwrap();
+    let refused = c.try_call("load_mjcf", json!({"sim_id": sim, "file_path": "long_tendon.xml"})).await.unwrap_err();
+    assert!(refused.contains(&format!("list {} joint terms in all; a model may have at most {most}", 3 * most)), "{refused}");
+    // A joint coupling whose joints' refs would overflow the offset in f32 is not built (listed).
+    let coupled = r#"<mujoco><worldbody><body name="a"><joint name="j1" type="hinge" ref="3e38"/><geom type="sphere" size="0.1" mass="1"/>
+        <body name="b" pos="0 0 -0.3"><joint name="j2" type="hinge" ref="-3e38"/><geom type="sphere" size="0.1" mass="1"/></body></body></worldbody>
+        <equality><joint name="c" joint1="j1" joint2="j2" polycoef="0 1 0 0 0"/></equality></mujoco>"#;
+    std::fs::write(server.workspace.join("huge_ref.xml"), coupled).unwrap();
+    let loaded = c.call("load_mjcf", json!({"sim_id": sim, "file_path": "huge_ref.xml"})).await;
+    assert!(loaded["ignored"].to_string().contains("ref must be within"), "{loaded}");
+    let stepped = c.call("step_simulation", json!({"sim_id": sim, "steps": 10})).await;
+    assert!(stepped.get("time").is_some(), "{stepped}");
     let loaded = c.call("load_mjcf", json!({"sim_id": sim, "file_path": "many_sensors.xml"})).await;
     let id = loaded["object_id"].as_u64().unwrap();
     let refused = c.try_call("get_sensor_data", json!({"sim_id": sim, "object_id": id, "names": ["nope"]})).await.unwrap_err();

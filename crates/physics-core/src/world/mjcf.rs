@@ -275,7 +275,7 @@ impl Prepared {
     }
 
     /// At most [`crate::limits::MAX_MODEL_ELEMENTS`] actuators, sensors, equality constraints
-    /// and tendons, and joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
+    /// and tendons (and joint terms in the tendons and their actuators' copies), and joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
     /// at 1e308 m loads, then panics rapier's joint-limit solve on every step. Checked at the
     /// edge only (`Command::within_extent`), not in [`prepare`], which every fold runs: logs that
     /// loaded such a model before the bound fold as they always did.
@@ -286,6 +286,15 @@ impl Prepared {
             if count > most {
                 return Err(format!("file_path has {count} {what}; a model may have at most {most}"));
             }
+        }
+        // Each tendon-driven actuator carries its tendon's joint list, and every step, hash and
+        // snapshot walks them all: one tendon listing a joint 400,000 times under 1,024
+        // actuators would be gigabytes.
+        let entries = |t: &str| m.tendons.iter().find(|x| x.name.as_deref() == Some(t)).map_or(0, |x| x.joints.len());
+        let terms: usize = m.tendons.iter().map(|t| t.joints.len()).sum::<usize>()
+            + m.actuators.iter().filter_map(|a| a.tendon.as_deref()).map(entries).sum::<usize>();
+        if terms > most {
+            return Err(format!("file_path's tendons and the actuators on them list {terms} joint terms in all; a model may have at most {most}"));
         }
         let bound = crate::limits::MAX_EXTENT_M;
         for (id, entry) in self.model.bodies_iter() {

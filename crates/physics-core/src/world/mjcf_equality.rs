@@ -219,7 +219,12 @@ impl World {
         let (l1, l2) = (link(i1), link(i2));
         // Rapier's coordinate is MuJoCo's qpos (`ref` folded into the joint frame), so
         // q2 = p1·q1 + (p0 + ref2 − p1·ref1).
-        let offset = p[0] + (at.joint_ref)(i2) - p[1] * (at.joint_ref)(i1);
+        let (ref1, ref2) = ((at.joint_ref)(i1), (at.joint_ref)(i2));
+        // A `ref` of 3e38 would make the offset (and rapier's q2 − p1·q1) infinite.
+        if !(ref1.abs() <= crate::limits::MAX_EXTENT_M && ref2.abs() <= crate::limits::MAX_EXTENT_M) {
+            return Err(format!("a coupled joint's ref must be within {} in magnitude", crate::limits::MAX_EXTENT_M));
+        }
+        let offset = p[0] + ref2 - p[1] * ref1;
         let axis = |kind: JointKind| if kind == JointKind::Prismatic { 0 } else { 3 };
         let mbs = &mut self.physics.multibody_joints;
         let (Some(a), Some(b)) = (mbs.rigid_body_link(l1.body).copied(), mbs.rigid_body_link(l2.body).copied()) else {
