@@ -88,20 +88,20 @@ pub struct When {
 }
 
 impl When {
-    /// The one condition given: (name, threshold).
-    pub fn only(&self) -> Vec<(&'static str, f64)> {
+    /// Every condition by name, given or not.
+    fn all(&self) -> [(&'static str, Option<f64>); 4] {
         [("height_below", self.height_below), ("height_above", self.height_above), ("tilt_above", self.tilt_above), ("speed_below", self.speed_below)]
-            .into_iter()
-            .filter_map(|(n, v)| v.map(|v| (n, v)))
-            .collect()
+    }
+
+    /// The conditions given: (name, threshold).
+    pub fn only(&self) -> Vec<(&'static str, f64)> {
+        self.all().into_iter().filter_map(|(n, v)| v.map(|v| (n, v))).collect()
     }
 
     /// The first condition given (the one `Spec::check` allows), without building a list: read
     /// after every step.
     pub fn condition(&self) -> Option<(&'static str, f64)> {
-        [("height_below", self.height_below), ("height_above", self.height_above), ("tilt_above", self.tilt_above), ("speed_below", self.speed_below)]
-            .into_iter()
-            .find_map(|(n, v)| v.map(|v| (n, v)))
+        self.all().into_iter().find_map(|(n, v)| v.map(|v| (n, v)))
     }
 }
 

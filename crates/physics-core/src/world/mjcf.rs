@@ -732,13 +732,25 @@ impl World {
         let mut actuator_infos = Vec::new();
         let joint_of = |name: &str| robot.links.iter().position(|l| !name.is_empty() && l.joint.name == name).map(|i| i as u32);
         let text = std::str::from_utf8(&blob.bytes).unwrap_or("");
+        // Each MJCF body's own (not intermediate) body index, found once: the first one.
+        let mut kept_of: Vec<Option<usize>> = vec![None; model.bodies.len()];
+        for k in (0..n).rev().filter(|k| !mbodies[*k].is_intermediate) {
+            if let Some(slot) = kept_of.get_mut(mbodies[k].mjcf_body_id) {
+                *slot = Some(k);
+            }
+        }
+        // An MJCF body's carrier: (its index, its owner's index, the owner's rapier body).
+        let carrier = |m: usize| -> Option<(usize, usize, RigidBodyHandle)> {
+            let k = kept_of[m]?;
+            let o = owner[k];
+            let body = handle_of.get(&o).copied().or(if o == 0 { world_body } else { None })?;
+            Some((k, o, body))
+        };
         if with_constraints {
             // Each MJCF body's rapier body and frame, then the equality constraints on them.
             let frames: Vec<Option<super::mjcf_equality::BodyFrame>> = (0..model.bodies.len())
                 .map(|m| {
-                    let k = (0..n).find(|k| !mbodies[*k].is_intermediate && mbodies[*k].mjcf_body_id == m)?;
-                    let o = owner[k];
-                    let body = handle_of.get(&o).copied().or(if o == 0 { world_body } else { None })?;
+                    let (k, o, body) = carrier(m)?;
                     Some(super::mjcf_equality::BodyFrame { body, in_body: rel(&world_pose[o], &world_pose[k]), at_qpos0: world_pose[k] })
                 })
                 .collect();
@@ -775,9 +787,7 @@ impl World {
             // Sensors (get_sensor_data): each MJCF body's placement, then the model's sensors.
             let placed: Vec<Option<super::sensors::Placed>> = (0..model.bodies.len())
                 .map(|m| {
-                    let k = (0..n).find(|k| !mbodies[*k].is_intermediate && mbodies[*k].mjcf_body_id == m)?;
-                    let o = owner[k];
-                    let body = handle_of.get(&o).copied().or(if o == 0 { world_body } else { None })?;
+                    let (k, o, body) = carrier(m)?;
                     let link = link_of_body.get(&o).copied().unwrap_or(-1);
                     Some(super::sensors::Placed { body, in_body: rel(&world_pose[o], &world_pose[k]), own: o == k, link })
                 })
