@@ -43,6 +43,13 @@ async fn a_steps_measures_are_recorded_recovered_and_rechecked() {
     let stepped = c.call("step_simulation", step).await;
     let seq = stepped["head_seq"].as_u64().unwrap();
     assert!(stepped["measures"][1]["time"].as_f64().is_some_and(|t| t > 0.3), "the ball lands: {stepped}");
+    // Free fall of 0.9 m (centre 1 m, radius 0.1, ground top at 0) takes √(2·0.9/9.81) s, and
+    // the ball then rests on the ground with its centre at its radius.
+    let fall = (2.0 * 0.9 / 9.81f64).sqrt();
+    let landed = stepped["measures"][1]["time"].as_f64().unwrap();
+    assert!((landed - fall).abs() < 0.02, "first contact at {landed} s, free fall says {fall} s");
+    let lowest = stepped["measures"][0]["value"].as_f64().unwrap();
+    assert!((lowest - 0.1).abs() < 0.01, "lowest centre height {lowest} m, resting says 0.1 m");
     // A plain step after it is recorded as before: no `measure`, no `measures`.
     let plain = c.step(&sim, 10).await;
     assert!(plain.get("measures").is_none(), "{plain}");
