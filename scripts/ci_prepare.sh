@@ -1,22 +1,24 @@
 #!/usr/bin/env bash
-# What `.ci/run` needs besides Rust, made ready in the background while its tests build and
-# run, so that a fresh machine's downloads and the release build of the wheel (about 24
-# CPU-minutes) use the CPU the tests leave idle (servers starting, fsyncs, kills, sleeps) instead
-# of adding their own minutes to CI's:
-#   tools — Chromium (apt) and the pinned venvs and npm packages of the checks (scripts/lib/);
-#   wheel — scripts/wheel.sh, the one release build (install_check.sh's own call of it then
-#           finds everything built).
+# The parts of `.ci/run` that the tests do not wait for, run in the background while the tests
+# build and run, so that a fresh machine's downloads, clippy and the release build of the wheel
+# (about 24 CPU-minutes) use the CPU the tests leave idle (servers starting, fsyncs, kills,
+# sleeps) instead of adding their own minutes to CI's:
+#   tools  — Chromium (apt) and the pinned venvs and npm packages of the checks (scripts/lib/);
+#   clippy — `cargo clippy --workspace --all-targets -- -D warnings`, in target/clippy (a target
+#            directory of its own: two cargo commands on one directory wait for each other);
+#   wheel  — scripts/wheel.sh, the one release build (install_check.sh's own call of it then
+#            finds everything built).
 # Both run at the lowest CPU and I/O priority (nice 19, ionice idle), each in a process group of
 # its own, so the tests keep the cores they ask for; logs and exit codes in target/ci-prepare/.
 #
 #   scripts/ci_prepare.sh start          # both jobs in the background; returns at once
 #   scripts/ci_prepare.sh pause|resume   # stop and continue them (while a test measures latency)
-#   scripts/ci_prepare.sh wait JOB       # until JOB (tools, wheel) ends; its log if it failed
+#   scripts/ci_prepare.sh wait JOB       # until JOB (tools, clippy, wheel) ends; its log if it failed
 #   scripts/ci_prepare.sh stop           # ends whatever still runs (.ci/run's EXIT trap)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 dir="${CARGO_TARGET_DIR:-target}/ci-prepare"
-JOBS=(tools wheel)
+JOBS=(tools clippy wheel)
 
 # One job's work, run by `start` in its own session (so its process group id is its pid).
 run_job() {
@@ -30,6 +32,11 @@ run_job() {
       (source scripts/lib/mcap_tools.sh)
       (source scripts/lib/conformance_tools.sh)
       (source scripts/lib/mcpb_tools.sh)
+      ;;
+    clippy)
+      # The core's purity bans live in crates/physics-core/clippy.toml and bind that crate's
+      # code wherever it is compiled: every package and target (tests, benches).
+      cargo clippy --workspace --all-targets --locked --target-dir "${CARGO_TARGET_DIR:-target}/clippy" -- -D warnings
       ;;
     wheel)
       scripts/wheel.sh
@@ -67,7 +74,7 @@ case "${1:?start, pause, resume, wait JOB or stop}" in
   pause) signal_jobs STOP ;;
   resume) signal_jobs CONT ;;
   wait)
-    job="${2:?tools or wheel}"
+    job="${2:?tools, clippy or wheel}"
     [[ -f "$dir/$job.log" ]] || { echo "ci_prepare: $job was not started" >&2; exit 2; }
     asked=$(date +%s)
     signal_jobs CONT
