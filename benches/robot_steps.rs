@@ -1,4 +1,4 @@
-//! Robots at engine speed (engine rule 2 against rule 1; `cargo bench --bench robot_steps`): ms per step, in
+//! Robots at engine speed (engine rule 3 against rule 2; `cargo bench --bench robot_steps`): ms per step, in
 //! process, of the scenes `scripts/robot_bench.py` measures over MCP and beside PyBullet and
 //! MuJoCo, under each engine rule (`engine::EngineRule`):
 //! - `kuka` and `panda`: pybullet_data's `kuka_iiwa/model.urdf` and `franka_panda/panda.urdf`
@@ -10,7 +10,7 @@
 //! `REPORT robot_steps <scene> rule <n>: <median> ms/step (min <min>, <steps> steps, <runs> runs)`
 //! lines carry the figures. `ROBOT_BENCH_DATA` is pybullet_data's directory (the KUKA and the
 //! Panda are skipped without it); `ROBOT_BENCH_SCENES` (comma-separated, default all),
-//! `ROBOT_BENCH_RULES` (default `1,2`), `ROBOT_BENCH_STEPS` (overrides both step counts) and
+//! `ROBOT_BENCH_RULES` (default `2,3`; rule 1 on request), `ROBOT_BENCH_STEPS` (overrides both step counts) and
 //! `ROBOT_BENCH_RUNS` (default 5) narrow a run, e.g. under callgrind
 //! (`valgrind --tool=callgrind --toggle-collect='*step_here*' target/release/deps/robot_steps-*`).
 //! One thread, as PyBullet and MuJoCo step.
@@ -108,7 +108,7 @@ fn main() {
     let wanted: Option<Vec<String>> = std::env::var("ROBOT_BENCH_SCENES").ok().map(|s| s.split(',').map(str::to_owned).collect());
     let wants = |name: &str| wanted.as_ref().is_none_or(|w| w.iter().any(|x| x == name));
     let rules: Vec<EngineRule> = std::env::var("ROBOT_BENCH_RULES")
-        .unwrap_or_else(|_| "1,2".into())
+        .unwrap_or_else(|_| "2,3".into())
         .split(',')
         .map(|r| EngineRule::try_from(r.trim().parse::<u32>().expect("ROBOT_BENCH_RULES: numbers")).expect("a known rule"))
         .collect();

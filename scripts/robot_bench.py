@@ -2,7 +2,7 @@
 """Robots at engine speed, in one run: physics-mcp against PyBullet on the KUKA iiwa
 and the Franka Panda, and against MuJoCo on every Gymnasium model, measured the way a user
 meets it (one step_simulation over MCP) and in process (`cargo bench --bench robot_steps`,
-every engine rule), each beside the reference measured in the same run.
+engine rules 2 and 3 by default), each beside the reference measured in the same run.
 
 Dev-only (pybullet, mujoco and numpy are not dependencies of the project; cargo test never
 runs this):
@@ -170,7 +170,7 @@ def main():
                     continue
                 ref = best(lambda: pybullet_robot(urdf)[0], a.runs)
                 mcp = best(lambda: ours_robot_mcp(s, urdf), a.runs)
-                rows.append((name, "PyBullet", mcp, inproc.get((name, 2)), inproc.get((name, 1)), ref, None))
+                rows.append((name, "PyBullet", mcp, inproc.get((name, 3)), inproc.get((name, 2)), ref, None))
                 print(rows[-1], flush=True)
             for name in MJCF:
                 if not wanted(name):
@@ -179,7 +179,7 @@ def main():
                 dt = runs[0][0]
                 ref, ref_py = min(r[1] for r in runs), min(r[2] for r in runs)
                 mcp = best(lambda: ours_mjcf_mcp(s, name, dt), a.runs)
-                rows.append((name, "MuJoCo", mcp, inproc.get((name, 2)), inproc.get((name, 1)), ref, ref_py))
+                rows.append((name, "MuJoCo", mcp, inproc.get((name, 3)), inproc.get((name, 2)), ref, ref_py))
                 print(rows[-1], flush=True)
         finally:
             proc.terminate()
@@ -187,11 +187,11 @@ def main():
     print(f"load average at the end: {os.getloadavg()[0]:.1f}\n")
     f = lambda v: "–" if v is None else f"{v:.4f}"
     r = lambda a, b: "–" if a is None or b is None else f"{a / b:.2f}×"
-    print("| scene | reference | ours over MCP (rule 2) | ours in process, rule 2 (rule 1) | reference ms/step (MuJoCo Python loop) | ratio over MCP | ratio in process, rule 2 (rule 1) |")
+    print("| scene | reference | ours over MCP (rule 3) | ours in process, rule 3 (rule 2) | reference ms/step (MuJoCo Python loop) | ratio over MCP | ratio in process, rule 3 (rule 2) |")
     print("|---|---|---|---|---|---|---|")
-    for name, ref_name, mcp, rule2, rule1, ref, ref_py in rows:
+    for name, ref_name, mcp, rule3, rule2, ref, ref_py in rows:
         py = f" ({f(ref_py)})" if ref_py is not None else ""
-        print(f"| {name} | {ref_name} | {f(mcp)} | {f(rule2)} ({f(rule1)}) | {f(ref)}{py} | **{r(mcp, ref)}** | {r(rule2, ref)} ({r(rule1, ref)}) |")
+        print(f"| {name} | {ref_name} | {f(mcp)} | {f(rule3)} ({f(rule2)}) | {f(ref)}{py} | **{r(mcp, ref)}** | {r(rule3, ref)} ({r(rule2, ref)}) |")
 
 
 if __name__ == "__main__":

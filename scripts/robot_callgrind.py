@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Robots at engine speed counted in instructions: callgrind's instruction counts per
 step are repeatable on a shared machine where seconds are not. In one run, for each scene:
-physics-mcp's step under engine rule 1 (rapier 0.36.1's arithmetic) and rule 2 (the tree path,
-crates/rapier3d/PATCHES.md patch 1), and the reference engine on the same model:
+physics-mcp's step under the engine rules asked for (`--rules`, default 2,3: rule 2 the tree path
+of crates/rapier3d/PATCHES.md patch 1, rule 3 patch 3's mass matrices once per step; rule 1 is
+rapier 0.36.1's arithmetic), and the reference engine on the same model:
 
 - `iiwa14`, `panda`: tests/fixtures/iiwa14.urdf and panda_dynamics.urdf (meshless), fixed base,
   no ground, every movable joint on a position motor holding 0.3 with force 100 (position gain
@@ -18,10 +19,10 @@ step loop, one thread). Dev-only (valgrind, pybullet, mujoco are not project dep
 
     cargo build --release -p physics-core --example rule_steps
     python3 -m venv /tmp/rb && /tmp/rb/bin/pip install pybullet mujoco
-    /tmp/rb/bin/python scripts/robot_callgrind.py [--steps 480] [scene ...]
+    /tmp/rb/bin/python scripts/robot_callgrind.py [--steps 480] [--rules 2,3] [scene ...]
 
-Prints one markdown table row per scene: instructions per step under each rule, rule 2 / rule
-1, the reference's instructions per step and ours (rule 2) / reference.
+Prints one markdown table row per scene: instructions per step under each rule, the last rule
+over the first, the reference's instructions per step and ours (the last rule) / reference.
 """
 
 import argparse
@@ -93,14 +94,19 @@ def mujoco(scene, steps):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--steps", type=int, default=480)
+    ap.add_argument("--rules", default="2,3", help="engine rules to count, comma-separated (the first is the baseline, the last is compared)")
     ap.add_argument("scenes", nargs="*", default=DEFAULT_SCENES)
     a = ap.parse_args()
-    print("| scene | rule 1 Ir/step | rule 2 Ir/step | rule 2 / rule 1 | reference | reference Ir/step | rule 2 / reference |")
-    print("|---|---|---|---|---|---|---|")
+    rules = [int(r) for r in a.rules.split(",")]
+    first, last = rules[0], rules[-1]
+    head = " | ".join(f"rule {r} Ir/step" for r in rules)
+    print(f"| scene | {head} | rule {last} / rule {first} | reference | reference Ir/step | rule {last} / reference |")
+    print("|---|" + "---|" * (len(rules) + 4))
     for scene in a.scenes:
-        r1, r2 = ours(scene, a.steps, 1), ours(scene, a.steps, 2)
+        counts = [ours(scene, a.steps, r) for r in rules]
         name, ref = ("PyBullet", pybullet(scene, a.steps)) if scene in ROBOTS else ("MuJoCo", mujoco(scene, a.steps))
-        print(f"| {scene} | {r1:,.0f} | {r2:,.0f} | {r2 / r1:.2f} | {name} | {ref:,.0f} | {r2 / ref:.2f} |", flush=True)
+        cells = " | ".join(f"{c:,.0f}" for c in counts)
+        print(f"| {scene} | {cells} | {counts[-1] / counts[0]:.2f} | {name} | {ref:,.0f} | {counts[-1] / ref:.2f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -13,9 +13,10 @@
 //!
 //! The reference was recorded before engine rules existed, so the scenes are built under rule
 //! 1 for it (`engine::EngineRule::Upstream`, whose arithmetic the vendored rapier keeps bit for
-//! bit). Rule 2 changes only multibodies' arithmetic, so its own reference
-//! (`tests/fixtures/threads_reference_rule2.json`, recorded by the build that introduced it
-//! and never re-recorded either) holds the arms scene, on 1, 2 and 4 threads alike.
+//! bit). Rules 2 and 3 change only multibodies' arithmetic, so each rule's own reference
+//! (`tests/fixtures/threads_reference_rule2.json`, `threads_reference_rule3.json`, recorded by
+//! the build that introduced the rule and never re-recorded either) holds the arms scene, on 1,
+//! 2 and 4 threads alike.
 
 // A test may read its fixture and the environment; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -269,11 +270,11 @@ fn every_replay_log_refolds_on_1_2_and_4_threads() {
     physics_mcp::world::set_step_threads(1);
 }
 
-/// The scene rule 2 changes (multibodies) and its reference, recorded by the build that
-/// introduced the rule: written when missing (then the test says so and passes), never
+/// The scene rules 2 and 3 change (multibodies) and each rule's reference, recorded by the build
+/// that introduced the rule: written when missing (then the test says so and passes), never
 /// re-recorded.
-fn rule2_reference_path() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/threads_reference_rule2.json")
+fn rule_reference_path(rule: EngineRule) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/fixtures/threads_reference_rule{}.json", rule as u32))
 }
 
 /// Rule 2 (the tree-sparse multibody path) is as thread-independent as rule 1: the 64 arms on
@@ -281,25 +282,40 @@ fn rule2_reference_path() -> PathBuf {
 /// reference, and they differ from rule 1's (the rule is in effect).
 #[test]
 fn rule_2_reproduces_its_reference_on_1_2_and_4_threads() {
+    rule_reproduces_its_reference(EngineRule::TreeMultibody);
+}
+
+/// Rule 3 (rule 2 with mass matrices factorised once per step) likewise, against its own
+/// reference (`threads_reference_rule3.json`), and it differs from rules 1 and 2.
+#[test]
+fn rule_3_reproduces_its_reference_on_1_2_and_4_threads() {
+    rule_reproduces_its_reference(EngineRule::TreeMultibodyPerStep);
+}
+
+fn rule_reproduces_its_reference(rule: EngineRule) {
     let scene = scenes().into_iter().find(|s| s.name == "urdf_arms_64").unwrap();
-    let path = rule2_reference_path();
-    let runs: Vec<Vec<String>> = [1usize, 2, 4].iter().map(|t| run_under(&scene, &Some(pool_of(*t)), EngineRule::TreeMultibody)).collect();
+    let path = rule_reference_path(rule);
+    let runs: Vec<Vec<String>> = [1usize, 2, 4].iter().map(|t| run_under(&scene, &Some(pool_of(*t)), rule)).collect();
     for (hashes, threads) in runs.iter().zip([1, 2, 4]) {
         if let Some(i) = first_difference(&runs[0], hashes) {
-            panic!("rule 2 on {threads} threads differs from 1 thread at {:?} vs {:?}", hashes.get(i), runs[0].get(i));
+            panic!("{rule:?} on {threads} threads differs from 1 thread at {:?} vs {:?}", hashes.get(i), runs[0].get(i));
         }
         for h in hashes.iter().filter(|h| h.starts_with("restored ")) {
-            assert!(hashes.contains(&h["restored ".len()..].to_string()), "rule 2, {threads} threads: {h} differs from the uninterrupted run");
+            assert!(hashes.contains(&h["restored ".len()..].to_string()), "{rule:?}, {threads} threads: {h} differs from the uninterrupted run");
         }
     }
     let rule1 = &reference()[scene.name];
-    assert_ne!(rule1.last(), runs[0].last(), "rule 2 steps the arms exactly as rule 1: the rule is not in effect");
+    assert_ne!(rule1.last(), runs[0].last(), "{rule:?} steps the arms exactly as rule 1: the rule is not in effect");
+    if rule != EngineRule::TreeMultibody {
+        let rule2: BTreeMap<String, Vec<String>> = serde_json::from_slice(&std::fs::read(rule_reference_path(EngineRule::TreeMultibody)).unwrap()).unwrap();
+        assert_ne!(rule2[scene.name].last(), runs[0].last(), "{rule:?} steps the arms exactly as rule 2: the rule is not in effect");
+    }
     let now = BTreeMap::from([(scene.name.to_string(), runs[0].clone())]);
     match std::fs::read(&path) {
         Ok(bytes) => {
             let recorded: BTreeMap<String, Vec<String>> = serde_json::from_slice(&bytes).unwrap();
             if let Some(i) = first_difference(&recorded[scene.name], &runs[0]) {
-                panic!("rule 2 differs from its reference at {:?} vs {:?}", runs[0].get(i), recorded[scene.name].get(i));
+                panic!("{rule:?} differs from its reference at {:?} vs {:?}", runs[0].get(i), recorded[scene.name].get(i));
             }
         }
         Err(_) => {

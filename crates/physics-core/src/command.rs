@@ -45,7 +45,10 @@ use crate::world::World;
 /// (`connect`, `weld`, linear `joint`) and fixed tendons as actuator transmissions
 /// (`world::mjcf_equality`) and keeps its `touch` sensors; its `ignored` names only what of
 /// them is not built. Older loads fold as before (these elements stay ignored).
-pub const EVENT_VERSION: u32 = 8;
+/// 9: create_simulation records engine rule 3 (`engine::EngineRule::TreeMultibodyPerStep`:
+/// robots' mass matrices factorised once per step), so step results of new simulations differ
+/// from rule 2's; worlds of older roots keep their recorded rule.
+pub const EVENT_VERSION: u32 = 9;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;

@@ -23,6 +23,19 @@ pub enum MultibodyDynamics {
     /// factorised from the leaves up without fill-in (`Lᵀ·D·L`), one factorisation per substep
     /// shared by every constraint of the multibody. 3D only.
     TreeSparse,
+    /// physics-mcp patch 3: [`Self::TreeSparse`]'s arithmetic, but the mass matrices and their
+    /// factorisations are computed once per step, at its first substep, and shared by its later
+    /// substeps (as the step's contact constraints already share them); the free accelerations
+    /// are still recomputed every substep from the substep's poses and velocities. 3D only.
+    TreeSparsePerStep,
+}
+
+impl MultibodyDynamics {
+    /// Whether this is one of the tree paths (compact jacobians, the tree factorisation).
+    #[inline]
+    pub fn is_tree(self) -> bool {
+        matches!(self, Self::TreeSparse | Self::TreeSparsePerStep)
+    }
 }
 
 /// Friction models used for all contact constraints between two rigid-bodies.

@@ -30,6 +30,10 @@ mod tree;
 #[cfg(all(test, feature = "dim3"))]
 #[path = "multibody_tree_tests.rs"]
 mod tree_tests;
+// physics-mcp patch 3: the per-step factorisation against patch 1's per-substep one.
+#[cfg(all(test, feature = "dim3"))]
+#[path = "multibody_per_step_tests.rs"]
+mod per_step_tests;
 
 /// No degree of freedom (the tree path's parent of a root degree of freedom).
 #[cfg(feature = "dim3")]
@@ -863,13 +867,37 @@ impl Multibody {
     /// One substep's mass matrices, their factorisations and the free accelerations, by the
     /// path `params.multibody_dynamics` names.
     pub(crate) fn update_dynamics(&mut self, params: &IntegrationParameters, bodies: &RigidBodySet) {
+        #[cfg(all(test, feature = "dim3"))]
+        if self.tree.mass_frozen_for_tests && self.tree_dynamics_active() {
+            // A deliberately wrong rule for the tests: the first mass matrix kept forever.
+            return self.tree_update_substep_acceleration(params.dt, bodies);
+        }
         match params.multibody_dynamics {
             #[cfg(feature = "dim3")]
-            MultibodyDynamics::TreeSparse if self.tree_eligible(bodies) => self.tree_update_dynamics(params.dt, bodies),
+            d if d.is_tree() && self.tree_eligible(bodies) => {
+                self.tree_update_dynamics(params.dt, bodies);
+                if d == MultibodyDynamics::TreeSparsePerStep {
+                    self.tree_cache_unit_responses();
+                }
+            }
             _ => {
                 self.update_mass_matrix(params.dt, bodies);
                 self.update_acceleration(params.dt, bodies);
             }
+        }
+    }
+
+    /// physics-mcp patch 3: the dynamics of a substep after a step's first. Under
+    /// [`MultibodyDynamics::TreeSparsePerStep`] (once the step's first substep ran the tree path)
+    /// only the free accelerations are recomputed, with the step's factorisations; every other
+    /// path recomputes everything, as [`Self::update_dynamics`].
+    pub(crate) fn update_substep_dynamics(&mut self, params: &IntegrationParameters, bodies: &RigidBodySet) {
+        match params.multibody_dynamics {
+            #[cfg(feature = "dim3")]
+            MultibodyDynamics::TreeSparsePerStep if self.tree_dynamics_active() && self.tree_eligible(bodies) => {
+                self.tree_update_substep_acceleration(params.dt, bodies)
+            }
+            _ => self.update_dynamics(params, bodies),
         }
     }
 
@@ -1552,7 +1580,7 @@ impl Multibody {
          */
         match dynamics {
             #[cfg(feature = "dim3")]
-            MultibodyDynamics::TreeSparse if self.tree_eligible(bodies) => self.tree_update_jacobians(),
+            d if d.is_tree() && self.tree_eligible(bodies) => self.tree_update_jacobians(),
             _ => self.update_body_jacobians(),
         }
     }

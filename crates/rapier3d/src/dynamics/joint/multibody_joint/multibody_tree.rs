@@ -95,6 +95,17 @@ pub(crate) struct TreeWorkspace {
     pos_forces: Vec<Real>,
     scratch_x: Vec<Real>,
     scratch_y: Vec<Real>,
+    /// physics-mcp patch 3: `M⁻¹·e_k` for the degrees of freedom `k` with a limit, a motor or dry
+    /// friction, row `k` of `unit_responses` (`unit_ready[k]`), computed with each per-step
+    /// factorisation: every substep's joint constraints copy them instead of solving again
+    /// (the same solve of the same vector, so the same bits). Empty under the other paths.
+    unit_responses: Vec<Real>,
+    unit_ready: Vec<bool>,
+    /// Tests only: a deliberately wrong rule (the mass matrix and factorisations of the first
+    /// dynamics update kept for every later step), which the per-step path's tolerance must
+    /// catch (multibody_per_step_tests.rs).
+    #[cfg(test)]
+    pub mass_frozen_for_tests: bool,
 }
 
 /// Resizes `v` to `n` entries, all `value` (no allocation once large enough).
@@ -356,11 +367,32 @@ impl Multibody {
 
     pub(crate) fn tree_update_dynamics(&mut self, dt: Real, bodies: &RigidBodySet) {
         self.tree.active = true;
+        self.tree.unit_ready.clear();
         if self.ndofs == 0 {
             return;
         }
         self.tree_mass_matrices(dt, bodies);
         self.tree_factorize();
+        self.tree_update_acceleration(dt, bodies);
+    }
+
+    /// physics-mcp patch 3 (`MultibodyDynamics::TreeSparsePerStep`): a later substep's free
+    /// accelerations — each link's mass and world inertia read again (the links turned), the
+    /// generalized forces of this substep's poses and velocities — solved with the factorisations
+    /// of the step's first substep, which stay in place (`M` changes with the configuration,
+    /// which moves by a fraction of a step between substeps).
+    pub(crate) fn tree_update_substep_acceleration(&mut self, dt: Real, bodies: &RigidBodySet) {
+        if self.ndofs == 0 {
+            return;
+        }
+        let t = &mut self.tree;
+        t.masses.clear();
+        t.inertias.clear();
+        for link in self.links.iter() {
+            let mp = &bodies[link.rigid_body].mprops;
+            t.masses.push(mp.effective_mass());
+            t.inertias.push(mp.effective_angular_inertia());
+        }
         self.tree_update_acceleration(dt, bodies);
     }
 
@@ -759,8 +791,44 @@ impl Multibody {
     }
 
     /// `x ← M⁻¹·x` on the tree path for `x` zero outside the chain from `dof` to its root (a
-    /// unit vector at `dof`).
+    /// unit vector at `dof`); under patch 3, the step's `M⁻¹·e_dof` when it holds it (`x` is then
+    /// that unit vector).
     pub(crate) fn tree_solve_along(&self, dof: usize, x: &mut [Real]) {
-        self.tree.solve_mass(x, Some(dof as u32));
+        let t = &self.tree;
+        if t.unit_ready.get(dof).copied().unwrap_or(false) {
+            let n = self.ndofs;
+            x.copy_from_slice(&t.unit_responses[dof * n..dof * n + n]);
+            return;
+        }
+        t.solve_mass(x, Some(dof as u32));
+    }
+
+    /// physics-mcp patch 3: `M⁻¹·e_k` with the step's factorisation for every degree of freedom
+    /// with a limit, a motor or dry friction (what `unit_multibody_joint.rs` solves for in every
+    /// substep), kept for the step.
+    pub(crate) fn tree_cache_unit_responses(&mut self) {
+        let n = self.ndofs;
+        let t = &mut self.tree;
+        reset(&mut t.unit_ready, n, false);
+        // Out of the workspace while it is filled (the solves borrow the workspace).
+        let mut responses = core::mem::take(&mut t.unit_responses);
+        reset(&mut responses, n * n, 0.0);
+        for link in self.links.iter() {
+            let data = &link.joint.data;
+            let (locked, wanted) = (data.locked_axes.bits(), data.limit_axes.bits() | data.motor_axes.bits());
+            let mut dof = link.assembly_id;
+            for a in 0..SPATIAL_DIM {
+                if (locked >> a) & 1 == 0 {
+                    if (wanted >> a) & 1 != 0 || self.frictions.get(dof).copied().unwrap_or(0.0) > 0.0 {
+                        let x = &mut responses[dof * n..dof * n + n];
+                        x[dof] = 1.0;
+                        t.solve_mass(x, Some(dof as u32));
+                        t.unit_ready[dof] = true;
+                    }
+                    dof += 1;
+                }
+            }
+        }
+        t.unit_responses = responses;
     }
 }

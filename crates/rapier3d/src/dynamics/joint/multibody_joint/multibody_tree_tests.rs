@@ -13,7 +13,7 @@ use crate::prelude::*;
 
 /// A fixed base and a 7-link revolute chain with offset centres of mass and anisotropic
 /// inertias (a KUKA-like arm), position motors on every joint.
-fn chain() -> PhysicsWorld {
+pub(super) fn chain() -> PhysicsWorld {
     let mut world = PhysicsWorld::new();
     world.gravity = Vector::new(0.0, 0.0, -9.81);
     let base = world.insert_body(RigidBodyBuilder::fixed());
@@ -45,7 +45,7 @@ fn chain() -> PhysicsWorld {
 /// A free-floating tree: a root with a spherical shoulder, a prismatic slide, two revolute
 /// branches, and a massless spacer link between two revolute joints (MJCF's multi-joint
 /// bodies).
-fn tree() -> PhysicsWorld {
+pub(super) fn tree() -> PhysicsWorld {
     let mut world = PhysicsWorld::new();
     world.gravity = Vector::new(0.0, 0.0, -9.81);
     let body = |world: &mut PhysicsWorld, at: Vector, mass: Real| {
@@ -71,7 +71,7 @@ fn tree() -> PhysicsWorld {
 
 /// The world's one multibody, its velocities set to a fixed pseudo-random pattern and its
 /// bodies' velocities and poses brought up to date, with a force and torque on every link.
-fn prepared(mut world: PhysicsWorld) -> (Multibody, RigidBodySet) {
+pub(super) fn prepared(mut world: PhysicsWorld) -> (Multibody, RigidBodySet) {
     // One step computes the bodies' mass properties (from `additional_mass_properties`).
     world.step();
     let mut mb = world.multibody_joints.multibodies().next().unwrap().clone();

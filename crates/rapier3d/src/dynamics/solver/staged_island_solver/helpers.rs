@@ -12,7 +12,7 @@ use crate::dynamics::solver::solver_contact_graph::SolverContactGraph;
 #[cfg(feature = "dim3")]
 use crate::dynamics::solver::velocity_solver::GyroParams;
 #[cfg(all(feature = "parallel", feature = "dim3"))]
-use crate::dynamics::{MultibodyDynamics, MultibodyLinkId};
+use crate::dynamics::MultibodyLinkId;
 use crate::dynamics::{IntegrationParameters, MultibodyJointSet, RigidBodyHandle, RigidBodySet};
 use crate::math::DVector;
 use parry::math::SIMD_WIDTH;
@@ -107,7 +107,7 @@ impl VelocitySolver {
         // parallel (each reads the bodies and writes only itself, so the bits do not depend on
         // the thread count); the release's dense path stays serial, as released.
         #[cfg(all(feature = "parallel", feature = "dim3"))]
-        let parallel = params.multibody_dynamics == MultibodyDynamics::TreeSparse
+        let parallel = params.multibody_dynamics.is_tree()
             && self.multibody_roots.len() > 1
             && rayon::current_num_threads() > 1;
         #[cfg(not(all(feature = "parallel", feature = "dim3")))]
@@ -161,7 +161,8 @@ impl VelocitySolver {
 
             if !is_last_substep {
                 multibody.update_velocities(bodies);
-                multibody.update_dynamics(params, bodies);
+                // physics-mcp patch 3: under `TreeSparsePerStep`, the free accelerations only.
+                multibody.update_substep_dynamics(params, bodies);
 
                 let mut solver_vels_incr = self
                     .generic_solver_vels_increment
