@@ -85,7 +85,7 @@ fn a_tampered_log_fails_naming_the_event_and_diff_finds_it() {
 /// fork that fell back to rule 1 would still replay to its own hashes; this test tells them
 /// apart.
 /// The replays recorded under engine rule 2 (every simulation created from event version 6 on).
-const RULE_2_LOGS: &[&str] = &["engine_rule_v6", "joint_trajectory_v7", "measures_v8", "mjcf_equality_v8"];
+const RULE_2_LOGS: &[&str] = &["engine_rule_v6", "joint_trajectory_v7", "measures_v8", "mjcf_equality_v8", "mjcf_ball_pair_v9"];
 
 #[test]
 fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() {

@@ -146,6 +146,7 @@ impl World {
                 self.tables.actuation.remove(object_id);
                 self.tables.mjcf_sensors.remove(object_id);
                 self.tables.transmissions.retain(|(id, _), _| id != object_id);
+                self.tables.contact_pairs.remove(object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }

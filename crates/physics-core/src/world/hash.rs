@@ -346,6 +346,10 @@ fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
     if !w.tables.transmissions.is_empty() {
         bytes.extend(encode(&("transmissions", &w.tables.transmissions)));
     }
+    // MJCF contact pairs likewise (event version 9).
+    if !w.tables.contact_pairs.is_empty() {
+        bytes.extend(encode(&("contact_pairs", &w.tables.contact_pairs)));
+    }
 }
 
 /// One body of a robot: its dynamic state, materials and parent joint coordinates.

@@ -69,16 +69,28 @@ pub fn tendon_joints(model: &Model, name: &str, joint_of: &dyn Fn(&str) -> Optio
     Ok(terms)
 }
 
-/// Notes for what a fixed tendon carries beyond its transmission (not simulated).
-pub fn tendon_notes(xml: &str) -> Vec<String> {
+/// The tendon attributes a fixed tendon does not simulate.
+const TENDON_ATTRIBUTES: [&str; 7] = ["range", "limited", "stiffness", "damping", "springlength", "frictionloss", "armature"];
+
+/// Notes for what a fixed tendon carries beyond its transmission (not simulated); with
+/// `defaults` (loads of event version 9) also what `<default>` classes set for tendons, which
+/// a fixed tendon of the class inherits.
+pub fn tendon_notes(xml: &str, defaults: bool) -> Vec<String> {
     let Ok(doc) = roxmltree::Document::parse(xml) else { return Vec::new() };
     let mut notes = Vec::new();
+    let element = |n: &roxmltree::Node, tag: &str| n.is_element() && n.tag_name().name() == tag;
+    if defaults && doc.descendants().any(|n| element(&n, "fixed")) {
+        for n in doc.descendants().filter(|n| element(n, "tendon") && n.parent().is_some_and(|p| element(&p, "default"))) {
+            let class = n.parent().and_then(|p| p.attribute("class")).unwrap_or("main");
+            let set: Vec<&str> = TENDON_ATTRIBUTES.into_iter().filter(|a| n.attribute(*a).is_some()).collect();
+            if !set.is_empty() {
+                notes.push(format!("<default class=\"{class}\"><tendon>: {} not simulated (a fixed tendon acts only as an actuator's transmission)", set.join(", ")));
+            }
+        }
+    }
     for (k, n) in doc.descendants().filter(|n| n.is_element() && n.tag_name().name() == "fixed").enumerate() {
         let name = n.attribute("name").map_or_else(|| format!("#{k}"), str::to_string);
-        let set: Vec<&str> = ["range", "limited", "stiffness", "damping", "springlength", "frictionloss", "armature"]
-            .into_iter()
-            .filter(|a| n.attribute(*a).is_some())
-            .collect();
+        let set: Vec<&str> = TENDON_ATTRIBUTES.into_iter().filter(|a| n.attribute(*a).is_some()).collect();
         if !set.is_empty() {
             notes.push(format!("tendon {name}: {} not simulated (a fixed tendon acts only as an actuator's transmission)", set.join(", ")));
         }
@@ -89,11 +101,14 @@ pub fn tendon_notes(xml: &str) -> Vec<String> {
     notes
 }
 
-/// Whether a `<connect>` or `<weld>` of the model names the world (body2 omitted or `world`).
-pub fn uses_world(model: &Model) -> bool {
+/// Whether a `<connect>` or `<weld>` of the model names the world (body2 omitted or `world`);
+/// with `only_built` (loads of event version 9) only one that can be built — active and in the
+/// body form — counts, so a model whose world constraint is not built gets no world body.
+pub fn uses_world(model: &Model, only_built: bool) -> bool {
+    let counts = |common: &rapier3d_mjcf::mjcf_rs::equality::EqualityCommon, body1: &str| !only_built || (common.active && !body1.is_empty());
     model.equality.iter().any(|e| match e {
-        Equality::Connect(c) => c.body2.as_deref().is_none_or(|b| b == "world") || c.body1 == "world",
-        Equality::Weld(w) => w.body2.as_deref().is_none_or(|b| b == "world") || w.body1 == "world",
+        Equality::Connect(c) => (c.body2.as_deref().is_none_or(|b| b == "world") || c.body1 == "world") && counts(&c.common, &c.body1),
+        Equality::Weld(w) => (w.body2.as_deref().is_none_or(|b| b == "world") || w.body1 == "world") && counts(&w.common, &w.body1),
         _ => false,
     })
 }
