@@ -8,7 +8,9 @@
 //! - tests/fixtures/mjcf/pair_slide.xml (a box sent at 2 m/s over a plane whose pair friction,
 //!   0.2, differs from the geoms' own, 1): where it slides to, as in MuJoCo;
 //! - the tools that need one number per joint refuse a ball joint, naming the parameter; a load
-//!   recorded before event version 9 refuses a ball joint and lists the pair in `ignored`.
+//!   recorded before event version 9 refuses a ball joint and lists the pair in `ignored`;
+//! - get_simulation_info and get_joint_info list an MJCF model's equality constraints and
+//!   tendons, and whether each is built (event version 9; absent for older loads).
 
 use crate::common;
 
@@ -61,6 +63,8 @@ async fn ball_joints_and_contact_pairs_move_as_in_mujoco() {
     pair_friction_slows_the_box_as_mujoco(&c, &r["pair_slide"]).await;
     ball_pendulum_under_engine_rule_1(&r["ball_pendulum"]);
     older_loads_refuse_ball_joints_and_ignore_pairs();
+    equality_and_tendons_are_listed_with_whether_they_are_built();
+    tendon_defaults_are_listed_and_an_unbuilt_world_constraint_adds_no_world_body();
 }
 
 async fn ball_pendulum_swings_as_mujoco(c: &Client, r: &Value) {
@@ -173,4 +177,69 @@ fn older_loads_refuse_ball_joints_and_ignore_pairs() {
     assert!(refused.contains("joint shoulder is a ball joint, which is not supported"), "{refused}");
     let out = w.apply(&old("pair_slide.xml"), &mut |_| true).to_value();
     assert!(out["ignored"].to_string().contains("<contact><pair>: explicit contact pairs are not applied"), "{out}");
+}
+
+/// equality_mix.xml with its connect switched off: get_simulation_info lists the three equality
+/// constraints (the connect not built) and the tendon (built: an actuator drives it), and
+/// get_joint_info of a finger names the joint coupling and the tendon through it; a load of
+/// event version 8 lists none of them.
+fn equality_and_tendons_are_listed_with_whether_they_are_built() {
+    let text = String::from_utf8(fixture("equality_mix.xml")).unwrap().replace("<connect name=\"close_loop\"", "<connect name=\"close_loop\" active=\"false\"");
+    let load = |v9: bool| {
+        let mut load = common::mjcf_command::load_mjcf("equality_mix.xml", text.as_bytes(), true);
+        if let Command::LoadMjcf { ball_joints_and_pairs, keyframe, .. } = &mut load {
+            *ball_joints_and_pairs = v9;
+            *keyframe = Some("start".into());
+        }
+        load
+    };
+    let root = Command::CreateSimulation { simulation_id: "listing".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
+    let (mut w, _) = World::create(&root).unwrap();
+    w.apply(&load(true), &mut |_| true);
+    w.apply(&load(false), &mut |_| true);
+    let objects = serde_json::to_value(w.object_summaries()).unwrap();
+    let listed = |k: usize, what: &str| objects[k][what].clone();
+    assert_eq!(
+        listed(0, "equality"),
+        json!([
+            {"name": "close_loop", "type": "connect", "built": false},
+            {"name": "stiff_knee", "type": "weld", "built": true},
+            {"name": "fingers", "type": "joint", "joints": [5, 6], "built": true}
+        ]),
+        "{objects}"
+    );
+    assert_eq!(listed(0, "tendons"), json!([{"name": "split", "type": "fixed", "joints": [5, 6], "built": true}]), "{objects}");
+    assert!(listed(1, "equality").is_null() && listed(1, "tendons").is_null(), "a version-8 load lists none: {objects}");
+    let finger = serde_json::to_value(w.joint_info(0, 6).unwrap()).unwrap();
+    assert_eq!((&finger["equality"], &finger["tendons"]), (&json!(["fingers"]), &json!(["split"])), "{finger}");
+    assert!(serde_json::to_value(w.joint_info(1, 6).unwrap()).unwrap().get("equality").is_none());
+}
+
+/// Event version 9: a tendon attribute set through a `<default>` class is listed in `ignored`
+/// (before, silently not simulated), and a free-base model whose world weld is not built
+/// (inactive) gets no static world body for it (before, one was added anyway).
+fn tendon_defaults_are_listed_and_an_unbuilt_world_constraint_adds_no_world_body() {
+    let load = |text: &str, v9: bool| {
+        let mut load = common::mjcf_command::load_mjcf("inline.xml", text.as_bytes(), false);
+        if let Command::LoadMjcf { ball_joints_and_pairs, .. } = &mut load {
+            *ball_joints_and_pairs = v9;
+        }
+        load
+    };
+    let tendon = r#"<mujoco><default><tendon stiffness="2"/></default><worldbody>
+        <body name="a"><joint name="j1" type="hinge"/><geom size="0.1"/></body>
+        <body name="b" pos="1 0 0"><joint name="j2" type="hinge"/><geom size="0.1"/></body></worldbody>
+        <tendon><fixed name="t"><joint joint="j1" coef="1"/><joint joint="j2" coef="1"/></fixed></tendon></mujoco>"#;
+    let weld = r#"<mujoco><worldbody><body name="f"><freejoint/><geom size="0.1"/></body></worldbody>
+        <equality><weld body1="f" active="false"/></equality></mujoco>"#;
+    for v9 in [true, false] {
+        let root = Command::CreateSimulation { simulation_id: "v".into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
+        let (mut w, _) = World::create(&root).unwrap();
+        let out = w.apply(&load(tendon, v9), &mut |_| true).to_value();
+        let listed = out["ignored"].to_string().contains(r#"<default class=\"main\"><tendon>: stiffness not simulated"#);
+        assert_eq!(listed, v9, "{out}");
+        let bodies = w.physics().bodies.len();
+        w.apply(&load(weld, v9), &mut |_| true);
+        assert_eq!(w.physics().bodies.len() - bodies, if v9 { 1 } else { 2 }, "version 9: {v9}");
+    }
 }

@@ -334,6 +334,29 @@ pub struct ObjectSummary {
     /// An MJCF model's sensors by name (get_sensor_data; absent when none, as `actuators`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sensors: Vec<String>,
+    /// An MJCF model's equality constraints (absent when none: only loads of event version 9
+    /// list them, so earlier results are unchanged).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub equality: Vec<ModelElement>,
+    /// An MJCF model's fixed tendons (absent when none, as `equality`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tendons: Vec<ModelElement>,
+}
+
+/// An MJCF equality constraint or fixed tendon, as get_simulation_info lists it: what the model
+/// has and whether it is simulated.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct ModelElement {
+    /// Its name (`#k` when unnamed, k its index among its kind).
+    pub name: String,
+    /// `connect`, `weld`, `joint` or `tendon` (an equality constraint); `fixed` (a tendon).
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// The hinge or slide joints it names, by joint index (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub joints: Vec<u32>,
+    /// Whether it is simulated (false: the load's `ignored` says why).
+    pub built: bool,
 }
 
 /// Result of batch: each call's result as that tool returns it, in order, and where the
@@ -716,6 +739,13 @@ pub struct JointInfo {
     /// have any, so earlier results are unchanged).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub actuators: Vec<ActuatorInfo>,
+    /// The MJCF equality constraints naming this joint, by name (absent when none: only loads
+    /// of event version 9 list them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub equality: Vec<String>,
+    /// The MJCF fixed tendons through this joint, by name (absent when none, as `equality`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tendons: Vec<String>,
 }
 
 /// Result of get_joint_state.

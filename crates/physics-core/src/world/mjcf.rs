@@ -796,7 +796,10 @@ impl World {
                 .collect();
             let joint_ref = |li: u32| dof_joints.get(li as usize).and_then(|ji| ref_of.get(ji)).copied().unwrap_or(0.0) as f64;
             let at = super::mjcf_equality::Placement { frames: &frames, joint_of: &joint_of, robot: &robot, joint_ref: &joint_ref };
-            let notes = self.build_mjcf_equalities(&model, &at);
+            let (notes, built) = self.build_mjcf_equalities(&model, &at);
+            if version9 && (!model.equality.is_empty() || !model.tendons.is_empty()) {
+                self.tables.mjcf_elements.insert(id, super::mjcf_equality::Elements::of(&model, &built, &joint_of));
+            }
             ignored.retain(|s| s != EQUALITY_IGNORED && s != TENDONS_IGNORED);
             ignored.extend(notes);
             ignored.extend(super::mjcf_equality::tendon_notes(text, version9));

@@ -271,6 +271,11 @@ pub struct Tables {
     /// transmissions, written only when a robot has one.
     #[serde(skip)]
     pub contact_pairs: BTreeMap<u32, Vec<mjcf_pairs::PairFriction>>,
+    /// MJCF models' equality constraints and fixed tendons as get_simulation_info and
+    /// get_joint_info list them, by object id (loads of event version 9). Snapshot version 12
+    /// carries them beside the contact pairs, written only when a robot has some.
+    #[serde(skip)]
+    pub mjcf_elements: BTreeMap<u32, mjcf_equality::Elements>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -321,6 +326,7 @@ impl From<TablesV3> for Tables {
             mjcf_sensors: BTreeMap::new(),
             transmissions: BTreeMap::new(),
             contact_pairs: BTreeMap::new(),
+            mjcf_elements: BTreeMap::new(),
         }
     }
 }
@@ -364,6 +370,7 @@ impl TablesV2 {
             mjcf_sensors: BTreeMap::new(),
             transmissions: BTreeMap::new(),
             contact_pairs: BTreeMap::new(),
+            mjcf_elements: BTreeMap::new(),
         }
     }
 }
@@ -820,11 +827,11 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if !t.contact_pairs.is_empty() {
-            // Version 12: version 11's followed by the MJCF contact pairs.
+        let encoded = if !t.contact_pairs.is_empty() || !t.mjcf_elements.is_empty() {
+            // Version 12: version 11's followed by the MJCF contact pairs and listed elements.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
             let ext = SnapshotExtensions { actuation: t.actuation.clone(), mjcf_sensors: t.mjcf_sensors.clone() };
-            postcard::to_extend(&(12u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories, ext, &t.transmissions, &t.contact_pairs), out)
+            postcard::to_extend(&(12u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories, ext, &t.transmissions, (&t.contact_pairs, &t.mjcf_elements)), out)
         } else if !t.transmissions.is_empty() {
             // Version 11: version 10's followed by the tendon transmissions.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
@@ -927,9 +934,10 @@ impl World {
                     BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>,
                     SnapshotExtensions,
                     BTreeMap<(u32, u32), actuators::Transmission>,
-                    BTreeMap<u32, Vec<mjcf_pairs::PairFriction>>,
+                    (BTreeMap<u32, Vec<mjcf_pairs::PairFriction>>, BTreeMap<u32, mjcf_equality::Elements>),
                 );
-                let (_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions, pairs): V12 = postcard::from_bytes(bytes).map_err(bad)?;
+                let (_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions, (pairs, elements)): V12 = postcard::from_bytes(bytes).map_err(bad)?;
+                tables.mjcf_elements = elements;
                 rules = recorded;
                 tables.joint_sensors = sensors;
                 tables.joint_trajectories = trajectories;
@@ -1073,8 +1081,9 @@ impl World {
 /// controls, and the MJCF sensors), written only for a world with some (9 and 10 are both event version 7's: two
 /// features of one release, merged); 11 is 10's followed by the MJCF tendon transmissions
 /// (`Tables::transmissions`, event version 8), written only for a world with one; 12 is 11's
-/// followed by the MJCF contact pairs (`Tables::contact_pairs`, event version 9), written only
-/// for a world with one; every other world is written as before, byte for byte; 1
+/// followed by the MJCF contact pairs and listed equality constraints and tendons
+/// (`Tables::contact_pairs`, `Tables::mjcf_elements`, event version 9), written only for a
+/// world with some; every other world is written as before, byte for byte; 1
 /// to 5 still restore, under state hash v1 and engine rule 1, 6 under v2 and rule 1).
 pub const SNAPSHOT_VERSION: u32 = 12;
 

@@ -713,6 +713,8 @@ impl World {
                 .actuation(id)
                 .map(|a| super::actuators::infos(a).into_iter().filter(|x| x.joint_index as usize == i).collect())
                 .unwrap_or_default(),
+            equality: self.tables.mjcf_elements.get(&id).map(|e| e.naming(&e.equality, i)).unwrap_or_default(),
+            tendons: self.tables.mjcf_elements.get(&id).map(|e| e.naming(&e.tendons, i)).unwrap_or_default(),
         })
     }
 
