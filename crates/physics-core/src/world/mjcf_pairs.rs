@@ -139,8 +139,11 @@ pub(super) fn build(
     (pairs, notes)
 }
 
+/// A collider handle's raw parts (handles are not `Ord`).
+type RawCollider = (u32, u32);
+
 /// Every pair of a world by its colliders' raw handles, both ways, for the step's contact hook.
-pub(super) fn frictions(pairs: &BTreeMap<u32, Vec<PairFriction>>) -> BTreeMap<((u32, u32), (u32, u32)), f32> {
+pub(super) fn frictions(pairs: &BTreeMap<u32, Vec<PairFriction>>) -> BTreeMap<(RawCollider, RawCollider), f32> {
     let mut out = BTreeMap::new();
     for p in pairs.values().flatten() {
         let (a, b) = (p.collider1.into_raw_parts(), p.collider2.into_raw_parts());
