@@ -924,30 +924,7 @@ impl World {
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
         let (mut physics, tables) = match version {
-            12 => {
-                type V12 = (
-                    u32,
-                    PhysicsWorld,
-                    Tables,
-                    SnapshotRules,
-                    BTreeSet<(u32, u32)>,
-                    BTreeMap<(u32, u32), joint_trajectory::JointTrajectory>,
-                    SnapshotExtensions,
-                    BTreeMap<(u32, u32), actuators::Transmission>,
-                    (BTreeMap<u32, Vec<mjcf_pairs::PairFriction>>, BTreeMap<u32, mjcf_equality::Elements>),
-                );
-                let (_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions, (pairs, elements)): V12 = postcard::from_bytes(bytes).map_err(bad)?;
-                tables.mjcf_elements = elements;
-                rules = recorded;
-                tables.joint_sensors = sensors;
-                tables.joint_trajectories = trajectories;
-                tables.actuation = ext.actuation;
-                tables.mjcf_sensors = ext.mjcf_sensors;
-                tables.transmissions = transmissions;
-                tables.contact_pairs = pairs;
-                (physics, tables)
-            }
-            11 => {
+            11 | 12 => {
                 type V11 = (
                     u32,
                     PhysicsWorld,
@@ -958,13 +935,20 @@ impl World {
                     SnapshotExtensions,
                     BTreeMap<(u32, u32), actuators::Transmission>,
                 );
-                let (_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions): V11 = postcard::from_bytes(bytes).map_err(bad)?;
+                // Version 12 is version 11's encoding followed by the contact pairs and listed
+                // elements (postcard writes a tuple's fields one after another, unframed).
+                let ((_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions), rest): (V11, &[u8]) =
+                    postcard::take_from_bytes(bytes).map_err(bad)?;
                 rules = recorded;
                 tables.joint_sensors = sensors;
                 tables.joint_trajectories = trajectories;
                 tables.actuation = ext.actuation;
                 tables.mjcf_sensors = ext.mjcf_sensors;
                 tables.transmissions = transmissions;
+                if version == 12 {
+                    type Since12 = (BTreeMap<u32, Vec<mjcf_pairs::PairFriction>>, BTreeMap<u32, mjcf_equality::Elements>);
+                    (tables.contact_pairs, tables.mjcf_elements) = postcard::from_bytes::<Since12>(rest).map_err(bad)?;
+                }
                 (physics, tables)
             }
             10 => {
