@@ -147,6 +147,7 @@ fn mjcf_command(mut files: ModelFiles, at: PathBuf, user: &str) -> Result<Comman
         use_model_options: false,
         actuators: true,
         constraints: true,
+        ball_joints_and_pairs: true,
         parsed: Default::default(),
     })
 }

@@ -651,7 +651,8 @@ fn constraint_from_readable(
     })
 }
 
-/// A robot's joint positions as saved (URDF and MJCF alike): what a reader re-sets them to.
-fn joint_positions(world: &World, id: u32, joints: usize) -> Vec<f64> {
+/// A robot's joint positions as saved (URDF and MJCF alike): what a reader re-sets them to (a
+/// ball joint's is its quaternion [x, y, z, w]).
+fn joint_positions(world: &World, id: u32, joints: usize) -> Vec<crate::outputs::JointValue> {
     (0..joints).filter_map(|i| world.joint_state(id, i).map(|j| j.joint_position)).collect()
 }

@@ -147,9 +147,9 @@ impl Sampler {
             }
             if w.robot(id).is_some() {
                 let joints: Vec<_> = (0..w.link_count(id)).filter_map(|j| w.joint_state(id, j)).collect();
-                t.joint_positions.get_or_insert_with(|| pad(i)).push(Some(joints.iter().map(|j| j.joint_position).collect()));
+                t.joint_positions.get_or_insert_with(|| pad(i)).push(Some(joints.iter().map(|j| j.joint_position.scalar()).collect()));
                 if velocities {
-                    t.joint_velocities.get_or_insert_with(|| pad(i)).push(Some(joints.iter().map(|j| j.joint_velocity).collect()));
+                    t.joint_velocities.get_or_insert_with(|| pad(i)).push(Some(joints.iter().map(|j| j.joint_velocity.scalar()).collect()));
                 }
             }
         }

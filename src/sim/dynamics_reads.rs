@@ -37,11 +37,14 @@ pub fn link_states(cx: &ReadContext, p: &LinksRef) -> Result<LinkStates, Refusal
     Ok(LinkStates { link_states })
 }
 
-/// The robot's model, refused when the object is missing or has no joints.
-fn model(cx: &ReadContext, id: u32) -> Result<RobotDynamics, Refusal> {
+/// The robot's model, refused when the object is missing, has no joints or has a ball joint.
+fn model(cx: &ReadContext, id: u32, tool: &str) -> Result<RobotDynamics, Refusal> {
     let w = cx.world;
     if !w.has_object(id) {
         return Err(object_not_found(id, w.simulation_id()));
+    }
+    if let Some(r) = w.robot(id) {
+        r.ball_joint_refusal(id, tool)?;
     }
     w.robot_dynamics(id).ok_or_else(|| format!("object_id {id} is not a robot; it has no joints"))
 }
@@ -57,7 +60,7 @@ fn per_dof(name: &str, list: &NumList, dofs: usize) -> Result<Vec<f64>, Refusal>
 /// calculate_jacobian.
 pub fn jacobian(cx: &ReadContext, p: &JacobianQuery) -> Result<Jacobian, Refusal> {
     let id = p.object_id.0;
-    let m = model(cx, id)?;
+    let m = model(cx, id, "calculate_jacobian")?;
     let n = m.links.len();
     let link = p.link_index.get();
     if link < 0 || link as usize >= n {
@@ -73,14 +76,14 @@ pub fn jacobian(cx: &ReadContext, p: &JacobianQuery) -> Result<Jacobian, Refusal
 
 /// calculate_mass_matrix.
 pub fn mass_matrix(cx: &ReadContext, p: &MassMatrixQuery) -> Result<MassMatrix, Refusal> {
-    let m = model(cx, p.object_id.0)?;
+    let m = model(cx, p.object_id.0, "calculate_mass_matrix")?;
     let q = per_dof("obj_positions", &p.obj_positions, m.dofs)?;
     Ok(MassMatrix { mass_matrix: m.mass_matrix(&q) })
 }
 
 /// calculate_inverse_dynamics: the joint forces for the motion under the world's gravity.
 pub fn inverse_dynamics(cx: &ReadContext, p: &InverseDynamicsQuery) -> Result<InverseDynamics, Refusal> {
-    let m = model(cx, p.object_id.0)?;
+    let m = model(cx, p.object_id.0, "calculate_inverse_dynamics")?;
     let q = per_dof("obj_positions", &p.obj_positions, m.dofs)?;
     let qd = per_dof("obj_velocities", &p.obj_velocities, m.dofs)?;
     let qdd = per_dof("obj_accelerations", &p.obj_accelerations, m.dofs)?;

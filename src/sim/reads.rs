@@ -128,6 +128,9 @@ pub fn inverse_kinematics(cx: &ReadContext, p: &InverseKinematics) -> Result<IkS
     if !w.has_object(id) {
         return Err(object_not_found(id, w.simulation_id()));
     }
+    if let Some(r) = w.robot(id) {
+        r.ball_joint_refusal(id, "calculate_inverse_kinematics")?;
+    }
     let n = w.link_count(id);
     let ee = p.end_effector_link_index.get();
     if ee < 0 || ee as usize >= n {

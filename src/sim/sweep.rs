@@ -523,7 +523,7 @@ fn pose_key(w: &crate::world::World, id: u32) -> Option<Vec<f64>> {
     let s = w.object_state(id)?;
     let mut key: Vec<f64> = s.position.iter().chain(&s.orientation).copied().collect();
     let joints = w.objects().find(|(i, _)| *i == id).and_then(|(_, o)| o.kind.robot()).map_or(0, |r| r.links.len());
-    key.extend((0..joints).filter_map(|j| w.joint_state(id, j)).map(|j| j.joint_position));
+    key.extend((0..joints).filter_map(|j| w.joint_state(id, j)).map(|j| j.joint_position.scalar()));
     Some(key)
 }
 

@@ -18,6 +18,7 @@ pub fn load_mjcf(file_path: &str, bytes: &[u8], use_model_options: bool) -> Comm
         use_model_options,
         actuators: true,
         constraints: true,
+        ball_joints_and_pairs: true,
         parsed: Default::default(),
     }
 }

@@ -81,7 +81,7 @@ fn distance(a: &[[f32; 3]], b: &[[f32; 3]]) -> f32 {
 /// (joint positions, motor torques) of the robot's movable joints.
 fn joints(w: &World, id: u32) -> (Vec<f32>, Vec<f32>) {
     let movable = w.robot(id).unwrap().movable();
-    movable.iter().map(|j| w.joint_state(id, *j).map(|s| (s.joint_position as f32, s.motor_torque as f32)).unwrap()).unzip()
+    movable.iter().map(|j| w.joint_state(id, *j).map(|s| (s.joint_position.scalar() as f32, s.motor_torque as f32)).unwrap()).unzip()
 }
 
 #[test]

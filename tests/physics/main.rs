@@ -16,6 +16,7 @@ mod link_state;
 mod measures;
 mod mjcf;
 mod mjcf_actuators;
+mod mjcf_ball_pair;
 mod mjcf_equality;
 mod mjcf_sensors;
 mod mjcf_touch;

@@ -203,8 +203,8 @@ fn robots_with_motors_restore_bit_identically() {
     assert_eq!(joints(&a), joints(&b), "joints diverged after restore");
     assert_eq!(a.state_hash(), b.state_hash());
     // It moved: the wheels turned and the arm's shoulder rose toward its target.
-    let wheel = a.joint_state(base, 0).unwrap().joint_position;
-    let shoulder = a.joint_state(arm2, 0).unwrap().joint_position;
+    let wheel = a.joint_state(base, 0).unwrap().joint_position.scalar();
+    let shoulder = a.joint_state(arm2, 0).unwrap().joint_position.scalar();
     assert!(wheel.abs() > 1.0 && (shoulder - 1.0).abs() < 0.05, "wheel {wheel}, shoulder {shoulder}");
 }
 

@@ -70,6 +70,7 @@ fn main() {
                 use_model_options: false,
                 actuators: false,
                 constraints: false,
+                ball_joints_and_pairs: false,
                 parsed: Default::default(),
             };
             let out = apply(&mut w, &load);

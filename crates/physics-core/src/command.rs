@@ -48,6 +48,11 @@ use crate::world::World;
 /// 9: create_simulation records engine rule 3 (`engine::EngineRule::TreeMultibodyPerStep`:
 /// robots' mass matrices factorised once per step), so step results of new simulations differ
 /// from rule 2's; worlds of older roots keep their recorded rule.
+/// Also 9: load_mjcf records `ball_joints_and_pairs` and builds the model's ball joints (one joint
+/// index each; get_joint_state gives a quaternion and an angular velocity) and its `<contact>
+/// <pair>`s with their friction; get_joint_info and get_simulation_info list an MJCF model's
+/// equality constraints and tendons. Older loads fold as before (ball joints refused, pairs,
+/// constraints and tendons as version 8 left them).
 pub const EVENT_VERSION: u32 = 9;
 
 /// The event version from which a chain's root records state hash v2.
@@ -639,6 +644,14 @@ pub enum Command {
         /// omitted when false, so they re-encode byte for byte.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         constraints: bool,
+        /// The model's ball joints and `<contact><pair>`s are built, a static world body is added
+        /// for a connect/weld only when one is built, tendon attributes from `<default>` classes
+        /// are listed in `ignored`, and the model's equality constraints and tendons are listed
+        /// (`world::mjcf_listing`), event version 9: set by every load_mjcf since. Events
+        /// recorded before decode as false and fold as they did (a ball joint refused; pairs in
+        /// `ignored`); omitted when false, so they re-encode byte for byte.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        ball_joints_and_pairs: bool,
         /// The model parsed ahead (`Command::ready`), never recorded.
         #[serde(skip)]
         parsed: Parsed<crate::world::mjcf::Prepared>,
@@ -1149,11 +1162,20 @@ impl Command {
                     None => crate::world::urdf_model(urdf, meshes, self.urdf_rules()).map(|_| ()),
                 }
             }
-            Command::LoadMjcf { mjcf, meshes, keyframe, parsed, .. } => {
+            Command::LoadMjcf { mjcf, meshes, keyframe, parsed, ball_joints_and_pairs, .. } => {
                 room_for_object(world, limits)?;
-                match parsed.get() {
-                    Some(_) => Ok(()),
-                    None => crate::world::mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref()).map(|_| ()),
+                let built;
+                let model = match parsed.get() {
+                    Some(m) => m.as_ref(),
+                    None => {
+                        built = crate::world::mjcf::prepare_blob(mjcf, meshes, keyframe.as_deref())?;
+                        &built
+                    }
+                };
+                // Before event version 9 a ball joint was refused (no such load is in any log).
+                match (model.ball_joint(), *ball_joints_and_pairs) {
+                    (Some(name), false) => Err(format!("joint {name} is a ball joint, which is not supported (hinge and slide joints are)")),
+                    _ => Ok(()),
                 }
             }
             Command::SetJointMotor { object_id, joint_index, motor } => {
@@ -1184,7 +1206,9 @@ impl Command {
             }
             Command::EnableJointForceTorqueSensor { object_id, joint_index, .. } => {
                 exists(*object_id)?;
-                world.check_joint(*object_id, *joint_index as i64).map(|_| ())
+                world.check_joint(*object_id, *joint_index as i64)?;
+                // The reaction wrench is computed in joint space, one number per joint.
+                world.robot(*object_id).map_or(Ok(()), |r| r.ball_joint_refusal(*object_id, "enable_joint_force_torque_sensor"))
             }
             Command::SetJointTrajectory { object_id, trajectory } => {
                 exists(*object_id)?;

@@ -334,6 +334,29 @@ pub struct ObjectSummary {
     /// An MJCF model's sensors by name (get_sensor_data; absent when none, as `actuators`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sensors: Vec<String>,
+    /// An MJCF model's equality constraints (absent when none: only loads of event version 9
+    /// list them, so earlier results are unchanged).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub equality: Vec<ModelElement>,
+    /// An MJCF model's fixed tendons (absent when none, as `equality`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tendons: Vec<ModelElement>,
+}
+
+/// An MJCF equality constraint or fixed tendon, as get_simulation_info lists it: what the model
+/// has and whether it is simulated.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+pub struct ModelElement {
+    /// Its name (`#k` when unnamed, k its index among its kind).
+    pub name: String,
+    /// `connect`, `weld`, `joint` or `tendon` (an equality constraint); `fixed` (a tendon).
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// The hinge or slide joints it names, by joint index (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub joints: Vec<u32>,
+    /// Whether it is simulated (false: the load's `ignored` says why).
+    pub built: bool,
 }
 
 /// Result of batch: each call's result as that tool returns it, in order, and where the
@@ -716,15 +739,22 @@ pub struct JointInfo {
     /// have any, so earlier results are unchanged).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub actuators: Vec<ActuatorInfo>,
+    /// The MJCF equality constraints naming this joint, by name (absent when none: only loads
+    /// of event version 9 list them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub equality: Vec<String>,
+    /// The MJCF fixed tendons through this joint, by name (absent when none, as `equality`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tendons: Vec<String>,
 }
 
 /// Result of get_joint_state.
 #[derive(Serialize, Deserialize, JsonSchema, Debug, Clone)]
 pub struct JointState {
-    /// Position (rad or m).
-    pub joint_position: f64,
-    /// Velocity (rad/s or m/s).
-    pub joint_velocity: f64,
+    /// Position (rad or m); a ball joint's is a quaternion [x, y, z, w].
+    pub joint_position: JointValue,
+    /// Velocity (rad/s or m/s); a ball joint's is an angular velocity [wx, wy, wz] (child frame).
+    pub joint_velocity: JointValue,
     /// Reaction wrench [Fx, Fy, Fz, Mx, My, Mz] (child link frame, moment about its centre of
     /// mass) while the joint's force/torque sensor is on; zeros otherwise, as PyBullet.
     pub reaction_forces: [f64; 6],
@@ -734,6 +764,31 @@ pub struct JointState {
     /// none (event version 7: no earlier state has one, so earlier results are unchanged).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<TrajectoryState>,
+}
+
+/// A joint's position or velocity: one number for a hinge or slide joint, several for a ball
+/// joint (a quaternion [x, y, z, w]; an angular velocity [wx, wy, wz] in the child's joint
+/// frame), as PyBullet's `getJointStateMultiDof` gives them. Untagged, so a one-number joint's
+/// state encodes exactly as before ball joints existed.
+#[derive(Serialize, Deserialize, JsonSchema, Debug, Clone, PartialEq)]
+#[serde(untagged)]
+pub enum JointValue {
+    /// A hinge's or slide's coordinate or speed.
+    Scalar(f64),
+    /// A ball joint's quaternion or angular velocity.
+    Multi(Vec<f64>),
+}
+
+impl JointValue {
+    /// One number for lists of one value per joint (get_trajectory, sweeps): the value itself,
+    /// or a ball joint's rotation angle (rad, from the quaternion's w) or angular speed (rad/s).
+    pub fn scalar(&self) -> f64 {
+        match self {
+            JointValue::Scalar(x) => *x,
+            JointValue::Multi(v) if v.len() == 4 => 2.0 * v[3].abs().min(1.0).acos(),
+            JointValue::Multi(v) => v.iter().map(|x| x * x).sum::<f64>().sqrt(),
+        }
+    }
 }
 
 /// A joint's place on the trajectory it follows.

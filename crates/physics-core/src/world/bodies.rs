@@ -146,6 +146,8 @@ impl World {
                 self.tables.actuation.remove(object_id);
                 self.tables.mjcf_sensors.remove(object_id);
                 self.tables.transmissions.retain(|(id, _), _| id != object_id);
+                self.tables.contact_pairs.remove(object_id);
+                self.tables.mjcf_elements.remove(object_id);
                 BodyOutcome::Message(Message::new(format!("Object {object_id} removed")))
             }
             Command::CreateSimulation { .. }
@@ -481,6 +483,8 @@ impl World {
                     position: r32s(pos),
                     actuators: self.actuation(*id).map(super::actuators::infos).unwrap_or_default(),
                     sensors: self.sensors(*id).map(|s| s.iter().map(|x| x.name.clone()).collect()).unwrap_or_default(),
+                    equality: self.tables.mjcf_elements.get(id).map(|e| e.equality.clone()).unwrap_or_default(),
+                    tendons: self.tables.mjcf_elements.get(id).map(|e| e.tendons.clone()).unwrap_or_default(),
                 }
             })
             .collect()

@@ -151,6 +151,8 @@ impl World {
 /// pairs where a collider is flagged `FILTER_CONTACT_PAIRS`.
 pub struct ContactFilter {
     pairs: BTreeMap<(Raw, Raw), bool>,
+    /// MJCF `<contact><pair>` frictions by collider pair, both ways (`mjcf_pairs`).
+    frictions: BTreeMap<(Raw, Raw), f32>,
     groups: BTreeMap<Raw, (u32, u32)>,
     pybullet_test: bool,
 }
@@ -174,12 +176,13 @@ impl ContactFilter {
             .iter()
             .filter_map(|((id, link), gm)| Some((w.part(*id, *link)?.0.into_raw_parts(), *gm)))
             .collect();
-        ContactFilter { pairs, groups, pybullet_test: w.tables.filters.pybullet_test }
+        let frictions = super::mjcf_pairs::frictions(&w.tables.contact_pairs);
+        ContactFilter { pairs, frictions, groups, pybullet_test: w.tables.filters.pybullet_test }
     }
 
-    /// No pair and no group: the plain step applies.
+    /// No pair, no group and no contact pair friction: the plain step applies.
     pub fn is_empty(&self) -> bool {
-        self.pairs.is_empty() && self.groups.is_empty()
+        self.pairs.is_empty() && self.groups.is_empty() && self.frictions.is_empty()
     }
 }
 
@@ -204,5 +207,13 @@ impl PhysicsHooks for ContactFilter {
         true
     }
 
-    fn modify_solver_contacts(&self, _: &mut ContactModificationContext) {}
+    /// An MJCF contact pair's friction replaces the combined one (rapier asks only for colliders
+    /// flagged `MODIFY_SOLVER_CONTACTS`, which only pairs set).
+    fn modify_solver_contacts(&self, c: &mut ContactModificationContext) {
+        if let Some(f) = self.frictions.get(&(c.collider1.into_raw_parts(), c.collider2.into_raw_parts())) {
+            if let ModifiableContacts::Rigid(m) = &mut c.contacts {
+                *m.friction = *f;
+            }
+        }
+    }
 }

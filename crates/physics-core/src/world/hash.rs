@@ -346,6 +346,14 @@ fn extend_with_sensors(w: &World, bytes: &mut Vec<u8>) {
     if !w.tables.transmissions.is_empty() {
         bytes.extend(encode(&("transmissions", &w.tables.transmissions)));
     }
+    // MJCF contact pairs likewise (event version 9).
+    if !w.tables.contact_pairs.is_empty() {
+        bytes.extend(encode(&("contact_pairs", &w.tables.contact_pairs)));
+    }
+    // MJCF equality constraints and tendons as listed likewise (event version 9).
+    if !w.tables.mjcf_elements.is_empty() {
+        bytes.extend(encode(&("mjcf_elements", &w.tables.mjcf_elements)));
+    }
 }
 
 /// One body of a robot: its dynamic state, materials and parent joint coordinates.

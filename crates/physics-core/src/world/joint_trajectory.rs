@@ -133,8 +133,11 @@ impl World {
         let mut seen = std::collections::BTreeSet::new();
         for &j in &spec.joint_indices {
             let i = self.check_joint(id, j as i64)?;
-            if !self.robot(id).is_some_and(|r| r.links[i].joint.kind.movable()) {
-                return Err(format!("joint_indices: joint {j} is fixed; only movable joints follow a trajectory"));
+            if let Some(spec) = self.robot(id).map(|r| &r.links[i].joint).filter(|s| !s.kind.movable()) {
+                return Err(match spec.kind {
+                    super::urdf::JointKind::Spherical => format!("joint_indices: joint {j} is a ball joint; only hinge and slide joints follow a trajectory"),
+                    _ => format!("joint_indices: joint {j} is fixed; only movable joints follow a trajectory"),
+                });
             }
             if !seen.insert(j) {
                 return Err(format!("joint_indices names joint {j} twice"));

@@ -84,6 +84,8 @@ pub struct Prepared {
     keyframe_ctrl: Vec<f64>,
     /// What the actuators need beyond the parser's (`actuators::actuator_extras`).
     actuator_extras: Vec<super::actuators::ActuatorExtras>,
+    /// The first ball joint's name (loads before event version 9 refuse it).
+    ball_joint: Option<String>,
 }
 
 /// The note `scan` writes for a model with actuators, replaced by per-actuator notes when a
@@ -101,6 +103,10 @@ const TENDONS_IGNORED: &str = "<tendon>: fixed tendons are not simulated";
 /// The note `scan` writes for a model with equality constraints, replaced by notes for the
 /// ones not built when a load builds them (event version 8).
 const EQUALITY_IGNORED: &str = "<equality>: equality constraints are not simulated";
+
+/// The note `scan` writes for a model with contact pairs, replaced by notes for the ones not
+/// built when a load builds them (event version 9).
+const PAIRS_IGNORED: &str = "<contact><pair>: explicit contact pairs are not applied";
 
 /// Elements the engine cannot simulate and the server refuses (docs/tools.md "MJCF models") (never dropped silently).
 const REFUSED_ELEMENTS: [(&str, &str); 6] = [
@@ -201,7 +207,7 @@ fn scan(xml: &str) -> Result<Vec<String>, Refusal> {
         ("tendon", TENDONS_IGNORED),
         ("equality", EQUALITY_IGNORED),
         ("sensor", SENSORS_IGNORED),
-        ("pair", "<contact><pair>: explicit contact pairs are not applied"),
+        ("pair", PAIRS_IGNORED),
     ] {
         if found.contains(tag) {
             note(why.into());
@@ -269,6 +275,11 @@ pub fn parse_model(xml: &str) -> Result<Model, Refusal> {
 }
 
 impl Prepared {
+    /// The model's first ball joint, by name (None: it has none).
+    pub fn ball_joint(&self) -> Option<&str> {
+        self.ball_joint.as_deref()
+    }
+
     /// The model's `<option>` timestep (s) and gravity (m/s²), as written.
     pub fn options(&self) -> super::mjcf_options::ModelOptions {
         super::mjcf_options::ModelOptions { timestep: self.model.option.timestep, gravity: self.model.option.gravity }
@@ -329,6 +340,7 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
     crate::limits::check_model_joints(model.bodies_iter().map(|(_, e)| e.body.joints.len()).sum())?;
     let mut top_level = 0usize;
     let mut free_root = false;
+    let mut ball_joint = None;
     for (id, entry) in model.bodies_iter() {
         if entry.parent == Some(0) {
             top_level += 1;
@@ -336,7 +348,12 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
         for j in &entry.body.joints {
             let jname = j.name.clone().unwrap_or_else(|| format!("of body {}", body_name(id)));
             match j.type_ {
-                JointType::Ball => return Err(format!("joint {jname} is a ball joint, which is not supported (hinge and slide joints are)")),
+                JointType::Ball => {
+                    if j.range.is_some() && j.limited.resolve(model.compiler.autolimits, true) {
+                        ignored.push(format!("joint {jname} range: a ball joint's cone limit is not simulated"));
+                    }
+                    ball_joint.get_or_insert(jname);
+                }
                 JointType::Free => {
                     if entry.parent != Some(0) || entry.body.joints.len() != 1 {
                         return Err(format!(
@@ -432,7 +449,7 @@ pub fn prepare(xml: &str, meshes: &BTreeMap<String, Blob>, keyframe: Option<&str
         }
     };
     let actuator_extras = super::actuators::actuator_extras(xml);
-    Ok(Prepared { model, robot, ignored, keyframe_qpos, keyframe_ctrl, actuator_extras })
+    Ok(Prepared { model, robot, ignored, keyframe_qpos, keyframe_ctrl, actuator_extras, ball_joint })
 }
 
 fn rel(from: &Pose, to: &Pose) -> Pose {
@@ -495,10 +512,10 @@ impl World {
         file_path: &str,
         (blob, meshes): (&Blob, &BTreeMap<String, Blob>),
         pose: Pose,
-        (fixed_base, parent_filter, with_actuators, with_constraints): (bool, bool, bool, bool),
+        (fixed_base, parent_filter, with_actuators, with_constraints, version9): (bool, bool, bool, bool, bool),
         keyframe: Option<&str>,
     ) -> MjcfLoaded {
-        let Prepared { model, robot, mut ignored, keyframe_qpos, keyframe_ctrl, actuator_extras } = prepared;
+        let Prepared { model, robot, mut ignored, keyframe_qpos, keyframe_ctrl, actuator_extras, .. } = prepared;
         let MjcfRobot { bodies: mut mbodies, joints: mjoints, qpos_dofs, .. } = robot;
         let n = mbodies.len();
         let world_pose: Vec<Pose> = mbodies.iter().map(|b| *b.body.position()).collect();
@@ -524,6 +541,13 @@ impl World {
         for b in mbodies.iter_mut() {
             if !b.is_intermediate {
                 b.colliders.extend(plane_colliders(&model, b.mjcf_body_id));
+            }
+        }
+        // `<contact><pair>` (event version 9): each collider tagged with its geom until inserted.
+        let with_pairs = version9 && !model.contact.pairs.is_empty();
+        if with_pairs {
+            for b in mbodies.iter_mut().filter(|b| !b.is_intermediate) {
+                super::mjcf_pairs::tag_colliders(&model, b.mjcf_body_id, &mut b.colliders);
             }
         }
         // Merge colliders and mass into owners.
@@ -602,7 +626,7 @@ impl World {
         }
         // A free-base model whose connect or weld names the world, with no world geoms: the
         // world gets a static body for the constraint to hold on to.
-        if with_constraints && base != 0 && world_body.is_none() && super::mjcf_equality::uses_world(&model) {
+        if with_constraints && base != 0 && world_body.is_none() && super::mjcf_equality::uses_world(&model, version9) {
             world_body = Some(self.physics.insert_body(RigidBodyBuilder::fixed().pose(place(&world_pose[0]))));
         }
         // `<exclude>` pairs by the rapier bodies that carry them; their colliders ask the filter.
@@ -627,6 +651,15 @@ impl World {
                 }
             }
         }
+        let mut pairs = Vec::new();
+        if with_pairs {
+            let inserted: Vec<ColliderHandle> = colliders_of.values().flatten().chain(&world_colliders).copied().collect();
+            let by_tag = super::mjcf_pairs::take_tags(&mut self.physics.colliders, inserted);
+            let notes;
+            (pairs, notes) = super::mjcf_pairs::build(&model, &by_tag, &mut self.physics.colliders, &excluded);
+            ignored.retain(|s| s != PAIRS_IGNORED);
+            ignored.extend(notes);
+        }
         for h in excluded.iter().flat_map(|(a, b)| [*a, *b]) {
             let cs: Vec<ColliderHandle> = self.physics.bodies.get(h).map(|b| b.colliders().to_vec()).unwrap_or_default();
             for ch in cs {
@@ -647,14 +680,18 @@ impl World {
             let r = rel(&world_pose[parent_body], &world_pose[mj.link1]);
             let reference = ref_of.get(&ji).copied().unwrap_or(0.0);
             let is_slide = joint.locked_axes == JointAxesMask::LOCKED_PRISMATIC_AXES;
+            // A ball joint (event version 9 loads; refused before): no axis, no `ref`, no limits.
+            let is_ball = joint.locked_axes == JointAxesMask::LOCKED_SPHERICAL_AXES;
             let axis = if is_slide { JointAxis::LinX } else { JointAxis::AngX };
             let shift = if is_slide {
                 Pose::from_translation(Vector::new(-reference, 0.0, 0.0))
+            } else if is_ball {
+                Pose::IDENTITY
             } else {
                 Pose::from_rotation(Rotation::from_rotation_x(-reference))
             };
             joint.set_local_frame1(r * joint.local_frame1 * shift);
-            let limits = joint.limits(axis).map(|l| [l.min + reference, l.max + reference]);
+            let limits = joint.limits(axis).filter(|_| !is_ball).map(|l| [l.min + reference, l.max + reference]);
             if let Some(l) = limits {
                 joint.set_limits(axis, l);
             }
@@ -664,14 +701,15 @@ impl World {
             let (Some(&ph), Some(&ch)) = (handle_of.get(&parent_body), handle_of.get(&child_body)) else { continue };
             self.physics.multibody_joints.insert(ph, ch, joint, true);
             let mjcf_joint = find_joint(&model, mbodies[child_body].mjcf_body_id, mj.name.as_deref());
-            let axis_body = mjcf_joint.map_or([1.0, 0.0, 0.0], |j| {
-                let a = rapier3d::glamx::DVec3::from_array(j.axis).normalize();
-                a.to_array()
-            });
-            let kind = match (is_slide, limits.is_some()) {
-                (true, _) => JointKind::Prismatic,
-                (false, true) => JointKind::Revolute,
-                (false, false) => JointKind::Continuous,
+            let axis_body = match is_ball {
+                true => [0.0; 3],
+                false => mjcf_joint.map_or([1.0, 0.0, 0.0], |j| rapier3d::glamx::DVec3::from_array(j.axis).normalize().to_array()),
+            };
+            let kind = match (is_ball, is_slide, limits.is_some()) {
+                (true, _, _) => JointKind::Spherical,
+                (false, true, _) => JointKind::Prismatic,
+                (false, false, true) => JointKind::Revolute,
+                (false, false, false) => JointKind::Continuous,
             };
             let origin = rel(&world_pose[parent_body], &world_pose[child_body]);
             let (lower, upper) = limits.map_or((0.0, -1.0), |l| (l[0] as f64, l[1] as f64));
@@ -730,7 +768,9 @@ impl World {
         let num_joints = robot.links.len();
         let id = self.tables.next_object_id;
         let mut actuator_infos = Vec::new();
-        let joint_of = |name: &str| robot.links.iter().position(|l| !name.is_empty() && l.joint.name == name).map(|i| i as u32);
+        // A hinge or slide joint by name (actuators, tendons, equality joints and joint sensors
+        // act on these; a ball joint is not one).
+        let joint_of = |name: &str| robot.links.iter().position(|l| !name.is_empty() && l.joint.name == name && l.joint.kind.movable()).map(|i| i as u32);
         let text = std::str::from_utf8(&blob.bytes).unwrap_or("");
         // Each MJCF body's own (not intermediate) body index, found once: the first one.
         let mut kept_of: Vec<Option<usize>> = vec![None; model.bodies.len()];
@@ -756,10 +796,13 @@ impl World {
                 .collect();
             let joint_ref = |li: u32| dof_joints.get(li as usize).and_then(|ji| ref_of.get(ji)).copied().unwrap_or(0.0) as f64;
             let at = super::mjcf_equality::Placement { frames: &frames, joint_of: &joint_of, robot: &robot, joint_ref: &joint_ref };
-            let notes = self.build_mjcf_equalities(&model, &at);
+            let (notes, built) = self.build_mjcf_equalities(&model, &at);
+            if version9 && (!model.equality.is_empty() || !model.tendons.is_empty()) {
+                self.tables.mjcf_elements.insert(id, super::mjcf_equality::Elements::of(&model, &built, &joint_of));
+            }
             ignored.retain(|s| s != EQUALITY_IGNORED && s != TENDONS_IGNORED);
             ignored.extend(notes);
-            ignored.extend(super::mjcf_equality::tendon_notes(text));
+            ignored.extend(super::mjcf_equality::tendon_notes(text, version9));
         }
         if with_actuators {
             let tendon_of = |name: &str| super::mjcf_equality::tendon_joints(&model, name, &joint_of);
@@ -795,13 +838,24 @@ impl World {
             let actuator_names: Vec<String> = self.tables.actuation.get(&id).map(|a| a.actuators.iter().map(|x| x.name.clone()).collect()).unwrap_or_default();
             let actuator_of = |name: &str| actuator_names.iter().position(|x| x == name);
             let resolver = super::sensors::Resolver { model: &model, placed: &placed, joint_of: &joint_of, actuator_of: &actuator_of };
-            let (sensors, notes) = super::sensors::build(text, &resolver, with_constraints);
+            let (mut sensors, notes) = super::sensors::build(text, &resolver, with_constraints);
+            // The Newton–Euler pass behind accelerometer/force/torque works in joint space, one
+            // number per joint: a robot with a ball joint does not get them (event version 9).
+            if let Some((_, ball)) = robot.ball_joint() {
+                use super::sensors::SensorType as T;
+                let (kept, dropped): (Vec<_>, Vec<_>) = sensors.into_iter().partition(|s| !matches!(s.kind, T::Accelerometer | T::Force | T::Torque));
+                sensors = kept;
+                ignored.extend(dropped.iter().map(|s| format!("sensor {}: type {} is not computed on a model with a ball joint ({ball})", s.name, s.kind.name())));
+            }
             ignored.retain(|s| s != SENSORS_IGNORED);
             ignored.extend(notes);
             ignored.extend(super::actuators::unapplied_attributes(text));
             if !sensors.is_empty() {
                 self.tables.mjcf_sensors.insert(id, sensors);
             }
+        }
+        if !pairs.is_empty() {
+            self.tables.contact_pairs.insert(id, pairs);
         }
         self.tables.next_object_id += 1;
         for (link, m) in link_masses.into_iter().filter(|(_, m)| *m > 0.0) {
@@ -864,6 +918,15 @@ impl World {
                     }
                     joint += 1;
                 }
+                rapier3d_mjcf::MjcfDofKind::Ball => {
+                    if let Some(q) = qpos.get(at..at + 4) {
+                        let rot = Rotation::from_xyzw(q[1] as f32, q[2] as f32, q[3] as f32, q[0] as f32);
+                        if rot.length() > 0.0 {
+                            self.reset_ball_joint(id, joint, rot.normalize());
+                        }
+                    }
+                    joint += 1;
+                }
                 rapier3d_mjcf::MjcfDofKind::Free => {
                     if let (Some(q), Some(base)) = (qpos.get(at..at + 7), self.tables.objects.get(&id).map(|o| o.body)) {
                         let rot = Rotation::from_xyzw(q[4] as f32, q[5] as f32, q[6] as f32, q[3] as f32);
@@ -873,7 +936,6 @@ impl World {
                         }
                     }
                 }
-                _ => {}
             }
             at += w;
         }

@@ -22,7 +22,10 @@ use rapier3d::prelude::*;
 use rapier3d_mjcf::mjcf_rs::equality::Equality;
 use rapier3d_mjcf::mjcf_rs::Model;
 
+use serde::{Deserialize, Serialize};
+
 use super::robot::Robot;
+use crate::outputs::ModelElement;
 use super::urdf::JointKind;
 use super::World;
 
@@ -69,16 +72,28 @@ pub fn tendon_joints(model: &Model, name: &str, joint_of: &dyn Fn(&str) -> Optio
     Ok(terms)
 }
 
-/// Notes for what a fixed tendon carries beyond its transmission (not simulated).
-pub fn tendon_notes(xml: &str) -> Vec<String> {
+/// The tendon attributes a fixed tendon does not simulate.
+const TENDON_ATTRIBUTES: [&str; 7] = ["range", "limited", "stiffness", "damping", "springlength", "frictionloss", "armature"];
+
+/// Notes for what a fixed tendon carries beyond its transmission (not simulated); with
+/// `defaults` (loads of event version 9) also what `<default>` classes set for tendons, which
+/// a fixed tendon of the class inherits.
+pub fn tendon_notes(xml: &str, defaults: bool) -> Vec<String> {
     let Ok(doc) = roxmltree::Document::parse(xml) else { return Vec::new() };
     let mut notes = Vec::new();
+    let element = |n: &roxmltree::Node, tag: &str| n.is_element() && n.tag_name().name() == tag;
+    if defaults && doc.descendants().any(|n| element(&n, "fixed")) {
+        for n in doc.descendants().filter(|n| element(n, "tendon") && n.parent().is_some_and(|p| element(&p, "default"))) {
+            let class = n.parent().and_then(|p| p.attribute("class")).unwrap_or("main");
+            let set: Vec<&str> = TENDON_ATTRIBUTES.into_iter().filter(|a| n.attribute(*a).is_some()).collect();
+            if !set.is_empty() {
+                notes.push(format!("<default class=\"{class}\"><tendon>: {} not simulated (a fixed tendon acts only as an actuator's transmission)", set.join(", ")));
+            }
+        }
+    }
     for (k, n) in doc.descendants().filter(|n| n.is_element() && n.tag_name().name() == "fixed").enumerate() {
         let name = n.attribute("name").map_or_else(|| format!("#{k}"), str::to_string);
-        let set: Vec<&str> = ["range", "limited", "stiffness", "damping", "springlength", "frictionloss", "armature"]
-            .into_iter()
-            .filter(|a| n.attribute(*a).is_some())
-            .collect();
+        let set: Vec<&str> = TENDON_ATTRIBUTES.into_iter().filter(|a| n.attribute(*a).is_some()).collect();
         if !set.is_empty() {
             notes.push(format!("tendon {name}: {} not simulated (a fixed tendon acts only as an actuator's transmission)", set.join(", ")));
         }
@@ -89,11 +104,14 @@ pub fn tendon_notes(xml: &str) -> Vec<String> {
     notes
 }
 
-/// Whether a `<connect>` or `<weld>` of the model names the world (body2 omitted or `world`).
-pub fn uses_world(model: &Model) -> bool {
+/// Whether a `<connect>` or `<weld>` of the model names the world (body2 omitted or `world`);
+/// with `only_built` (loads of event version 9) only one that can be built — active and in the
+/// body form — counts, so a model whose world constraint is not built gets no world body.
+pub fn uses_world(model: &Model, only_built: bool) -> bool {
+    let counts = |common: &rapier3d_mjcf::mjcf_rs::equality::EqualityCommon, body1: &str| !only_built || (common.active && !body1.is_empty());
     model.equality.iter().any(|e| match e {
-        Equality::Connect(c) => c.body2.as_deref().is_none_or(|b| b == "world") || c.body1 == "world",
-        Equality::Weld(w) => w.body2.as_deref().is_none_or(|b| b == "world") || w.body1 == "world",
+        Equality::Connect(c) => (c.body2.as_deref().is_none_or(|b| b == "world") || c.body1 == "world") && counts(&c.common, &c.body1),
+        Equality::Weld(w) => (w.body2.as_deref().is_none_or(|b| b == "world") || w.body1 == "world") && counts(&w.common, &w.body1),
         _ => false,
     })
 }
@@ -119,11 +137,61 @@ fn label(name: &Option<String>, k: usize) -> String {
     name.clone().unwrap_or_else(|| format!("#{k}"))
 }
 
+/// An MJCF model's equality constraints and fixed tendons as listed (get_simulation_info,
+/// get_joint_info), loads of event version 9.
+#[derive(Serialize, Deserialize, Clone, Debug, Default, PartialEq)]
+pub struct Elements {
+    /// The equality constraints in file order.
+    pub equality: Vec<ModelElement>,
+    /// The fixed tendons in file order.
+    pub tendons: Vec<ModelElement>,
+}
+
+impl Elements {
+    /// The names of `list`'s elements that name joint `joint` (get_joint_info).
+    pub fn naming(&self, list: &[ModelElement], joint: usize) -> Vec<String> {
+        list.iter().filter(|e| e.joints.contains(&(joint as u32))).map(|e| e.name.clone()).collect()
+    }
+
+    /// The listing of `model`: each equality constraint with whether it was built (`built[k]`),
+    /// each fixed tendon built when an actuator drives it through its joints.
+    pub fn of(model: &Model, built: &[bool], joint_of: &dyn Fn(&str) -> Option<u32>) -> Elements {
+        let joints = |names: &[Option<&str>]| names.iter().flatten().filter_map(|n| joint_of(n)).collect::<Vec<u32>>();
+        let equality = model
+            .equality
+            .iter()
+            .enumerate()
+            .map(|(k, e)| {
+                let (name, kind, joints) = match e {
+                    Equality::Joint(j) => (&j.common.name, "joint", joints(&[Some(&j.joint1), j.joint2.as_deref()])),
+                    Equality::Connect(c) => (&c.common.name, "connect", Vec::new()),
+                    Equality::Weld(w) => (&w.common.name, "weld", Vec::new()),
+                    Equality::Tendon(t) => (&t.common.name, "tendon", Vec::new()),
+                };
+                ModelElement { name: label(name, k), kind: kind.into(), joints, built: built.get(k).copied().unwrap_or(false) }
+            })
+            .collect();
+        let tendons = model
+            .tendons
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let name = label(&t.name, k);
+                let driven = model.actuators.iter().any(|a| a.tendon.as_deref() == Some(name.as_str()));
+                let built = driven && tendon_joints(model, &name, joint_of).is_ok();
+                ModelElement { name, kind: "fixed".into(), joints: joints(&t.joints.iter().map(|j| Some(j.joint.as_str())).collect::<Vec<_>>()), built }
+            })
+            .collect();
+        Elements { equality, tendons }
+    }
+}
+
 impl World {
     /// Builds the model's equality constraints on the inserted robot; returns a note for each
-    /// one not built.
-    pub(super) fn build_mjcf_equalities(&mut self, model: &Model, at: &Placement<'_>) -> Vec<String> {
+    /// one not built, and whether each was built.
+    pub(super) fn build_mjcf_equalities(&mut self, model: &Model, at: &Placement<'_>) -> (Vec<String>, Vec<bool>) {
         let mut notes = Vec::new();
+        let mut built = Vec::new();
         let frame_of = |name: &str| -> Result<BodyFrame, String> {
             let id = if name == "world" { 0 } else { model.body_id_by_name(name).ok_or_else(|| format!("body {name} is not in the model"))? };
             at.frames.get(id).copied().flatten().ok_or_else(|| format!("body {name} has no body of its own in the world"))
@@ -179,11 +247,12 @@ impl World {
                 }
                 Equality::Tendon(t) => Err(format!("equality tendon {}: tendon length equalities are not simulated", label(&t.common.name, k))),
             };
+            built.push(outcome.is_ok());
             if let Err(note) = outcome {
                 notes.push(note);
             }
         }
-        notes
+        (notes, built)
     }
 
     /// A rigid impulse joint between two bodies at their frames (a connect or weld).

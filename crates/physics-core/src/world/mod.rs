@@ -21,6 +21,7 @@ pub mod mjcf;
 pub mod mjcf_equality;
 pub mod mjcf_mesh;
 pub mod mjcf_options;
+pub mod mjcf_pairs;
 mod robot;
 pub mod scene;
 mod threads;
@@ -265,6 +266,16 @@ pub struct Tables {
     /// 10's extensions, written only when a robot has one.
     #[serde(skip)]
     pub transmissions: BTreeMap<(u32, u32), actuators::Transmission>,
+    /// MJCF `<contact><pair>`s with their friction, by object id (loads of event version 9).
+    /// Not in the table encodings: snapshot version 12 carries them after version 11's
+    /// transmissions, written only when a robot has one.
+    #[serde(skip)]
+    pub contact_pairs: BTreeMap<u32, Vec<mjcf_pairs::PairFriction>>,
+    /// MJCF models' equality constraints and fixed tendons as get_simulation_info and
+    /// get_joint_info list them, by object id (loads of event version 9). Snapshot version 12
+    /// carries them beside the contact pairs, written only when a robot has some.
+    #[serde(skip)]
+    pub mjcf_elements: BTreeMap<u32, mjcf_equality::Elements>,
 }
 
 /// The tables as snapshot version 3 encoded them (before `filters`): they restore exactly,
@@ -314,6 +325,8 @@ impl From<TablesV3> for Tables {
             actuation: BTreeMap::new(),
             mjcf_sensors: BTreeMap::new(),
             transmissions: BTreeMap::new(),
+            contact_pairs: BTreeMap::new(),
+            mjcf_elements: BTreeMap::new(),
         }
     }
 }
@@ -356,6 +369,8 @@ impl TablesV2 {
             actuation: BTreeMap::new(),
             mjcf_sensors: BTreeMap::new(),
             transmissions: BTreeMap::new(),
+            contact_pairs: BTreeMap::new(),
+            mjcf_elements: BTreeMap::new(),
         }
     }
 }
@@ -667,6 +682,7 @@ impl World {
                 use_model_options,
                 actuators,
                 constraints,
+                ball_joints_and_pairs,
                 parsed,
             } => {
                 let prepared = match parsed.get() {
@@ -680,7 +696,7 @@ impl World {
                             Rotation::from_xyzw(orientation[0], orientation[1], orientation[2], orientation[3]),
                         );
                         let options = prepared.options();
-                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter, *actuators, *constraints), keyframe.as_deref());
+                        let mut loaded = self.insert_mjcf(prepared, file_path, (mjcf, meshes), pose, (*fixed_base, *parent_filter, *actuators, *constraints, *ball_joints_and_pairs), keyframe.as_deref());
                         if *use_model_options {
                             self.use_model_options(&mut loaded, options);
                         }
@@ -811,7 +827,12 @@ impl World {
         let t = &self.tables;
         // A world that never used the collision filters is encoded as version 3 was, byte for
         // byte: its snapshots (and their hashes, which logs and tests record) stay as they were.
-        let encoded = if !t.transmissions.is_empty() {
+        let encoded = if !t.contact_pairs.is_empty() || !t.mjcf_elements.is_empty() {
+            // Version 12: version 11's followed by the MJCF contact pairs and listed elements.
+            let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
+            let ext = SnapshotExtensions { actuation: t.actuation.clone(), mjcf_sensors: t.mjcf_sensors.clone() };
+            postcard::to_extend(&(12u32, &self.physics, t, rules, &t.joint_sensors, &t.joint_trajectories, ext, &t.transmissions, (&t.contact_pairs, &t.mjcf_elements)), out)
+        } else if !t.transmissions.is_empty() {
             // Version 11: version 10's followed by the tendon transmissions.
             let rules = SnapshotRules { hash_v2: self.hash_rules == HashRules::V2, engine_rule: self.engine_rule };
             let ext = SnapshotExtensions { actuation: t.actuation.clone(), mjcf_sensors: t.mjcf_sensors.clone() };
@@ -903,7 +924,7 @@ impl World {
         let (version, _): (u32, &[u8]) = postcard::take_from_bytes(bytes).map_err(bad)?;
         let mut rules = SnapshotRules { hash_v2: version == 6, engine_rule: EngineRule::Upstream };
         let (mut physics, tables) = match version {
-            11 => {
+            11 | 12 => {
                 type V11 = (
                     u32,
                     PhysicsWorld,
@@ -914,13 +935,20 @@ impl World {
                     SnapshotExtensions,
                     BTreeMap<(u32, u32), actuators::Transmission>,
                 );
-                let (_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions): V11 = postcard::from_bytes(bytes).map_err(bad)?;
+                // Version 12 is version 11's encoding followed by the contact pairs and listed
+                // elements (postcard writes a tuple's fields one after another, unframed).
+                let ((_, physics, mut tables, recorded, sensors, trajectories, ext, transmissions), rest): (V11, &[u8]) =
+                    postcard::take_from_bytes(bytes).map_err(bad)?;
                 rules = recorded;
                 tables.joint_sensors = sensors;
                 tables.joint_trajectories = trajectories;
                 tables.actuation = ext.actuation;
                 tables.mjcf_sensors = ext.mjcf_sensors;
                 tables.transmissions = transmissions;
+                if version == 12 {
+                    type Since12 = (BTreeMap<u32, Vec<mjcf_pairs::PairFriction>>, BTreeMap<u32, mjcf_equality::Elements>);
+                    (tables.contact_pairs, tables.mjcf_elements) = postcard::from_bytes::<Since12>(rest).map_err(bad)?;
+                }
                 (physics, tables)
             }
             10 => {
@@ -1036,9 +1064,12 @@ impl World {
 /// with one; 10 is 9's followed by [`SnapshotExtensions`] (the MJCF actuators and their held
 /// controls, and the MJCF sensors), written only for a world with some (9 and 10 are both event version 7's: two
 /// features of one release, merged); 11 is 10's followed by the MJCF tendon transmissions
-/// (`Tables::transmissions`, event version 8), written only for a world with one; every other world is written as before, byte for byte; 1
+/// (`Tables::transmissions`, event version 8), written only for a world with one; 12 is 11's
+/// followed by the MJCF contact pairs and listed equality constraints and tendons
+/// (`Tables::contact_pairs`, `Tables::mjcf_elements`, event version 9), written only for a
+/// world with some; every other world is written as before, byte for byte; 1
 /// to 5 still restore, under state hash v1 and engine rule 1, 6 under v2 and rule 1).
-pub const SNAPSHOT_VERSION: u32 = 11;
+pub const SNAPSHOT_VERSION: u32 = 12;
 
 /// The state a version-10 snapshot carries after version 9's.
 #[derive(Serialize, Deserialize, Clone, Debug, Default)]

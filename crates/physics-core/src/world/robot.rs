@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::urdf::{part_shape, JointKind, JointSpec, Part, RobotModel};
 use super::{DynamicsExtras, Object, ObjectKind, World, DEFAULT_DAMPING, DEFAULT_FRICTION};
 use crate::command::{Blob, ControlMode, MotorSpec};
-use crate::outputs::{JointInfo, JointState, UrdfLoaded};
+use crate::outputs::{JointInfo, JointState, JointValue, UrdfLoaded};
 use crate::value::{r32, r32s, Refusal};
 
 /// The `force` a motor gets when neither the call nor the URDF gives one (PyBullet's habit).
@@ -82,6 +82,32 @@ impl Robot {
         (0..self.links.len()).filter(|i| self.links[*i].joint.kind.movable()).collect()
     }
 
+    /// The first ball joint (index, name), if the robot has one: the tools that work in joint
+    /// space with one number per joint (IK, Jacobians, mass matrix, inverse dynamics, reaction
+    /// wrenches) refuse such a robot instead of treating the ball joint as fixed.
+    pub fn ball_joint(&self) -> Option<(usize, &str)> {
+        self.links.iter().position(|l| l.joint.kind == JointKind::Spherical).map(|i| (i, self.links[i].joint.name.as_str()))
+    }
+
+    /// The refusal of `tool` on this robot (object `id`) when it has a ball joint.
+    pub fn ball_joint_refusal(&self, id: u32, tool: &str) -> Result<(), Refusal> {
+        match self.ball_joint() {
+            Some((i, name)) => Err(format!("object_id {id} has a ball joint (joint {i}, {name}); {tool} supports robots of hinge and slide joints only")),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Why joint `joint_index` (`spec`) cannot take what needs one scalar coordinate: a fixed joint
+/// has none (`fixed_why` says so, as before ball joints existed), a ball joint three.
+pub(crate) fn not_scalar(joint_index: u32, spec: &JointSpec, fixed_why: &str) -> Refusal {
+    match spec.kind {
+        JointKind::Spherical => format!("joint_index {joint_index} is a ball joint ({}); only hinge and slide joints take one value", spec.name),
+        _ => format!("joint_index {joint_index} is a fixed joint ({}); {fixed_why}", spec.name),
+    }
+}
+
+impl Robot {
     /// The body of link `link_index` (−1 = the base, whose body is `base`).
     pub fn link_body(&self, base: RigidBodyHandle, link_index: i32) -> Option<RigidBodyHandle> {
         if link_index < 0 {
@@ -135,6 +161,7 @@ fn generic_joint(spec: &JointSpec) -> GenericJoint {
         JointKind::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
         JointKind::Revolute | JointKind::Continuous => JointAxesMask::LOCKED_REVOLUTE_AXES,
         JointKind::Prismatic => JointAxesMask::LOCKED_PRISMATIC_AXES,
+        JointKind::Spherical => JointAxesMask::LOCKED_SPHERICAL_AXES,
     };
     let frame = if spec.kind.movable() { Pose::from_rotation(axis_frame(spec.axis)) } else { Pose::IDENTITY };
     let mut b = GenericJointBuilder::new(locked)
@@ -318,7 +345,7 @@ impl World {
         let i = self.check_joint(id, joint_index as i64)?;
         let robot = self.robot(id).ok_or_else(|| format!("Joint index {joint_index} out of range: object {id} has 0 joints"))?;
         if !robot.links[i].joint.kind.movable() {
-            return Err(format!("joint_index {joint_index} is a fixed joint ({}); it cannot have a motor", robot.links[i].joint.name));
+            return Err(not_scalar(joint_index, &robot.links[i].joint, "it cannot have a motor"));
         }
         if m.force.is_some_and(|f| m.mode != ControlMode::TorqueControl && f < 0.0) {
             return Err("force must be >= 0 for POSITION_CONTROL and VELOCITY_CONTROL (it is the maximum effort)".into());
@@ -374,7 +401,7 @@ impl World {
         if robot.links[i].joint.kind.movable() {
             Ok(())
         } else {
-            Err(format!("joint_index {joint_index} is a fixed joint ({}); it has no position to reset", robot.links[i].joint.name))
+            Err(not_scalar(joint_index, &robot.links[i].joint, "it has no position to reset"))
         }
     }
 
@@ -416,6 +443,35 @@ impl World {
         format!("Joint {joint_index} of object {id} reset")
     }
 
+    /// Sets a ball joint's rotation (a keyframe's quaternion, at load: the robot at rest), then
+    /// moves every body of the multibody to the new configuration, as [`World::reset_joint`]
+    /// does for one value.
+    pub(super) fn reset_ball_joint(&mut self, id: u32, joint_index: u32, target: Rotation) {
+        let Some(link) = self.robot(id).and_then(|r| r.links.get(joint_index as usize)) else { return };
+        let body = link.body;
+        let mbs = &mut self.physics.multibody_joints;
+        let Some(lid) = mbs.rigid_body_link(body).copied() else { return };
+        let Some(mb) = mbs.get_multibody_mut(lid.multibody) else { return };
+        mb.forward_kinematics(&self.physics.bodies, true);
+        let Some(l) = mb.link_mut(lid.id) else { return };
+        let dof = l.assembly_id();
+        // `apply_displacement` turns the rotation by exp(d) on the left: d = log(target · current⁻¹).
+        let d = (target * l.joint.joint_rot().inverse()).to_scaled_axis();
+        l.joint.apply_displacement(&[d.x, d.y, d.z]);
+        mb.generalized_velocity_mut().rows_mut(dof, 3).fill(0.0);
+        mb.forward_kinematics(&self.physics.bodies, true);
+        mb.update_rigid_bodies(&mut self.physics.bodies, true);
+        let roots: Vec<RigidBodyHandle> = mb.links().map(|l| l.rigid_body_handle()).collect();
+        for h in roots {
+            if let Some(b) = self.physics.bodies.get_mut(h) {
+                if b.is_dynamic() {
+                    b.set_linvel(Vector::ZERO, true);
+                    b.set_angvel(Vector::ZERO, true);
+                }
+            }
+        }
+    }
+
     /// get_link_state: link −1 is the base; otherwise the link's frame, its centre of mass and
     /// inertial frame (rotated by the principal-axes frame get_dynamics_info reports), and the
     /// velocity of its centre of mass.
@@ -439,7 +495,8 @@ impl World {
         })
     }
 
-    /// Joint position and velocity (rad, rad/s or m, m/s) of a link's parent joint.
+    /// Joint position and velocity (rad, rad/s or m, m/s) of a link's parent joint (zeros for a
+    /// fixed or ball joint: [`World::ball_joint_state`] reads the latter).
     pub fn joint_coordinates(&self, body: RigidBodyHandle, kind: JointKind) -> (f32, f32) {
         let mbs = &self.physics.multibody_joints;
         let Some(id) = mbs.rigid_body_link(body) else { return (0.0, 0.0) };
@@ -448,10 +505,30 @@ impl World {
         let q = match kind {
             JointKind::Revolute | JointKind::Continuous => link.joint().coords()[3],
             JointKind::Prismatic => link.joint().coords()[0],
-            JointKind::Fixed => return (0.0, 0.0),
+            JointKind::Fixed | JointKind::Spherical => return (0.0, 0.0),
         };
         let v = mb.joint_velocity(link);
         (q, if v.is_empty() { 0.0 } else { v[0] })
+    }
+
+    /// A ball joint's state as PyBullet's `getJointStateMultiDof` and MuJoCo's qpos/qvel give
+    /// it: the child's rotation relative to its parent-side joint frame as a quaternion
+    /// [x, y, z, w] (MuJoCo's ball qpos, reordered), and its angular velocity relative to the
+    /// parent in the child's joint frame (MuJoCo's qvel). Rapier keeps the rotation and an
+    /// angular velocity in the parent-side frame; the latter is rotated into the child's.
+    pub fn ball_joint_state(&self, body: RigidBodyHandle) -> ([f32; 4], [f32; 3]) {
+        let mbs = &self.physics.multibody_joints;
+        let none = ([0.0, 0.0, 0.0, 1.0], [0.0; 3]);
+        let Some(id) = mbs.rigid_body_link(body) else { return none };
+        let Some(mb) = mbs.get_multibody(id.multibody) else { return none };
+        let Some(link) = mb.link(id.id) else { return none };
+        let rot = link.joint().joint_rot();
+        let v = mb.joint_velocity(link);
+        if v.len() < 3 {
+            return none;
+        }
+        let in_child = rot.inverse() * Vector::new(v[0], v[1], v[2]);
+        (rot.to_array(), in_child.to_array())
     }
 
     /// Before a step: aims every position/velocity motor at this step's target velocity and
@@ -636,6 +713,8 @@ impl World {
                 .actuation(id)
                 .map(|a| super::actuators::infos(a).into_iter().filter(|x| x.joint_index as usize == i).collect())
                 .unwrap_or_default(),
+            equality: self.tables.mjcf_elements.get(&id).map(|e| e.naming(&e.equality, i)).unwrap_or_default(),
+            tendons: self.tables.mjcf_elements.get(&id).map(|e| e.naming(&e.tendons, i)).unwrap_or_default(),
         })
     }
 
@@ -643,12 +722,21 @@ impl World {
     pub fn joint_state(&self, id: u32, i: usize) -> Option<JointState> {
         let robot = self.robot(id)?;
         let l = robot.links.get(i)?;
-        let (q, v) = self.joint_coordinates(l.body, l.joint.kind);
+        let (position, velocity) = match l.joint.kind {
+            JointKind::Spherical => {
+                let (q, w) = self.ball_joint_state(l.body);
+                (JointValue::Multi(r32s(q).to_vec()), JointValue::Multi(r32s(w).to_vec()))
+            }
+            kind => {
+                let (q, v) = self.joint_coordinates(l.body, kind);
+                (JointValue::Scalar(r32(q)), JointValue::Scalar(r32(v)))
+            }
+        };
         let sensed = self.tables.joint_sensors.contains(&(id, i as u32));
         let reaction_forces = if sensed { self.joint_reaction_wrench(id, i).unwrap_or_default() } else { [0.0; 6] };
         Some(JointState {
-            joint_position: r32(q),
-            joint_velocity: r32(v),
+            joint_position: position,
+            joint_velocity: velocity,
             reaction_forces,
             motor_torque: r32(l.motor_torque),
             trajectory: self.trajectory_progress(id, i as u32).map(|p| crate::outputs::TrajectoryState {

@@ -32,6 +32,9 @@ pub enum JointKind {
     Prismatic,
     /// No motion (still numbered, as in PyBullet).
     Fixed,
+    /// Free rotation about a point: an MJCF ball joint (event version 9), one joint index whose
+    /// state is a quaternion and an angular velocity (PyBullet's `getJointStateMultiDof`).
+    Spherical,
 }
 
 impl JointKind {
@@ -42,12 +45,14 @@ impl JointKind {
             JointKind::Continuous => "continuous",
             JointKind::Prismatic => "prismatic",
             JointKind::Fixed => "fixed",
+            JointKind::Spherical => "spherical",
         }
     }
 
-    /// Whether the joint has a degree of freedom (IK and motors act on these).
+    /// Whether the joint has one scalar degree of freedom (IK, motors, trajectories, resets and
+    /// the joint-space dynamics act on these; a spherical joint has three and is refused there).
     pub fn movable(self) -> bool {
-        self != JointKind::Fixed
+        matches!(self, JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic)
     }
 }
 
