@@ -74,6 +74,15 @@ async fn bounded_counts_and_names(c: &Client, server: &Server) {
     let sim = c.new_sim(json!({})).await;
     let refused = c.try_call("load_mjcf", json!({"sim_id": sim, "file_path": "many_actuators.xml"})).await.unwrap_err();
     assert!(refused.contains(&format!("file_path has {} actuators; a model may have at most {most}", most + 1)), "{refused}");
+    // Contact pairs are bounded as the other elements are.
+    let pairs: String = (0..=most).map(|_| r#"<pair geom1="g" geom2="g"/>"#).collect();
+    let many_pairs = format!(
+        r#"<mujoco><worldbody><body name="a"><joint name="j" type="hinge"/><geom name="g" type="sphere" size="0.1" mass="1"/></body></worldbody>
+        <contact>{pairs}</contact></mujoco>"#
+    );
+    std::fs::write(server.workspace.join("many_pairs.xml"), many_pairs).unwrap();
+    let refused = c.try_call("load_mjcf", json!({"sim_id": sim, "file_path": "many_pairs.xml"})).await.unwrap_err();
+    assert!(refused.contains(&format!("file_path has {} contact pairs; a model may have at most {most}", most + 1)), "{refused}");
     // One tendon listing a joint `most` times under two actuators: its terms are bounded too.
     let terms: String = (0..most).map(|_| r#"<joint joint="j" coef="1"/>"#).collect();
     let tendon = format!(

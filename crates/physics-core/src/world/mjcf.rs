@@ -285,15 +285,16 @@ impl Prepared {
         super::mjcf_options::ModelOptions { timestep: self.model.option.timestep, gravity: self.model.option.gravity }
     }
 
-    /// At most [`crate::limits::MAX_MODEL_ELEMENTS`] actuators, sensors, equality constraints
-    /// and tendons (and joint terms in the tendons and their actuators' copies), and joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
+    /// At most [`crate::limits::MAX_MODEL_ELEMENTS`] actuators, sensors, equality constraints,
+    /// tendons and contact pairs (each pair is looked up among every geom, kept, hashed and
+    /// snapshotted, and put in the contact hook's map at every step) (and joint terms in the tendons and their actuators' copies), and joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
     /// at 1e308 m loads, then panics rapier's joint-limit solve on every step. Checked at the
     /// edge only (`Command::within_extent`), not in [`prepare`], which every fold runs: logs that
     /// loaded such a model before the bound fold as they always did.
     pub fn joints_within_extent(&self) -> Result<(), Refusal> {
         let most = crate::limits::MAX_MODEL_ELEMENTS;
         let m = &self.model;
-        for (what, count) in [("actuators", m.actuators.len()), ("sensors", m.sensors.len()), ("equality constraints", m.equality.len()), ("tendons", m.tendons.len())] {
+        for (what, count) in [("actuators", m.actuators.len()), ("sensors", m.sensors.len()), ("equality constraints", m.equality.len()), ("tendons", m.tendons.len()), ("contact pairs", m.contact.pairs.len())] {
             if count > most {
                 return Err(format!("file_path has {count} {what}; a model may have at most {most}"));
             }
