@@ -8,8 +8,13 @@
 #            directory of its own: two cargo commands on one directory wait for each other);
 #   wheel  — scripts/wheel.sh, the one release build (install_check.sh's own call of it then
 #            finds everything built).
-# Both run at the lowest CPU and I/O priority (nice 19, ionice idle), each in a process group of
-# its own, so the tests keep the cores they ask for; logs and exit codes in target/ci-prepare/.
+# They run at the lowest CPU and I/O priority (nice 19, ionice idle), each in a session of its
+# own (so `stop` can end its whole process group), so the tests keep the cores they ask for;
+# logs and exit codes in target/ci-prepare/. A session of its own is also a scheduler autogroup
+# of its own where the kernel groups by session (`/proc/sys/kernel/sched_autogroup_enabled`,
+# on for Debian's kernels and on CI's machine): there a process's nice orders it only within its
+# group, and each group gets an equal share, so three nice-19 jobs took two thirds of the CPU
+# from the tests' build (seen: CI at 68 min). Each job therefore sets its group's nice to 19 too.
 #
 #   scripts/ci_prepare.sh start          # both jobs in the background; returns at once
 #   scripts/ci_prepare.sh pause|resume   # stop and continue them (while a test measures latency)
@@ -22,6 +27,9 @@ JOBS=(tools clippy wheel)
 
 # One job's work, run by `start` in its own session (so its process group id is its pid).
 run_job() {
+  # This session's autogroup at the lowest weight (see the header); where autogroups are off or
+  # the file is missing, the process's own nice 19 already does it.
+  echo 19 >/proc/self/autogroup 2>/dev/null || true
   echo $$ >"$dir/$1.pgid"
   date +%s >"$dir/$1.started"
   case "$1" in
