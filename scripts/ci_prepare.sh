@@ -53,14 +53,16 @@ run_job() {
   esac
 }
 
+# Sends SIGNAL to JOB if it still runs.
+signal_one() {
+  [[ -f "$dir/$2.pgid" && ! -f "$dir/$2.rc" ]] || return 0
+  kill "-$1" -- "-$(cat "$dir/$2.pgid")" 2>/dev/null || true
+}
+
 # Sends SIGNAL to every job still running.
 signal_jobs() {
-  local job pgid
-  for job in "${JOBS[@]}"; do
-    [[ -f "$dir/$job.pgid" && ! -f "$dir/$job.rc" ]] || continue
-    pgid=$(cat "$dir/$job.pgid")
-    kill "-$1" -- "-$pgid" 2>/dev/null || true
-  done
+  local job
+  for job in "${JOBS[@]}"; do signal_one "$1" "$job"; done
 }
 
 case "${1:?start, pause, resume, wait JOB or stop}" in
@@ -85,8 +87,12 @@ case "${1:?start, pause, resume, wait JOB or stop}" in
     job="${2:?tools, clippy or wheel}"
     [[ -f "$dir/$job.log" ]] || { echo "ci_prepare: $job was not started" >&2; exit 2; }
     asked=$(date +%s)
-    signal_jobs CONT
+    # While .ci/run waits for this job, the others stop, so that it gets all the CPU the run
+    # leaves (at the end the wheel and clippy split it evenly, and only the wheel is waited for).
+    signal_jobs STOP
+    signal_one CONT "$job"
     while [[ ! -f "$dir/$job.rc" ]]; do sleep 1; done
+    signal_jobs CONT
     ended=$(cat "$dir/$job.ended")
     started=$(cat "$dir/$job.started" 2>/dev/null || echo "$ended")
     if [[ "$(cat "$dir/$job.rc")" != 0 ]]; then
