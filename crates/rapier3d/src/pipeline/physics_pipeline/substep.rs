@@ -450,6 +450,8 @@ impl PhysicsPipeline {
                 .update_rigid_bodies_internal(bodies, true, false, false);
             if skip {
                 multibody.1.record_kinematics_inputs(bodies, dynamics);
+            } else {
+                multibody.1.forget_kinematics_record();
             }
         }
 

@@ -1625,6 +1625,10 @@ impl Multibody {
 
     /// physics-mcp patch 4, 2D: no record is kept, the opening pass always runs.
     #[cfg(not(feature = "dim3"))]
+    pub(crate) fn forget_kinematics_record(&mut self) {}
+
+    /// physics-mcp patch 4, 2D: no record is kept, the opening pass always runs.
+    #[cfg(not(feature = "dim3"))]
     pub(crate) fn kinematics_unchanged(&self, _: &RigidBodySet, _: MultibodyDynamics) -> bool {
         false
     }

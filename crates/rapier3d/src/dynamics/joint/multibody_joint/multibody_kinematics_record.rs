@@ -213,9 +213,10 @@ impl Multibody {
         true
     }
 
-    /// Forgets the record, so the next step's opening pass runs (tests compare a world with
-    /// one whose pass always runs).
-    #[cfg(test)]
+    /// Forgets the record, so the next step's opening pass runs: while the skip is switched off
+    /// (`set_skip_unchanged_multibody_kinematics(false)`, so that a record of an older state
+    /// cannot be compared with after it is switched back on), and in tests comparing a world with
+    /// one whose pass always runs.
     pub(crate) fn forget_kinematics_record(&mut self) {
         self.kinematics_record = KinematicsRecord::default();
     }
