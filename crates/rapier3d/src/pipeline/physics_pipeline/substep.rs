@@ -435,15 +435,24 @@ impl PhysicsPipeline {
 
         // TODO: do this only on user-change.
         // TODO: do we want some kind of automatic inverse kinematics?
+        // physics-mcp patch 4: skipped for a multibody whose pass would recompute, bit for
+        // bit, what the last substep's forward kinematics left (nothing it reads changed since:
+        // `Multibody::kinematics_unchanged`).
+        let dynamics = integration_parameters.multibody_dynamics;
+        let skip = crate::dynamics::skip_unchanged_multibody_kinematics();
         for multibody in &mut multibody_joints.multibodies {
-            multibody.1.forward_kinematics_for(
-                bodies,
-                true,
-                integration_parameters.multibody_dynamics,
-            );
+            if skip && multibody.1.kinematics_unchanged(bodies, dynamics) {
+                continue;
+            }
+            multibody.1.forward_kinematics_for(bodies, true, dynamics);
             multibody
                 .1
                 .update_rigid_bodies_internal(bodies, true, false, false);
+            if skip {
+                multibody.1.record_kinematics_inputs(bodies, dynamics);
+            } else {
+                multibody.1.forget_kinematics_record();
+            }
         }
 
         // The soft meshes' vertex caches, read by the soft contact passes.

@@ -1,7 +1,9 @@
 //! MultibodyJoints using the reduced-coordinates formalism or using constraints.
 
 #[cfg(feature = "alloc")]
-pub use self::multibody::{Multibody, MultibodyDofCoupling};
+pub use self::multibody::{Multibody, MultibodyDofCoupling, set_skip_unchanged_multibody_kinematics};
+#[cfg(feature = "alloc")]
+pub(crate) use self::multibody::skip_unchanged_multibody_kinematics;
 #[cfg(feature = "alloc")]
 pub use self::multibody_ik::InverseKinematicsOption;
 #[cfg(feature = "alloc")]

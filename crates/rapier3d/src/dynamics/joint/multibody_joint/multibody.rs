@@ -34,6 +34,32 @@ mod tree_tests;
 #[cfg(all(test, feature = "dim3"))]
 #[path = "multibody_per_step_tests.rs"]
 mod per_step_tests;
+// physics-mcp patch 4: the step's opening forward kinematics skipped when it would change
+// nothing, and the proof that skipping it changes no bit.
+#[cfg(feature = "dim3")]
+#[path = "multibody_kinematics_record.rs"]
+mod kinematics_record;
+#[cfg(all(test, feature = "dim3"))]
+#[path = "multibody_kinematics_record_tests.rs"]
+mod kinematics_record_tests;
+
+/// physics-mcp patch 4: whether a step skips the opening forward kinematics of a multibody
+/// none of whose inputs changed since the last (`true`, the default; see
+/// `multibody_kinematics_record.rs`). Either way the step computes the same bits: `false`
+/// restores rapier 0.36.1's work, so that one binary can measure what the skip saves
+/// (physics-mcp's `rule_steps` example). Process-wide.
+#[doc(hidden)]
+pub fn set_skip_unchanged_multibody_kinematics(skip: bool) {
+    SKIP_UNCHANGED_KINEMATICS.store(skip, core::sync::atomic::Ordering::Relaxed);
+}
+
+/// See [`set_skip_unchanged_multibody_kinematics`].
+pub(crate) fn skip_unchanged_multibody_kinematics() -> bool {
+    SKIP_UNCHANGED_KINEMATICS.load(core::sync::atomic::Ordering::Relaxed)
+}
+
+static SKIP_UNCHANGED_KINEMATICS: core::sync::atomic::AtomicBool =
+    core::sync::atomic::AtomicBool::new(true);
 
 /// No degree of freedom (the tree path's parent of a root degree of freedom).
 #[cfg(feature = "dim3")]
@@ -157,6 +183,12 @@ pub struct Multibody {
     #[cfg(feature = "dim3")]
     #[cfg_attr(feature = "serde-serialize", serde(skip))]
     tree: tree::TreeWorkspace,
+    /// physics-mcp patch 4: what the pipeline's last forward kinematics read, to skip the next
+    /// step's opening pass when it would recompute the same bits. Never serialized: a restored
+    /// multibody runs that pass.
+    #[cfg(feature = "dim3")]
+    #[cfg_attr(feature = "serde-serialize", serde(skip))]
+    kinematics_record: kinematics_record::KinematicsRecord,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -195,6 +227,8 @@ impl Multibody {
             couplings: Vec::new(),
             #[cfg(feature = "dim3")]
             tree: Default::default(),
+            #[cfg(feature = "dim3")]
+            kinematics_record: Default::default(),
             // solver_workspace: Some(SolverWorkspace::new()),
         }
     }
@@ -1583,6 +1617,20 @@ impl Multibody {
             d if d.is_tree() && self.tree_eligible(bodies) => self.tree_update_jacobians(),
             _ => self.update_body_jacobians(),
         }
+    }
+
+    /// physics-mcp patch 4, 2D: no record is kept, the opening pass always runs.
+    #[cfg(not(feature = "dim3"))]
+    pub(crate) fn record_kinematics_inputs(&mut self, _: &RigidBodySet, _: MultibodyDynamics) {}
+
+    /// physics-mcp patch 4, 2D: no record is kept, the opening pass always runs.
+    #[cfg(not(feature = "dim3"))]
+    pub(crate) fn forget_kinematics_record(&mut self) {}
+
+    /// physics-mcp patch 4, 2D: no record is kept, the opening pass always runs.
+    #[cfg(not(feature = "dim3"))]
+    pub(crate) fn kinematics_unchanged(&self, _: &RigidBodySet, _: MultibodyDynamics) -> bool {
+        false
     }
 
     /// Computes the ids of all the links between the root and the link identified by `link_id`.

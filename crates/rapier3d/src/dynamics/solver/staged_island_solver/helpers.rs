@@ -158,6 +158,11 @@ impl VelocitySolver {
             multibody.integrate(params.dt);
             multibody.forward_kinematics_for(bodies, false, params.multibody_dynamics);
             multibody.update_rigid_bodies_internal(bodies, !is_last_substep, true, false);
+            if is_last_substep && crate::dynamics::skip_unchanged_multibody_kinematics() {
+                // physics-mcp patch 4: what these poses were computed from, for the next step's
+                // opening pass to skip itself when nothing changed in between.
+                multibody.record_kinematics_inputs(bodies, params.multibody_dynamics);
+            }
 
             if !is_last_substep {
                 multibody.update_velocities(bodies);
