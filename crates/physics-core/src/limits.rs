@@ -92,9 +92,10 @@ pub const MAX_SPEED: f64 = 1e5;
 /// fits in a small file made a single step run for hours; real robots have tens of joints.
 pub const MAX_MODEL_JOINTS: usize = 512;
 
-/// Actuators, sensors, equality constraints, tendons and contact pairs one MJCF model may have, each: every
-/// step walks every actuator and every read of get_sensor_data every sensor, and each
-/// equality constraint is a joint the solver carries; Menagerie's largest robots have tens.
+/// Actuators, sensors, equality constraints, tendons and contact pairs one MJCF model may have,
+/// each: every step walks every actuator and every contact pair, every read of get_sensor_data
+/// every sensor, and each equality constraint is a joint the solver carries; Menagerie's
+/// largest robots have tens.
 pub const MAX_MODEL_ELEMENTS: usize = 1024;
 
 /// How many names a refusal lists when it shows what exists (the rest are counted), so a

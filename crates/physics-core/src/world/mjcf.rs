@@ -286,8 +286,10 @@ impl Prepared {
     }
 
     /// At most [`crate::limits::MAX_MODEL_ELEMENTS`] actuators, sensors, equality constraints,
-    /// tendons and contact pairs (each pair is looked up among every geom, kept, hashed and
-    /// snapshotted, and put in the contact hook's map at every step) (and joint terms in the tendons and their actuators' copies), and joint anchors (`<joint pos>`) within [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
+    /// tendons and contact pairs each (a pair is looked up among every geom, kept, hashed,
+    /// snapshotted and put in the contact hook's map every step), and as many joint terms in the
+    /// tendons and their actuators' copies; and joint anchors (`<joint pos>`) within
+    /// [`crate::limits::MAX_EXTENT_M`]: a hinge anchored
     /// at 1e308 m loads, then panics rapier's joint-limit solve on every step. Checked at the
     /// edge only (`Command::within_extent`), not in [`prepare`], which every fold runs: logs that
     /// loaded such a model before the bound fold as they always did.
