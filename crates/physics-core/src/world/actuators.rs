@@ -420,11 +420,11 @@ impl World {
                 .filter(|(_, tau)| (*tau as f32).is_finite())
                 .map(|(j, tau)| {
                     let link = &robot.links[j as usize];
-                    (link.body, robot.link_body(base, link.joint.parent).unwrap_or(base), link.joint.clone(), tau as f32)
+                    (link.body, robot.link_body(base, link.joint.parent).unwrap_or(base), link.joint.kind, link.joint.axis, tau as f32)
                 })
                 .collect();
-            for (child, parent, joint, tau) in pushes {
-                self.apply_joint_effort(child, parent, &joint, tau);
+            for (child, parent, kind, axis, tau) in pushes {
+                self.apply_joint_effort(child, parent, kind, axis, tau);
             }
             self.tables.pending_wrench.insert(id);
         }

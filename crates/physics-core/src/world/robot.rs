@@ -533,9 +533,11 @@ impl World {
 
     /// Before a step: aims every position/velocity motor at this step's target velocity and
     /// applies every torque motor. Returns what `record_motor_torques` needs after the step.
+    /// Runs every step, so it copies out only each motor's few numbers, never a robot (its
+    /// names and lists were 7% of a KUKA step's instructions when it did).
     pub(super) fn drive_motors(&mut self) -> Vec<MotorWatch> {
         let dt = self.timestep();
-        let mut watches = Vec::new();
+        let mut watches: Vec<MotorWatch> = Vec::new();
         let mut torque_robots = Vec::new();
         let robots: Vec<(u32, RigidBodyHandle)> = self
             .tables
@@ -545,18 +547,16 @@ impl World {
             .map(|(id, o)| (*id, o.body))
             .collect();
         for (id, base) in robots {
-            let Some(robot) = self.robot(id).cloned() else { continue };
-            for (i, link) in robot.links.iter().enumerate() {
-                let Some(motor) = &link.motor else { continue };
-                let kind = link.joint.kind;
-                let (q, _) = self.joint_coordinates(link.body, kind);
-                let s = &motor.spec;
+            let links = self.robot(id).map_or(0, |r| r.links.len());
+            for i in 0..links {
+                let Some(m) = self.robot(id).and_then(|robot| DrivenJoint::of(robot, base, i)) else { continue };
+                let (q, _) = self.joint_coordinates(m.body, m.kind);
+                let s = &m.spec;
                 match s.mode {
                     ControlMode::TorqueControl => {
-                        let parent = robot.link_body(base, link.joint.parent).unwrap_or(base);
-                        self.apply_joint_effort(link.body, parent, &link.joint, motor.force);
+                        self.apply_joint_effort(m.body, m.parent, m.kind, m.axis, m.force);
                         if let Some(l) = self.robot_mut(id).and_then(|r| r.links.get_mut(i)) {
-                            l.motor_torque = motor.force;
+                            l.motor_torque = m.force;
                         }
                         torque_robots.push(id);
                     }
@@ -566,17 +566,17 @@ impl World {
                         } else {
                             s.target_velocity
                         };
-                        let vmax = link.joint.velocity as f32;
-                        if vmax > 0.0 {
-                            target = target.clamp(-vmax, vmax);
+                        if m.vmax > 0.0 {
+                            target = target.clamp(-m.vmax, m.vmax);
                         }
-                        let axis = joint_axis(kind);
-                        let force = motor.force;
-                        self.with_mb_link(link.body, |joint| {
+                        let axis = joint_axis(m.kind);
+                        let force = m.force;
+                        self.with_mb_link(m.body, |joint| {
                             joint.data.set_motor_velocity(axis, target, HARD_MOTOR);
                             joint.data.set_motor_max_force(axis, force);
                         });
-                        if let Some(w) = self.watch(id, i, link.body, force) {
+                        let after = watches.last().map(|w| w.body);
+                        if let Some(w) = self.watch(id, i, m.body, force, after) {
                             watches.push(w);
                         }
                     }
@@ -589,14 +589,15 @@ impl World {
         watches
     }
 
-    /// Applies a joint torque (revolute) or force (prismatic) as equal and opposite efforts on
-    /// the child and parent bodies, so only that joint's coordinate feels it.
-    pub(super) fn apply_joint_effort(&mut self, child: RigidBodyHandle, parent: RigidBodyHandle, joint: &JointSpec, effort: f32) {
+    /// Applies a joint torque (revolute) or force (prismatic) along `axis` (in the child's
+    /// frame) as equal and opposite efforts on the child and parent bodies, so only that
+    /// joint's coordinate feels it.
+    pub(super) fn apply_joint_effort(&mut self, child: RigidBodyHandle, parent: RigidBodyHandle, kind: JointKind, axis: [f64; 3], effort: f32) {
         let Some(c) = self.physics.bodies.get(child) else { return };
-        let axis = *c.rotation() * Vector::new(joint.axis[0] as f32, joint.axis[1] as f32, joint.axis[2] as f32);
+        let axis = *c.rotation() * Vector::new(axis[0] as f32, axis[1] as f32, axis[2] as f32);
         let at = c.center_of_mass();
         let bodies = &mut self.physics.bodies;
-        match joint.kind {
+        match kind {
             JointKind::Prismatic => {
                 if let Some(b) = bodies.get_mut(child) {
                     b.add_force(axis * effort, true);
@@ -616,18 +617,22 @@ impl World {
         }
     }
 
-    fn watch(&self, id: u32, link: usize, body: RigidBodyHandle, force: f32) -> Option<MotorWatch> {
+    /// What `record_motor_torques` needs about a motor on `body`. `after` is the body of the
+    /// watch before it: on the same multibody, that watch's generalized impulse serves this one
+    /// too, so the velocities are not copied again.
+    fn watch(&self, id: u32, link: usize, body: RigidBodyHandle, force: f32, after: Option<RigidBodyHandle>) -> Option<MotorWatch> {
         let mbs = &self.physics.multibody_joints;
         let lid = mbs.rigid_body_link(body)?;
         let mb = mbs.get_multibody(lid.multibody)?;
         let l = mb.link(lid.id)?;
+        let reuse = after.is_some_and(|a| self.same_multibody(a, body));
         Some(MotorWatch {
             object: id,
             link,
             body,
             dof: l.assembly_id(),
             force,
-            before: mb.generalized_velocity().iter().copied().collect(),
+            before: (!reuse).then(|| mb.generalized_velocity().iter().copied().collect()),
         })
     }
 
@@ -642,13 +647,13 @@ impl World {
         // read at each motor's coordinate: the same arithmetic as one solve per motor, so the
         // same torques bit for bit, without a dense L·U product per motor per step (12% of a
         // humanoid's step with every joint velocity-driven; docs/benchmarks.md "MJCF").
-        let mut last: Option<(RigidBodyHandle, Option<rapier3d::na::DVector<f32>>)> = None;
+        let mut last: Option<rapier3d::na::DVector<f32>> = None;
         for w in watches {
-            let reuse = last.as_ref().is_some_and(|(b, _)| self.same_multibody(*b, w.body));
-            if !reuse {
-                last = Some((w.body, self.generalized_impulse(&w, dt)));
+            // A watch without velocities follows one of its multibody (`watch`).
+            if let Some(before) = &w.before {
+                last = self.generalized_impulse(w.body, before, dt);
             }
-            let y = last.as_ref().and_then(|(_, y)| y.as_ref());
+            let y = last.as_ref();
             let tau = y.and_then(|y| (w.dof < y.len()).then(|| y[w.dof]));
             let tau = tau.unwrap_or(0.0).clamp(-w.force, w.force);
             if let Some(robot) = self.robot_mut(w.object) {
@@ -668,20 +673,20 @@ impl World {
         }
     }
 
-    /// M·(Δq̇/dt − q̈_free) of the multibody `w`'s motor is in, over the step just taken
-    /// (`record_motor_torques`); None when its coordinates changed shape (each motor's own
-    /// coordinate is checked by the caller).
-    fn generalized_impulse(&self, w: &MotorWatch, dt: f32) -> Option<rapier3d::na::DVector<f32>> {
+    /// M·(Δq̇/dt − q̈_free) of the multibody `body` is a link of, over the step just taken,
+    /// from its velocities `before` it (`record_motor_torques`); None when its coordinates
+    /// changed shape (each motor's own coordinate is checked by the caller).
+    fn generalized_impulse(&self, body: RigidBodyHandle, before: &[f32], dt: f32) -> Option<rapier3d::na::DVector<f32>> {
         let mbs = &self.physics.multibody_joints;
-        let lid = mbs.rigid_body_link(w.body)?;
+        let lid = mbs.rigid_body_link(body)?;
         let mb = mbs.get_multibody(lid.multibody)?;
         let n = mb.ndofs();
-        if w.before.len() != n {
+        if before.len() != n {
             return None;
         }
         let v = mb.generalized_velocity();
         let a = mb.generalized_acceleration();
-        let x = rapier3d::na::DVector::<f32>::from_fn(n, |i, _| (v[i] - w.before[i]) / dt - a[i]);
+        let x = rapier3d::na::DVector::<f32>::from_fn(n, |i, _| (v[i] - before[i]) / dt - a[i]);
         if self.engine_rule() != crate::engine::EngineRule::Upstream {
             // The tree path keeps the augmented mass matrix itself, in degree-of-freedom order.
             let m = mb.augmented_mass();
@@ -851,12 +856,41 @@ impl World {
     }
 }
 
-/// What `record_motor_torques` needs about one motor: where it is and the velocities before.
+/// What `record_motor_torques` needs about one motor: where it is and its multibody's
+/// velocities before the step (None: the same multibody as the watch before it).
 pub(super) struct MotorWatch {
     object: u32,
     link: usize,
     body: RigidBodyHandle,
     dof: usize,
     force: f32,
-    before: Vec<f32>,
+    before: Option<Vec<f32>>,
+}
+
+/// One motored joint's numbers, copied out of its robot for a step (`drive_motors`).
+struct DrivenJoint {
+    body: RigidBodyHandle,
+    parent: RigidBodyHandle,
+    kind: JointKind,
+    axis: [f64; 3],
+    vmax: f32,
+    spec: MotorSpec,
+    force: f32,
+}
+
+impl DrivenJoint {
+    /// Link `i` of `robot` (based at `base`), if a motor drives it.
+    fn of(robot: &Robot, base: RigidBodyHandle, i: usize) -> Option<DrivenJoint> {
+        let link = robot.links.get(i)?;
+        let motor = link.motor.as_ref()?;
+        Some(DrivenJoint {
+            body: link.body,
+            parent: robot.link_body(base, link.joint.parent).unwrap_or(base),
+            kind: link.joint.kind,
+            axis: link.joint.axis,
+            vmax: link.joint.velocity as f32,
+            spec: motor.spec.clone(),
+            force: motor.force,
+        })
+    }
 }
