@@ -408,7 +408,8 @@ impl Multibody {
         if self.augmented_mass.nrows() != n || self.augmented_mass.ncols() != n {
             self.augmented_mass = na::DMatrix::zeros(n, n);
         } else {
-            self.augmented_mass.fill(0.0);
+            // physics-mcp patch 5: the same zeros through a slice (nalgebra's `fill` iterates).
+            self.augmented_mass.as_mut_slice().fill(0.0);
         }
         let t = &mut self.tree;
         reset(&mut t.acc_factor, n * n, 0.0);
@@ -615,7 +616,8 @@ impl Multibody {
     /// columns only) and energy guard, solved with the factorisations above.
     fn tree_update_acceleration(&mut self, dt: Real, bodies: &RigidBodySet) {
         let n = self.ndofs;
-        self.accelerations.fill(0.0);
+        // physics-mcp patch 5: the same zeros through a slice (nalgebra's `fill` iterates).
+        self.accelerations.as_mut_slice().fill(0.0);
         let check_implicit_coriolis_divergence = dt * self.velocities.amax() >= 1.0e-3;
         let t = &mut self.tree;
         reset(&mut t.pos_forces, if check_implicit_coriolis_divergence { n } else { 0 }, 0.0);
