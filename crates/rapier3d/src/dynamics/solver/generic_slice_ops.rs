@@ -56,6 +56,7 @@ pub(crate) fn axpy(y: &mut [Real], alpha: Real, x: &[Real]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::alloc_prelude::*;
     use crate::math::DVector;
 
     /// Bit for bit nalgebra's on every length from 0 to 40 (both the blocks of eight and the
