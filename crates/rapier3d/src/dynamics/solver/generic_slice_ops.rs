@@ -59,25 +59,37 @@ mod tests {
     use crate::alloc_prelude::*;
     use crate::math::DVector;
 
-    /// Bit for bit nalgebra's on every length from 0 to 40 (both the blocks of eight and the
-    /// tail), with values whose sums round differently by order, and signed zeros.
+    /// Bit for bit nalgebra's on every length from 0 to 63 (up to seven blocks of eight and every
+    /// tail), three sets of values with signed zeros spread over 32 binades, so that another order
+    /// of the additions changes the result (the test checks that it does for a plain sequential
+    /// sum; a swapped fold of the accumulators, `acc2 + acc6` after `acc3 + acc7`, fails too).
     #[test]
     fn same_bits_as_nalgebra() {
         let value = |i: usize, s: u32| -> Real {
-            let x = ((i as u32).wrapping_mul(2_654_435_761).wrapping_add(s) % 20_011) as Real;
-            match i % 7 {
-                0 => -0.0,
-                1 => x * 1.0e-7,
-                2 => -x * 3.3e5,
-                3 => 1.0 / (x + 1.0),
-                _ => x - 10_000.5,
+            if i % 11 == 5 {
+                return -0.0;
             }
+            let h = (i as u32 + 1).wrapping_mul(2_654_435_761).wrapping_add(s.wrapping_mul(40_503));
+            let mantissa = 1.0 + (h & 0xffff) as Real / 65536.0;
+            let exponent = ((h >> 16) % 17) as i32 - 8;
+            let sign = if (h >> 24) & 1 == 1 { -1.0 } else { 1.0 };
+            let mut scale: Real = 1.0; // 4^exponent, exactly
+            for _ in 0..exponent.unsigned_abs() {
+                scale *= 4.0;
+            }
+            if exponent < 0 {
+                scale = 1.0 / scale;
+            }
+            sign * mantissa * scale
         };
-        for n in 0..40 {
-            let a: Vec<Real> = (0..n).map(|i| value(i, 1)).collect();
-            let b: Vec<Real> = (0..n).map(|i| value(i, 7)).collect();
+        let mut order_matters = false;
+        for (n, (sa, sb)) in (0..64).flat_map(|n| [(1, 7), (3, 11), (5, 13)].map(|s| (n, s))) {
+            let a: Vec<Real> = (0..n).map(|i| value(i, sa)).collect();
+            let b: Vec<Real> = (0..n).map(|i| value(i, sb)).collect();
             let (va, vb) = (DVector::from_column_slice(&a), DVector::from_column_slice(&b));
             assert_eq!(dot(&a, &b).to_bits(), va.dot(&vb).to_bits(), "dot, n = {n}");
+            let sequential = a.iter().zip(&b).fold(0.0 as Real, |r, (x, y)| r + x * y);
+            order_matters |= sequential.to_bits() != dot(&a, &b).to_bits();
             for alpha in [0.0, -0.0, 1.5e-3, -7.25] {
                 let mut y = b.clone();
                 axpy(&mut y, alpha, &a);
@@ -87,5 +99,6 @@ mod tests {
                 assert_eq!(bits(&y), bits(vy.as_slice()), "axpy, n = {n}, alpha = {alpha}");
             }
         }
+        assert!(order_matters, "the values must tell summation orders apart");
     }
 }
