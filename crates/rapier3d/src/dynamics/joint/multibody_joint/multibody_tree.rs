@@ -356,12 +356,17 @@ impl Multibody {
     /// such a multibody takes the release's dense path, kinematics and dynamics alike, which
     /// copes. A multibody of normal numbers (every real model) is unaffected.
     pub(crate) fn tree_eligible(&self, bodies: &RigidBodySet) -> bool {
-        let normal = |x: Real| x.is_finite() && (x == 0.0 || x.abs() >= Real::MIN_POSITIVE);
+        // physics-mcp patch 5: the same test without short-circuits (it runs with every forward
+        // kinematics and dynamics update): zero, or normal and finite (NaN fails every comparison).
+        let normal = |x: Real| {
+            let a = x.abs();
+            ((a >= Real::MIN_POSITIVE) & (a <= Real::MAX)) | (a == 0.0)
+        };
         self.links.iter().all(|link| {
             let mp = &bodies[link.rigid_body].mprops;
             let (m, p) = (mp.local_mprops.inv_mass, mp.local_mprops.inv_principal_inertia);
             let e = mp.effective_inv_mass;
-            [m, p.x, p.y, p.z, e.x, e.y, e.z].into_iter().all(normal)
+            normal(m) & normal(p.x) & normal(p.y) & normal(p.z) & normal(e.x) & normal(e.y) & normal(e.z)
         })
     }
 
@@ -403,7 +408,8 @@ impl Multibody {
         if self.augmented_mass.nrows() != n || self.augmented_mass.ncols() != n {
             self.augmented_mass = na::DMatrix::zeros(n, n);
         } else {
-            self.augmented_mass.fill(0.0);
+            // physics-mcp patch 5: the same zeros through a slice (nalgebra's `fill` iterates).
+            self.augmented_mass.as_mut_slice().fill(0.0);
         }
         let t = &mut self.tree;
         reset(&mut t.acc_factor, n * n, 0.0);
@@ -610,7 +616,8 @@ impl Multibody {
     /// columns only) and energy guard, solved with the factorisations above.
     fn tree_update_acceleration(&mut self, dt: Real, bodies: &RigidBodySet) {
         let n = self.ndofs;
-        self.accelerations.fill(0.0);
+        // physics-mcp patch 5: the same zeros through a slice (nalgebra's `fill` iterates).
+        self.accelerations.as_mut_slice().fill(0.0);
         let check_implicit_coriolis_divergence = dt * self.velocities.amax() >= 1.0e-3;
         let t = &mut self.tree;
         reset(&mut t.pos_forces, if check_implicit_coriolis_divergence { n } else { 0 }, 0.0);

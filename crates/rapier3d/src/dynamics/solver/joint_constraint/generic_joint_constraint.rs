@@ -4,7 +4,6 @@ use crate::dynamics::solver::joint_constraint::{JointConstraintHelper, JointSolv
 use crate::dynamics::solver::solver_body::SolverBodies;
 use crate::dynamics::{GenericJoint, IntegrationParameters, JointGraphEdge, JointIndex};
 use crate::math::{DIM, DVector, Real, SPATIAL_DIM};
-use na::{DVectorView, DVectorViewMut};
 use parry::math::Pose;
 
 #[derive(Debug, Copy, Clone)]
@@ -215,77 +214,62 @@ impl GenericJointConstraint {
         self.j_id2 + self.ndofs2
     }
 
-    fn solver_vel1<'a>(
-        &self,
+    /// The velocities of one side as a slice: empty for a fixed side, a rigid body's six, or
+    /// the multibody's `ndofs` (physics-mcp patch 5: what `solver_vel1`/`solver_vel2` view).
+    #[inline]
+    fn side_vel<'a>(
+        solver_vel: u32,
+        is_rigid_body: bool,
+        ndofs: usize,
         solver_vels: &'a SolverBodies,
         generic_solver_vels: &'a DVector,
-    ) -> DVectorView<'a, Real> {
-        if self.solver_vel1 == u32::MAX {
-            generic_solver_vels.rows(0, 0) // empty
-        } else if self.is_rigid_body1 {
-            solver_vels.vels[self.solver_vel1 as usize].as_vector_slice()
+    ) -> &'a [Real] {
+        if solver_vel == u32::MAX {
+            &[]
+        } else if is_rigid_body {
+            &solver_vels.vels[solver_vel as usize].as_slice()[..]
         } else {
-            generic_solver_vels.rows(self.solver_vel1 as usize, self.ndofs1)
+            &generic_solver_vels.as_slice()[solver_vel as usize..solver_vel as usize + ndofs]
         }
     }
 
-    fn solver_vel1_mut<'a>(
-        &self,
+    /// [`Self::side_vel`], mutable.
+    #[inline]
+    fn side_vel_mut<'a>(
+        solver_vel: u32,
+        is_rigid_body: bool,
+        ndofs: usize,
         solver_vels: &'a mut SolverBodies,
         generic_solver_vels: &'a mut DVector,
-    ) -> DVectorViewMut<'a, Real> {
-        if self.solver_vel1 == u32::MAX {
-            generic_solver_vels.rows_mut(0, 0) // empty
-        } else if self.is_rigid_body1 {
-            solver_vels.vels[self.solver_vel1 as usize].as_vector_slice_mut()
+    ) -> &'a mut [Real] {
+        if solver_vel == u32::MAX {
+            &mut []
+        } else if is_rigid_body {
+            &mut solver_vels.vels[solver_vel as usize].as_mut_slice()[..]
         } else {
-            generic_solver_vels.rows_mut(self.solver_vel1 as usize, self.ndofs1)
+            &mut generic_solver_vels.as_mut_slice()[solver_vel as usize..solver_vel as usize + ndofs]
         }
     }
 
-    fn solver_vel2<'a>(
-        &self,
-        solver_vels: &'a SolverBodies,
-        generic_solver_vels: &'a DVector,
-    ) -> DVectorView<'a, Real> {
-        if self.solver_vel2 == u32::MAX {
-            generic_solver_vels.rows(0, 0) // empty
-        } else if self.is_rigid_body2 {
-            solver_vels.vels[self.solver_vel2 as usize].as_vector_slice()
-        } else {
-            generic_solver_vels.rows(self.solver_vel2 as usize, self.ndofs2)
-        }
-    }
-
-    fn solver_vel2_mut<'a>(
-        &self,
-        solver_vels: &'a mut SolverBodies,
-        generic_solver_vels: &'a mut DVector,
-    ) -> DVectorViewMut<'a, Real> {
-        if self.solver_vel2 == u32::MAX {
-            generic_solver_vels.rows_mut(0, 0) // empty
-        } else if self.is_rigid_body2 {
-            solver_vels.vels[self.solver_vel2 as usize].as_vector_slice_mut()
-        } else {
-            generic_solver_vels.rows_mut(self.solver_vel2 as usize, self.ndofs2)
-        }
-    }
-
+    /// physics-mcp patch 5: the release's arithmetic (nalgebra's `dot` and `axpy` over the same
+    /// entries, in the same order) on slices instead of strided `DVectorView`s
+    /// (`generic_slice_ops`), so the same bits in fewer instructions.
     pub fn solve(
         &mut self,
         jacobians: &DVector,
         solver_vels: &mut SolverBodies,
         generic_solver_vels: &mut DVector,
     ) {
+        use crate::dynamics::solver::generic_slice_ops::{axpy, dot};
         let jacobians = jacobians.as_slice();
 
-        let solver_vel1 = self.solver_vel1(solver_vels, generic_solver_vels);
-        let j1 = DVectorView::from_slice(&jacobians[self.j_id1..], self.ndofs1);
-        let vel1 = j1.dot(&solver_vel1);
+        let solver_vel1 = Self::side_vel(self.solver_vel1, self.is_rigid_body1, self.ndofs1, solver_vels, generic_solver_vels);
+        let j1 = &jacobians[self.j_id1..][..self.ndofs1];
+        let vel1 = dot(j1, solver_vel1);
 
-        let solver_vel2 = self.solver_vel2(solver_vels, generic_solver_vels);
-        let j2 = DVectorView::from_slice(&jacobians[self.j_id2..], self.ndofs2);
-        let vel2 = j2.dot(&solver_vel2);
+        let solver_vel2 = Self::side_vel(self.solver_vel2, self.is_rigid_body2, self.ndofs2, solver_vels, generic_solver_vels);
+        let j2 = &jacobians[self.j_id2..][..self.ndofs2];
+        let vel2 = dot(j2, solver_vel2);
 
         let dvel = self.rhs + (vel2 - vel1);
         let total_impulse = na::clamp(
@@ -296,13 +280,13 @@ impl GenericJointConstraint {
         let delta_impulse = total_impulse - self.impulse;
         self.impulse = total_impulse;
 
-        let mut solver_vel1 = self.solver_vel1_mut(solver_vels, generic_solver_vels);
-        let wj1 = DVectorView::from_slice(&jacobians[self.wj_id1()..], self.ndofs1);
-        solver_vel1.axpy(delta_impulse, &wj1, 1.0);
+        let solver_vel1 = Self::side_vel_mut(self.solver_vel1, self.is_rigid_body1, self.ndofs1, solver_vels, generic_solver_vels);
+        let wj1 = &jacobians[self.wj_id1()..][..self.ndofs1];
+        axpy(solver_vel1, delta_impulse, wj1);
 
-        let mut solver_vel2 = self.solver_vel2_mut(solver_vels, generic_solver_vels);
-        let wj2 = DVectorView::from_slice(&jacobians[self.wj_id2()..], self.ndofs2);
-        solver_vel2.axpy(-delta_impulse, &wj2, 1.0);
+        let solver_vel2 = Self::side_vel_mut(self.solver_vel2, self.is_rigid_body2, self.ndofs2, solver_vels, generic_solver_vels);
+        let wj2 = &jacobians[self.wj_id2()..][..self.ndofs2];
+        axpy(solver_vel2, -delta_impulse, wj2);
     }
 
     pub fn writeback_impulses(&self, joints_all: &mut [JointGraphEdge]) {

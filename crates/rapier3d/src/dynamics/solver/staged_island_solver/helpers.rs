@@ -100,8 +100,15 @@ impl VelocitySolver {
             }
         }
 
-        self.generic_solver_vels_increment = DVector::zeros(multibody_solver_id as usize);
-        self.generic_solver_vels = DVector::zeros(multibody_solver_id as usize);
+        // physics-mcp patch 5: the same zero vectors, reusing last step's buffers when their
+        // length is unchanged (no allocation per step).
+        for v in [&mut self.generic_solver_vels_increment, &mut self.generic_solver_vels] {
+            if v.len() == multibody_solver_id as usize {
+                v.as_mut_slice().fill(0.0);
+            } else {
+                *v = DVector::zeros(multibody_solver_id as usize);
+            }
+        }
 
         // physics-mcp patch 1: under the tree path, independent multibodies' dynamics run in
         // parallel (each reads the bodies and writes only itself, so the bits do not depend on
