@@ -595,15 +595,15 @@ impl Collider {
     /// The AABB is the smallest box (aligned with world axes) that contains the shape.
     /// Doesn't include contact skin.
     pub fn compute_aabb(&self) -> Aabb {
-        self.shape.compute_aabb(&self.pos)
+        // physics-mcp patch 6: the same bits as `self.shape.compute_aabb`, cheaper for hulls.
+        crate::geometry::convex_aabb::shape_aabb(&*self.shape, &self.pos)
     }
 
     /// Computes the AABB including contact skin and prediction distance.
     ///
     /// This is the AABB used for collision detection (slightly larger than the visual shape).
     pub fn compute_collision_aabb(&self, prediction: Real) -> Aabb {
-        self.shape
-            .compute_aabb(&self.pos)
+        self.compute_aabb()
             .loosened(self.contact_skin + prediction)
     }
 
@@ -640,9 +640,7 @@ impl Collider {
         let prediction_distance = params.prediction_distance();
         let mut aabb = self.compute_collision_aabb(prediction_distance / 2.0 + soft_motion_margin);
         if let Some(next_pose) = next_pose {
-            let next_aabb = self
-                .shape
-                .compute_aabb(&next_pose)
+            let next_aabb = crate::geometry::convex_aabb::shape_aabb(&*self.shape, &next_pose)
                 .loosened(self.contact_skin() + prediction_distance / 2.0);
             aabb.merge(&next_aabb);
         }
