@@ -8,7 +8,8 @@
 //!   driving the joints (as `benches/mjcf.rs`).
 //!
 //! `REPORT robot_steps <scene> rule <n>: <median> ms/step (min <min>, <steps> steps, <runs> runs)`
-//! lines carry the figures. `ROBOT_BENCH_DATA` is pybullet_data's directory (the KUKA and the
+//! lines carry the figures, and `HASH robot_steps <scene> rule <n>: <state hash> after <steps> steps`
+//! lines the final state. `ROBOT_BENCH_DATA` is pybullet_data's directory (the KUKA and the
 //! Panda are skipped without it); `ROBOT_BENCH_SCENES` (comma-separated, default all),
 //! `ROBOT_BENCH_RULES` (default `2,3`; rule 1 on request), `ROBOT_BENCH_STEPS` (overrides both step counts) and
 //! `ROBOT_BENCH_RUNS` (default 5) narrow a run, e.g. under callgrind
@@ -89,18 +90,23 @@ fn mjcf_world(model: &str, rule: EngineRule) -> World {
     w
 }
 
-/// (median, min) ms/step of `steps` steps in one command, each run from a fresh world.
-fn cost(build: &dyn Fn() -> World, steps: u64, runs: usize) -> (f64, f64) {
+/// (median, min) ms/step of `steps` steps in one command, each run from a fresh world, and the
+/// last run's final state hash (every run ends in the same state: a change meant to keep the
+/// bits is checked by comparing it across builds).
+fn cost(build: &dyn Fn() -> World, steps: u64, runs: usize) -> (f64, f64, String) {
+    let mut hash = String::new();
     let mut per_step: Vec<f64> = (0..runs)
         .map(|_| {
             let mut w = build();
             let t = Instant::now();
             apply(&mut w, &Command::step(steps));
-            t.elapsed().as_secs_f64() * 1e3 / steps as f64
+            let ms = t.elapsed().as_secs_f64() * 1e3 / steps as f64;
+            hash = w.state_hash();
+            ms
         })
         .collect();
     per_step.sort_by(f64::total_cmp);
-    (per_step[per_step.len() / 2], per_step[0])
+    (per_step[per_step.len() / 2], per_step[0], hash)
 }
 
 fn main() {
@@ -133,8 +139,9 @@ fn main() {
     for (name, steps, build) in &scenes {
         let steps = std::env::var("ROBOT_BENCH_STEPS").ok().and_then(|s| s.parse().ok()).unwrap_or(*steps);
         for rule in &rules {
-            let (median, min) = cost(&|| build(*rule), steps, runs);
+            let (median, min, hash) = cost(&|| build(*rule), steps, runs);
             println!("REPORT robot_steps {name} rule {}: {median:.4} ms/step (min {min:.4}, {steps} steps, {runs} runs)", *rule as u32);
+            println!("HASH robot_steps {name} rule {}: {hash} after {steps} steps", *rule as u32);
         }
     }
 }
