@@ -1,5 +1,5 @@
 //! physics-mcp patch 6: the world AABB of a convex polyhedron, bit-identical to parry's
-//! `ConvexPolyhedron::compute_aabb` and about four times cheaper.
+//! `ConvexPolyhedron::compute_aabb` and about two (SSE2) to four (AVX) times cheaper.
 //!
 //! A collider's AABB is recomputed every step for every moving collider. For a convex hull that
 //! is parry's `point_cloud_aabb`: every vertex transformed by the pose (`q * p + t`), then a
@@ -44,9 +44,12 @@ pub(crate) fn shape_aabb(shape: &dyn Shape, pos: &Pose) -> Aabb {
 /// The AABB of `pts` transformed by `pos`: the same bits as
 /// `parry::bounding_volume::details::point_cloud_aabb_ref(pos, pts)` (module doc). On x86_64,
 /// AVX (where the CPU has it, detected at run time) does eight vertices at once, else SSE2 (the
-/// architecture's baseline) four; both give the same bits. Elsewhere this is parry's function.
+/// architecture's baseline) four; both give the same bits. Elsewhere this is parry's function,
+/// and so it is without `enhanced-determinism`: only that feature builds glam with
+/// `scalar-math`, whose rotation the kernels copy (glam's SIMD rotation, with FMA where the
+/// target has it, rounds differently).
 pub(crate) fn convex_points_aabb(pos: &Pose, pts: &[Vector]) -> Aabb {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32", feature = "dim3"))]
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32", feature = "dim3", feature = "enhanced-determinism"))]
     if pts.len() >= 2 * LANES {
         #[cfg(feature = "std")]
         let avx = std::is_x86_feature_detected!("avx");
@@ -72,7 +75,7 @@ pub(crate) fn convex_points_aabb(pos: &Pose, pts: &[Vector]) -> Aabb {
 
 /// The lane kernels of [`convex_points_aabb`]: one body, instantiated for SSE2 (4 lanes) and
 /// AVX (8 lanes; its 128-bit instructions are SSE's, VEX-encoded, the same operations).
-#[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32", feature = "dim3"))]
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32", feature = "dim3", feature = "enhanced-determinism"))]
 mod lanes {
     use crate::math::{Pose, Real, Vector};
     use core::arch::x86_64::*;

@@ -52,7 +52,7 @@ fn convex_aabb_equals_parry_on_random_clouds_and_poses() {
         let pos = Pose::from_parts(Vector::new(rng.f(-3.0, 3.0), rng.f(-3.0, 3.0), rng.f(-3.0, 3.0)), rng.rotation());
         assert!(same(&pos, &pts), "case {case}: {pos:?}");
         checked += 1;
-        #[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32"))]
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32", feature = "enhanced-determinism"))]
         if n >= 8 {
             // Both kernels, whichever the CPU would be given: the same extremes, and an answer
             // (not the fallback).
@@ -66,7 +66,7 @@ fn convex_aabb_equals_parry_on_random_clouds_and_poses() {
     }
     assert_eq!(checked, 4000);
     // The four-lane kernel, not the fallback, answered (all but clouds under 8 points).
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32"))]
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2", feature = "f32", feature = "enhanced-determinism"))]
     assert_eq!(fast, (0..4000).filter(|c| 1 + c % 70 >= 8).count());
 }
 
@@ -101,6 +101,39 @@ fn convex_aabb_equals_parry_on_hulls_at_the_origin_and_on_zero_extremes() {
             }
         }
         pts.push(Vector::new(-0.25 * extra as Real, 0.125, -0.0));
+    }
+}
+
+#[test]
+fn convex_aabb_equals_parry_where_lanes_would_pick_another_signed_zero() {
+    // Found by the review of patch 6: without the zero-extreme fallback, the lanes' minimum of
+    // x is +0 where parry's running minimum keeps -0.
+    let pts = [
+        (0.0, 1.0, 0.0),
+        (0.0, -0.0, 0.5),
+        (-0.0, 1.0, 1.0),
+        (1.0, 0.5, 0.0),
+        (0.0, 0.5, 0.5),
+        (0.5, 0.5, 1.0),
+        (0.0, -0.0, 0.0),
+        (1.0, 1.0, 0.5),
+        (-0.0, 0.0, -0.0),
+        (1.0, -0.0, 0.0),
+        (1.0, 0.0, 1.0),
+        (1.0, -0.0, 1.0),
+    ]
+    .map(|(x, y, z)| Vector::new(x, y, z));
+    let pos = Pose::from_parts(Vector::new(-0.0, -0.0, -0.0), Rotation::from_xyzw(-0.0, 0.0, 0.0, 1.0));
+    assert!(same(&pos, &pts));
+    // And a seeded search over such lattices of signed zeros, halves and ones.
+    let mut rng = Rng::new(17);
+    let coord = |rng: &mut Rng| [0.0, -0.0, 0.5, 1.0][(rng.f(0.0, 4.0) as usize).min(3)];
+    for case in 0..3000 {
+        let n = 8 + case % 17;
+        let pts: Vec<Vector> = (0..n).map(|_| Vector::new(coord(&mut rng), coord(&mut rng), coord(&mut rng))).collect();
+        let t = Vector::new(coord(&mut rng) * -1.0, coord(&mut rng), -coord(&mut rng));
+        let rot = [Rotation::IDENTITY, Rotation::from_xyzw(-0.0, 0.0, 0.0, 1.0), Rotation::from_xyzw(0.0, -0.0, 0.0, -1.0)][case % 3];
+        assert!(same(&Pose::from_parts(t, rot), &pts), "lattice case {case}");
     }
 }
 

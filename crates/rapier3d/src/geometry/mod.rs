@@ -302,6 +302,7 @@ mod broad_phase_bvh;
 mod broad_phase_pair_event;
 #[cfg(feature = "alloc")]
 mod collider;
+#[cfg(feature = "alloc")]
 pub(crate) mod convex_aabb;
 #[cfg(feature = "alloc")]
 mod collider_set;
