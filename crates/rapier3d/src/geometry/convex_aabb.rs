@@ -6,8 +6,8 @@
 //! running component-wise min and max. A robot whose links are hulls of their meshes (pybullet_data's
 //! KUKA: 8 hulls of a few hundred vertices each) spent 30% of its step there.
 //!
-//! Here, on x86_64, the same per-vertex arithmetic runs on [`LANES`] vertices at once in SSE2
-//! registers (each lane performs exactly the scalar operations glam's scalar-math `Quat * Vec3`
+//! Here, on x86_64, the same per-vertex arithmetic runs on four vertices at once in SSE2
+//! registers, or eight in AVX ones where the CPU has them (each lane performs exactly the scalar operations glam's scalar-math `Quat * Vec3`
 //! performs, in the same order, with no fused multiply-add, so every rotated vertex has the same
 //! bits), the translation is added once at the end instead of per vertex, and the lanes'
 //! extremes are combined at the end. Why the result is the same, bit for bit:
@@ -22,7 +22,9 @@
 //!   which an order change would not reproduce), the sequential function computes the result.
 //!
 //! `convex_aabb_tests` checks bit equality against parry's function on random hulls and poses,
-//! including zero extremes, identity poses at the origin and NaN poses.
+//! including zero extremes, a lattice of signed zeros where the lanes alone would pick the
+//! other zero, identity poses at the origin and NaN poses, and the two kernels against each
+//! other.
 
 use crate::math::{Pose, Vector};
 use parry::bounding_volume::Aabb;

@@ -1,12 +1,13 @@
 //! physics-mcp patch 5: nalgebra's dynamic-vector `dot` and `axpy`, operation for operation, on
 //! plain slices.
 //!
-//! The generic (multibody) joint and contact constraints solve with `jacobians.rows(..)` and
-//! `solver_vels.rows(..)` views: every solver iteration builds strided `DVectorView`s and runs
+//! The release's generic (multibody) joint constraints solved with `jacobians.rows(..)` and
+//! `solver_vels.rows(..)` views: every solver iteration built strided `DVectorView`s and ran
 //! nalgebra's generic kernels over them (a few hundred instructions for a 7-entry row, most of it
 //! view and stride bookkeeping). These functions compute exactly what those kernels compute —
 //! the same products, added in the same order into the same accumulators — on contiguous
-//! slices, so every result keeps its bits.
+//! slices, so every result keeps its bits. Only `GenericJointConstraint::solve` uses them: in the
+//! generic contact constraints they measured dearer than nalgebra's kernels (PATCHES.md patch 5).
 
 use crate::math::Real;
 
