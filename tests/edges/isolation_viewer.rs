@@ -45,12 +45,6 @@ fn threads(pid: u32) -> u64 {
     status.lines().find_map(|l| l.strip_prefix("Threads:")).and_then(|n| n.trim().parse().ok()).unwrap()
 }
 
-/// The server's resident memory now, in KiB (Linux's VmRSS).
-fn rss_kib(pid: u32) -> u64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
-    status.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|n| n.split_whitespace().next()?.parse().ok()).unwrap()
-}
-
 #[tokio::test(flavor = "multi_thread")]
 async fn looking_back_is_priced_before_it_runs_and_refused_saying_what_fits() {
     let dir = tempfile::tempdir().unwrap();
@@ -193,37 +187,46 @@ async fn viewer_asks_waiting_for_a_busy_simulation_hold_a_few_threads() {
     }
 }
 
-#[tokio::test(flavor = "multi_thread")]
-async fn the_viewer_forgets_destroyed_simulations() {
+/// Destroying a simulation drops every answer the viewer cached of it at once — its timeline,
+/// past moments, clips, inspections and refusals — and nothing of another simulation. Counted
+/// in the caches themselves: each is bounded in bytes, so a forgotten `forget` never shows in
+/// the process's memory (measuring it could not fail, and failed on allocator noise).
+#[test]
+fn the_viewer_forgets_destroyed_simulations() {
+    use physics_mcp::command::{Command, Shape};
+    use physics_mcp::limits::Limits;
+    use physics_mcp::seeing::viewer::{self, ask};
+    use physics_mcp::sim::{lock_sim, Registry};
+    use physics_mcp::value::Args;
+
     let dir = tempfile::tempdir().unwrap();
-    let server = Server::start(dir.path(), &[]);
-    let c = server.client().await;
-    let sim = c.new_sim(json!({})).await;
-    c.call("add_box", json!({"sim_id": sim, "dimensions": [0.1, 0.1, 0.1], "position": [0, 0, 1]})).await;
-    // A 30,000-event chain: its timeline is about 3 MB.
-    let steps: Vec<Value> = (0..10_000).map(|_| json!({"tool": "step_simulation", "arguments": {"steps": 1}})).collect();
-    for _ in 0..3 {
-        c.call("batch", json!({"sim_id": sim, "calls": steps})).await;
-    }
-    let base = server.base_url().to_string();
-    let round = |fork: String| {
-        let base = base.clone();
-        async move {
-            let (status, t) = get(&format!("{base}/viewer/{fork}/timeline")).await;
-            assert_eq!(status, 200, "{t}");
-            assert!(t.len() > 1_000_000, "timeline of {} bytes", t.len());
-        }
-    };
-    // One round first, so what a round allocates for itself is counted before the start.
-    let mut start = 0;
-    for i in 0..21 {
-        let fork = c.call("fork_simulation", json!({"sim_id": sim})).await["simulation_id"].as_str().unwrap().to_string();
-        round(fork.clone()).await;
-        c.call("destroy_simulation", json!({"sim_id": fork})).await;
-        if i == 0 {
-            start = rss_kib(server.pid());
+    let reg = Registry::open(common::config(dir.path())).unwrap();
+    let (a, l) = (Args::new(), Limits::default());
+    let ids = ["forgotten_doomed", "forgotten_kept"];
+    for id in ids {
+        let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
+        reg.create(root, &a).unwrap();
+        let shared = reg.get(id).unwrap();
+        let mut sim = lock_sim(&shared);
+        let add = Command::AddBody { shape: Shape::Sphere { radius: 0.1 }, position: [0.0, 0.0, 1.0], orientation: [0.0, 0.0, 0.0, 1.0], mass: 1.0, color: None, collides: true };
+        sim.change("add_sphere", &a, Ok(add), &l, &mut |_| true).unwrap();
+        for _ in 0..3 {
+            sim.change("step_simulation", &a, Ok(Command::step(10)), &l, &mut |_| true).unwrap();
         }
     }
-    let grown = rss_kib(server.pid()).saturating_sub(start);
-    assert!(grown < 30 * 1024, "20 rounds of fork, timeline, destroy grew the server by {} MiB", grown / 1024);
+    let stop = tokio_util::sync::CancellationToken::new();
+    // One ask of each kind that is kept: a timeline, a past moment, a clip, an inspection, and
+    // a refusal (an object the simulation never had).
+    let asks = [("timeline", ""), ("poses", "seq=3"), ("clip", "from_seq=2"), ("object", "id=0"), ("object", "id=99")];
+    for id in ids {
+        for (kind, query) in asks {
+            let answered = ask::answer_text(&reg, id, kind, query, &stop);
+            assert_eq!(answered.is_ok(), query != "id=99", "{kind}?{query} of {id}: {answered:?}");
+        }
+    }
+    let kept = viewer::kept_of(ids[1]);
+    assert!(viewer::kept_of(ids[0]) >= asks.len() && kept >= asks.len(), "every kind of ask is cached: {} and {kept}", viewer::kept_of(ids[0]));
+    reg.destroy(ids[0]).unwrap();
+    assert_eq!(viewer::kept_of(ids[0]), 0, "the viewer still keeps answers of a destroyed simulation");
+    assert_eq!(viewer::kept_of(ids[1]), kept, "destroying one simulation dropped another's answers");
 }

@@ -389,6 +389,15 @@ pub fn forget(id: &str) {
     past::forget(id);
 }
 
+/// Entries the viewer keeps of simulation `id` (`viewer::kept_of`).
+pub fn kept_of(id: &str) -> usize {
+    SHOWN.count(|k| k == id)
+        + INSPECTED.count(|(k, _, _)| k == id)
+        + REFUSED.count(|(k, _, _)| k == id)
+        + CLIPS.count(|(k, _, _)| k == id)
+        + past::kept_of(id)
+}
+
 /// `answer` of an ask that re-simulates (a past moment, a clip, an inspection), refused again
 /// at once when it was refused at the simulation's current head; a refusal is remembered
 /// unless the asker gave up (a stopped answer says nothing about the ask).

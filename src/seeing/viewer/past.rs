@@ -172,6 +172,11 @@ pub fn forget(id: &str) {
     CACHE.forget(|(k, _, _)| k == id);
 }
 
+/// Entries this module keeps of simulation `id` (`viewer::kept_of`).
+pub fn kept_of(id: &str) -> usize {
+    TIMELINES.count(|k| k == id) + CACHE.count(|(k, _, _)| k == id)
+}
+
 /// The timeline last read of simulation `id`, without its lock.
 pub fn last_timeline(id: &str) -> Option<Arc<Timeline>> {
     TIMELINES.get(&id.to_string())

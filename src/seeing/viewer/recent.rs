@@ -80,6 +80,11 @@ impl<K: PartialEq, V: Clone> Recent<K, V> {
         kept.bytes -= freed;
     }
 
+    /// Entries kept now whose key `which` says (a simulation's, for `viewer::kept_of`).
+    pub fn count(&self, which: impl Fn(&K) -> bool) -> usize {
+        self.kept().entries.iter().filter(|(k, _, _)| which(k)).count()
+    }
+
     /// Bytes kept now (entries' reported bytes and their overhead).
     pub fn bytes(&self) -> usize {
         self.kept().bytes
@@ -125,7 +130,8 @@ mod tests {
         assert_eq!((r.get(&9), r.get(&6)), (Some(9), None));
         r.put(99, 99, 10_000);
         assert_eq!((r.get(&99), r.len()), (None, 3));
+        assert_eq!(r.count(|k| *k >= 8), 2);
         r.forget(|k| *k >= 8);
-        assert_eq!((r.len(), r.bytes()), (1, 1000 + ENTRY_OVERHEAD));
+        assert_eq!((r.len(), r.bytes(), r.count(|k| *k >= 8)), (1, 1000 + ENTRY_OVERHEAD, 0));
     }
 }
