@@ -1025,6 +1025,15 @@ fn hostile_table(ws: &Path, out: &Path) -> Vec<Case> {
     assert_ne!(subnormal, limits, "the fixture's inertias were found");
     w("subnormal_inertia.urdf", &subnormal);
     ur("subnormal_inertia.urdf", "a robot with subnormal inertias", false);
+    // An infinite inertia (1e39 is past f32) on the first link under a fixed base: the tree
+    // path's dynamics went non-finite, the link was quarantined (disabled) and its multibody
+    // kept a stale solver id, so the joint constraints of its other links sliced out of bounds
+    // and panicked (seed 11276948260366473473 mutated this fixture so; PATCHES.md patch 7).
+    let first = r#"<link name="a"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01""#;
+    let infinite = limits.replace(first, &first.replace(r#"iyy="0.01""#, r#"iyy="1e39""#));
+    assert_ne!(infinite, limits, "the fixture's first inertia was found");
+    w("infinite_inertia.urdf", &infinite);
+    ur("infinite_inertia.urdf", "a robot whose first link has an infinite inertia", false);
     // One step of a chain of n links costs O(n^3) time and O(n^2) memory: this 3.8 MB URDF
     // (under the 8 MiB limit) once loaded and then made a one-step step_simulation run for
     // hours. A model has at most 512 joints now.

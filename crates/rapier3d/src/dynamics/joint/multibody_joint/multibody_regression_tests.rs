@@ -648,3 +648,47 @@ fn joint_friction_bounds_the_joint_force() {
         "an oversized friction bound must stay inert, not chatter: {extreme}"
     );
 }
+
+/// physics-mcp patch 7 (PATCHES.md): a fixed-root multibody whose first link is disabled — here
+/// quarantined for a non-finite velocity — while its other links stay in the island used to
+/// keep last step's solver id, past this step's velocity vectors, and the joint constraints of
+/// its other links panicked slicing them. Found by physics-mcp's file fuzzer (an infinite
+/// inertia on a URDF's first link).
+#[test]
+#[cfg(feature = "dim3")]
+fn a_fixed_root_multibody_whose_first_link_is_quarantined_steps_without_panic() {
+    use crate::dynamics::MultibodyDynamics;
+    for dynamics in [
+        MultibodyDynamics::Dense,
+        MultibodyDynamics::TreeSparse,
+        MultibodyDynamics::TreeSparsePerStep,
+    ] {
+        let mut world = PhysicsWorld::new();
+        world.integration_parameters.multibody_dynamics = dynamics;
+        let base = world.insert_body(RigidBodyBuilder::fixed());
+        let mut links = Vec::new();
+        for x in [1.0, 2.0] {
+            let link = world.insert_body(
+                RigidBodyBuilder::dynamic()
+                    .translation(Vector::new(x, 0.0, 0.0))
+                    .additional_mass(1.0),
+            );
+            // A limit and a motor: joint constraints that read the multibody's velocities.
+            let joint = RevoluteJointBuilder::new(Vector::new(0.0, 0.0, 1.0))
+                .local_anchor2(Vector::new(-x, 0.0, 0.0))
+                .limits([-0.5, 0.5])
+                .motor_velocity(1.0, 10.0);
+            world.insert_multibody_joint(base, link, joint).unwrap();
+            links.push(link);
+        }
+        for _ in 0..3 {
+            world.step();
+        }
+        world.bodies[links[0]].set_linvel(Vector::new(Real::NAN, 0.0, 0.0), true);
+        for _ in 0..10 {
+            world.step();
+        }
+        assert!(!world.bodies[links[0]].is_enabled(), "{dynamics:?}: the first link was not quarantined");
+        assert!(world.bodies[links[0]].translation().is_finite() && world.bodies[links[1]].translation().is_finite(), "{dynamics:?}");
+    }
+}

@@ -100,6 +100,26 @@ impl VelocitySolver {
             }
         }
 
+        // physics-mcp patch 7: a multibody with links in the island but not its root link (0,
+        // or 1 under a fixed root) got no id above — its root link was disabled, e.g.
+        // quarantined for a non-finite pose — and kept last step's, which may lie past this
+        // step's vectors (the release then panics slicing them). Such an id gets the next
+        // rows, after every other multibody's; the multibody is not a root, so it is held
+        // still this step as before. An old id still inside the vectors is left as the release
+        // leaves it, so no step that ran before changes.
+        let assigned = multibody_solver_id;
+        for handle in island_bodies {
+            if let Some(link) = multibodies.rigid_body_link(*handle).copied() {
+                let multibody = multibodies
+                    .get_multibody_mut_internal(link.multibody)
+                    .unwrap();
+                if multibody.solver_id as usize + multibody.ndofs() > assigned as usize {
+                    multibody.solver_id = multibody_solver_id;
+                    multibody_solver_id += multibody.ndofs() as u32;
+                }
+            }
+        }
+
         // physics-mcp patch 5: the same zero vectors, reusing last step's buffers when their
         // length is unchanged (no allocation per step).
         for v in [&mut self.generic_solver_vels_increment, &mut self.generic_solver_vels] {
