@@ -389,13 +389,16 @@ pub fn forget(id: &str) {
     past::forget(id);
 }
 
-/// Entries the viewer keeps of simulation `id` (`viewer::kept_of`).
-pub fn kept_of(id: &str) -> usize {
-    SHOWN.count(|k| k == id)
-        + INSPECTED.count(|(k, _, _)| k == id)
-        + REFUSED.count(|(k, _, _)| k == id)
-        + CLIPS.count(|(k, _, _)| k == id)
-        + past::kept_of(id)
+/// Entries the viewer keeps of simulation `id`, by cache (`viewer::kept_of`).
+pub fn kept_of(id: &str) -> Vec<(&'static str, usize)> {
+    let mut kept = vec![
+        ("shown", SHOWN.count(|k| k == id)),
+        ("inspected", INSPECTED.count(|(k, _, _)| k == id)),
+        ("refused", REFUSED.count(|(k, _, _)| k == id)),
+        ("clips", CLIPS.count(|(k, _, _)| k == id)),
+    ];
+    kept.extend(past::kept_of(id));
+    kept
 }
 
 /// `answer` of an ask that re-simulates (a past moment, a clip, an inspection), refused again

@@ -172,9 +172,9 @@ pub fn forget(id: &str) {
     CACHE.forget(|(k, _, _)| k == id);
 }
 
-/// Entries this module keeps of simulation `id` (`viewer::kept_of`).
-pub fn kept_of(id: &str) -> usize {
-    TIMELINES.count(|k| k == id) + CACHE.count(|(k, _, _)| k == id)
+/// Entries this module keeps of simulation `id`, by cache (`viewer::kept_of`).
+pub fn kept_of(id: &str) -> [(&'static str, usize); 2] {
+    [("timelines", TIMELINES.count(|k| k == id)), ("past moments", CACHE.count(|(k, _, _)| k == id))]
 }
 
 /// The timeline last read of simulation `id`, without its lock.

@@ -103,19 +103,27 @@ impl VelocitySolver {
         // physics-mcp patch 7: a multibody with links in the island but not its root link (0,
         // or 1 under a fixed root) got no id above — its root link was disabled, e.g.
         // quarantined for a non-finite pose — and kept last step's, which may lie past this
-        // step's vectors (the release then panics slicing them). Such an id gets the next
-        // rows, after every other multibody's; the multibody is not a root, so it is held
-        // still this step as before. An old id still inside the vectors is left as the release
-        // leaves it, so no step that ran before changes.
+        // step's vectors (the release then panics slicing them). Such a multibody gets the next
+        // rows, after every other's, and is solved and integrated as a root through the first
+        // of its links in the island, as if its root link were there. An old id still inside
+        // the vectors is left as the release leaves it (aliasing another multibody's rows: a
+        // known defect kept for the bits of every step that ran before), so only steps that
+        // panicked change.
         let assigned = multibody_solver_id;
+        let roots = self.multibody_roots.len();
         for handle in island_bodies {
             if let Some(link) = multibodies.rigid_body_link(*handle).copied() {
                 let multibody = multibodies
                     .get_multibody_mut_internal(link.multibody)
                     .unwrap();
-                if multibody.solver_id as usize + multibody.ndofs() > assigned as usize {
+                if multibody.solver_id as usize + multibody.ndofs() > assigned as usize
+                    && !self.multibody_roots[roots..]
+                        .iter()
+                        .any(|l| l.multibody == link.multibody)
+                {
                     multibody.solver_id = multibody_solver_id;
                     multibody_solver_id += multibody.ndofs() as u32;
+                    self.multibody_roots.push(link);
                 }
             }
         }
