@@ -32,7 +32,7 @@ use tokio_util::sync::CancellationToken;
 use super::live::{self, Progress};
 use super::moment::{Captured, Moment, Shown};
 use super::png::{self, Failed, FrameQuery};
-use super::recent::Recent;
+use super::recent::{Recent, SimulationCache};
 use super::past::Past;
 use super::{past, wire};
 use crate::log::fold;
@@ -380,25 +380,24 @@ static REFUSED: Recent<(String, u64, String), Failed> = Recent::new(1024, 1 << 2
 /// Clips lately answered, by (simulation, head, ask).
 static CLIPS: Recent<(String, u64, String), Arc<String>> = Recent::new(16, 8 << 20);
 
+/// Every cache of the viewer whose entries belong to a simulation, named — this module's
+/// answers and `past`'s states: what `forget` empties and `kept_of` counts (one list, so no
+/// cache can be left out of either).
+fn caches() -> impl Iterator<Item = (&'static str, &'static dyn SimulationCache)> {
+    let answers: [(&'static str, &'static dyn SimulationCache); 4] = [("shown", &SHOWN), ("inspected", &INSPECTED), ("refused", &REFUSED), ("clips", &CLIPS)];
+    answers.into_iter().chain(past::caches())
+}
+
 /// Drops what the viewer keeps of simulation `id` (it was destroyed).
 pub fn forget(id: &str) {
-    SHOWN.forget(|k| k == id);
-    INSPECTED.forget(|(k, _, _)| k == id);
-    REFUSED.forget(|(k, _, _)| k == id);
-    CLIPS.forget(|(k, _, _)| k == id);
-    past::forget(id);
+    for (_, cache) in caches() {
+        cache.forget_simulation(id);
+    }
 }
 
 /// Entries the viewer keeps of simulation `id`, by cache (`viewer::kept_of`).
 pub fn kept_of(id: &str) -> Vec<(&'static str, usize)> {
-    let mut kept = vec![
-        ("shown", SHOWN.count(|k| k == id)),
-        ("inspected", INSPECTED.count(|(k, _, _)| k == id)),
-        ("refused", REFUSED.count(|(k, _, _)| k == id)),
-        ("clips", CLIPS.count(|(k, _, _)| k == id)),
-    ];
-    kept.extend(past::kept_of(id));
-    kept
+    caches().map(|(name, cache)| (name, cache.count_simulation(id))).collect()
 }
 
 /// `answer` of an ask that re-simulates (a past moment, a clip, an inspection), refused again

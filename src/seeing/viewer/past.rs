@@ -11,7 +11,7 @@ use crate::command::Command;
 use crate::log::fold::{self, At};
 use crate::seeing::sensing::capture::Scene;
 use crate::sim::Sim;
-use crate::seeing::viewer::recent::Recent;
+use crate::seeing::viewer::recent::{Recent, SimulationCache};
 use crate::seeing::viewer::moment::Captured;
 use crate::seeing::viewer::wire;
 
@@ -166,15 +166,10 @@ impl Timeline {
     }
 }
 
-/// Drops what this module keeps of simulation `id` (it was destroyed).
-pub fn forget(id: &str) {
-    TIMELINES.forget(|k| k == id);
-    CACHE.forget(|(k, _, _)| k == id);
-}
-
-/// Entries this module keeps of simulation `id`, by cache (`viewer::kept_of`).
-pub fn kept_of(id: &str) -> [(&'static str, usize); 2] {
-    [("timelines", TIMELINES.count(|k| k == id)), ("past moments", CACHE.count(|(k, _, _)| k == id))]
+/// This module's caches of simulations' states, named (`ask::caches` lists them with the
+/// viewer's others, for `forget` and `kept_of`).
+pub fn caches() -> [(&'static str, &'static dyn SimulationCache); 2] {
+    [("timelines", &TIMELINES), ("past moments", &CACHE)]
 }
 
 /// The timeline last read of simulation `id`, without its lock.

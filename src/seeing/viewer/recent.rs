@@ -101,6 +101,44 @@ impl<K: PartialEq, V: Clone> Recent<K, V> {
     }
 }
 
+/// A cache key that names the simulation its entry belongs to (the whole key, or its first
+/// part), so a simulation's entries can be dropped and counted through one list of caches.
+pub trait OfSimulation {
+    /// The simulation's id.
+    fn simulation(&self) -> &str;
+}
+
+impl OfSimulation for String {
+    fn simulation(&self) -> &str {
+        self
+    }
+}
+
+impl<A, B> OfSimulation for (String, A, B) {
+    fn simulation(&self) -> &str {
+        &self.0
+    }
+}
+
+/// A cache whose entries belong to simulations: what the viewer's modules list once, so that
+/// `forget` (a destroyed simulation) and `kept_of` (its test) cannot disagree on the caches.
+pub trait SimulationCache: Sync {
+    /// Drops simulation `id`'s entries.
+    fn forget_simulation(&self, id: &str);
+    /// How many entries of simulation `id` are kept.
+    fn count_simulation(&self, id: &str) -> usize;
+}
+
+impl<K: PartialEq + OfSimulation + Send, V: Clone + Send> SimulationCache for Recent<K, V> {
+    fn forget_simulation(&self, id: &str) {
+        self.forget(|k| k.simulation() == id);
+    }
+
+    fn count_simulation(&self, id: &str) -> usize {
+        self.count(|k| k.simulation() == id)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

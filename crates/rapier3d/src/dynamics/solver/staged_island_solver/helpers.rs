@@ -103,27 +103,25 @@ impl VelocitySolver {
         // physics-mcp patch 7: a multibody with links in the island but not its root link (0,
         // or 1 under a fixed root) got no id above — its root link was disabled, e.g.
         // quarantined for a non-finite pose — and kept last step's, which may lie past this
-        // step's vectors (the release then panics slicing them). Such a multibody gets the next
-        // rows, after every other's, and is solved and integrated as a root through the first
-        // of its links in the island, as if its root link were there. An old id still inside
-        // the vectors is left as the release leaves it (aliasing another multibody's rows: a
-        // known defect kept for the bits of every step that ran before), so only steps that
-        // panicked change.
+        // step's vectors (the release then panics where a joint row or a contact slices them).
+        // Such a multibody gets the next rows, once, after every other's, and nothing else: it
+        // stays out of the roots, as in the release (so its links are solved as loose bodies
+        // when no other multibody shares the island, and held still when one does). An old id
+        // still inside the vectors is left as the release leaves it. So every step that did not
+        // panic computes the release's bits.
         let assigned = multibody_solver_id;
-        let roots = self.multibody_roots.len();
+        let mut orphans = crate::alloc_prelude::Vec::new();
         for handle in island_bodies {
             if let Some(link) = multibodies.rigid_body_link(*handle).copied() {
                 let multibody = multibodies
                     .get_multibody_mut_internal(link.multibody)
                     .unwrap();
                 if multibody.solver_id as usize + multibody.ndofs() > assigned as usize
-                    && !self.multibody_roots[roots..]
-                        .iter()
-                        .any(|l| l.multibody == link.multibody)
+                    && !orphans.contains(&link.multibody)
                 {
                     multibody.solver_id = multibody_solver_id;
                     multibody_solver_id += multibody.ndofs() as u32;
-                    self.multibody_roots.push(link);
+                    orphans.push(link.multibody);
                 }
             }
         }
