@@ -188,14 +188,15 @@ async fn viewer_asks_waiting_for_a_busy_simulation_hold_a_few_threads() {
 }
 
 /// Destroying a simulation drops every answer the viewer cached of it at once — its timeline,
-/// the last present shown, past moments, clips, inspections and refusals — and nothing of another simulation. Counted
-/// in the caches themselves: each is bounded in bytes, so a forgotten `forget` never shows in
-/// the process's memory (measuring it could not fail, and failed on allocator noise).
+/// the last present shown, past moments, clips, inspections and refusals — and nothing of
+/// another simulation. Counted in the caches themselves: each is bounded in bytes, so a
+/// forgotten `forget` never shows in the process's memory (measuring it could not fail, and
+/// failed on allocator noise).
 #[test]
 fn the_viewer_forgets_destroyed_simulations() {
     use physics_mcp::command::{Command, Shape};
     use physics_mcp::limits::Limits;
-    use physics_mcp::seeing::viewer::{self, ask};
+    use physics_mcp::seeing::viewer::ask;
     use physics_mcp::sim::{lock_sim, Registry};
     use physics_mcp::value::Args;
 
@@ -224,13 +225,13 @@ fn the_viewer_forgets_destroyed_simulations() {
             assert_eq!(answered.is_ok(), query != "id=99", "{kind}?{query} of {id}: {answered:?}");
         }
     }
-    let kept = viewer::kept_of(ids[1]);
-    for (cache, n) in viewer::kept_of(ids[0]).into_iter().chain(kept.clone()) {
+    let kept = ask::kept_of(ids[1]);
+    for (cache, n) in ask::kept_of(ids[0]).into_iter().chain(kept.clone()) {
         assert!(n > 0, "the viewer's {cache} cache kept nothing of the asks");
     }
     reg.destroy(ids[0]).unwrap();
-    for (cache, n) in viewer::kept_of(ids[0]) {
+    for (cache, n) in ask::kept_of(ids[0]) {
         assert_eq!(n, 0, "the viewer's {cache} cache still keeps answers of a destroyed simulation");
     }
-    assert_eq!(viewer::kept_of(ids[1]), kept, "destroying one simulation dropped another's answers");
+    assert_eq!(ask::kept_of(ids[1]), kept, "destroying one simulation dropped another's answers");
 }

@@ -395,7 +395,9 @@ pub fn forget(id: &str) {
     }
 }
 
-/// Entries the viewer keeps of simulation `id`, by cache (`viewer::kept_of`).
+/// How many cached answers the viewer keeps of simulation `id`, by cache: none once it is
+/// destroyed (`forget`), which a test checks directly — the caches' byte bounds would hide a
+/// forgotten `forget` from any measure of the process's memory.
 pub fn kept_of(id: &str) -> Vec<(&'static str, usize)> {
     caches().map(|(name, cache)| (name, cache.count_simulation(id))).collect()
 }

@@ -127,13 +127,6 @@ pub fn forget(id: &str) {
     ask::forget(id);
 }
 
-/// How many cached answers the viewer keeps of simulation `id`, by cache: none once it is
-/// destroyed (`forget`), which a test checks directly — the caches' byte bounds would hide a
-/// forgotten `forget` from any measure of the process's memory.
-pub fn kept_of(id: &str) -> Vec<(&'static str, usize)> {
-    ask::kept_of(id)
-}
-
 /// Shared state of the viewer's HTTP routes (not `world::Viewer`, the recorded camera).
 #[derive(Clone)]
 struct Routes {

@@ -80,7 +80,7 @@ impl<K: PartialEq, V: Clone> Recent<K, V> {
         kept.bytes -= freed;
     }
 
-    /// Entries kept now whose key `which` says (a simulation's, for `viewer::kept_of`).
+    /// Entries kept now whose key `which` says (a simulation's, for `ask::kept_of`).
     pub fn count(&self, which: impl Fn(&K) -> bool) -> usize {
         self.kept().entries.iter().filter(|(k, _, _)| which(k)).count()
     }

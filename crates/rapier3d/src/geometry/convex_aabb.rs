@@ -7,9 +7,9 @@
 //! KUKA: 8 hulls of a few hundred vertices each) spent 30% of its step there.
 //!
 //! Here, on x86_64, the same per-vertex arithmetic runs on four vertices at once in SSE2
-//! registers, or eight in AVX ones where the CPU has them (each lane performs exactly the scalar operations glam's scalar-math `Quat * Vec3`
-//! performs, in the same order, with no fused multiply-add, so every rotated vertex has the same
-//! bits), the translation is added once at the end instead of per vertex, and the lanes'
+//! registers, or eight in AVX ones where the CPU has them (each lane performs exactly the
+//! scalar operations glam's scalar-math `Quat * Vec3` performs, in the same order, with no
+//! fused multiply-add, so every rotated vertex has the same bits), the translation is added once at the end instead of per vertex, and the lanes'
 //! extremes are combined at the end. Why the result is the same, bit for bit:
 //! - **Translation once.** Rounding is monotonic: `a ≤ b` implies `fl(a + t) ≤ fl(b + t)`, so
 //!   the extreme of `fl(r + t)` over the vertices is `fl(extreme(r) + t)`. The one way two sums

@@ -654,7 +654,7 @@ fn joint_friction_bounds_the_joint_force() {
 /// keep last step's solver id, past this step's velocity vectors, and the joint constraints of
 /// its other links panicked slicing them. Found by physics-mcp's file fuzzer (an infinite
 /// inertia on a URDF's first link). The multibody then stays out of the solver's roots, as in
-/// the release, so only the absence of the panic and finite poses are checked.
+/// the release: checked are the quarantine, finite poses and the second link still on its joint.
 #[test]
 #[cfg(feature = "dim3")]
 fn a_fixed_root_multibody_whose_first_link_is_quarantined_steps_without_panic() {
@@ -695,5 +695,8 @@ fn a_fixed_root_multibody_whose_first_link_is_quarantined_steps_without_panic() 
             let pose = world.bodies[link].position();
             assert!(pose.translation.is_finite() && pose.rotation.is_finite(), "{dynamics:?}: {pose:?}");
         }
+        // The second link is still held by its joint: 2 m from the base's axis, in its plane.
+        let p = world.bodies[links[1]].translation();
+        assert!((p.length() - 2.0).abs() < 1.0e-3 && p.z.abs() < 1.0e-6, "{dynamics:?}: the second link left its joint ({p:?})");
     }
 }
