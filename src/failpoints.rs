@@ -21,6 +21,19 @@ macro_rules! crash_point {
     };
 }
 
+/// A spot where a test holds one thread (`fail::cfg_callback`, or `sleep`/`pause` through
+/// `FAILPOINTS`) to force an interleaving that timing alone would rarely give; nothing in a
+/// release build, nothing when unset.
+#[macro_export]
+macro_rules! hold_point {
+    ($name:literal) => {
+        #[cfg(debug_assertions)]
+        {
+            fail::eval::<(), _>($name, |_| ());
+        }
+    };
+}
+
 /// Reads `FAILPOINTS` once at start (debug builds only); the returned guard keeps
 /// them configured for the life of the process.
 #[cfg(debug_assertions)]

@@ -192,19 +192,17 @@ async fn viewer_asks_waiting_for_a_busy_simulation_hold_a_few_threads() {
 /// another simulation. Counted in the caches themselves: each is bounded in bytes, so a
 /// forgotten `forget` never shows in the process's memory (measuring it could not fail, and
 /// failed on allocator noise).
-#[test]
-fn the_viewer_forgets_destroyed_simulations() {
+/// A registry in this process with simulations `ids`, each a sphere stepped 3 × 10 steps (so
+/// a timeline, past moments and clips have something to show).
+fn registry_with_spheres(dir: &std::path::Path, ids: &[&str]) -> physics_mcp::sim::Registry {
     use physics_mcp::command::{Command, Shape};
     use physics_mcp::limits::Limits;
-    use physics_mcp::seeing::viewer::ask;
     use physics_mcp::sim::{lock_sim, Registry};
     use physics_mcp::value::Args;
 
-    let dir = tempfile::tempdir().unwrap();
-    let reg = Registry::open(common::config(dir.path())).unwrap();
+    let reg = Registry::open(common::config(dir)).unwrap();
     let (a, l) = (Args::new(), Limits::default());
-    let ids = ["forgotten_doomed", "forgotten_kept"];
-    for id in ids {
+    for &id in ids {
         let root = Command::CreateSimulation { simulation_id: id.into(), gravity: [0.0, 0.0, -9.81], gui: false, name: None, engine_rule: Some(physics_mcp::engine::ENGINE_RULE) };
         reg.create(root, &a).unwrap();
         let shared = reg.get(id).unwrap();
@@ -215,6 +213,16 @@ fn the_viewer_forgets_destroyed_simulations() {
             sim.change("step_simulation", &a, Ok(Command::step(10)), &l, &mut |_| true).unwrap();
         }
     }
+    reg
+}
+
+#[test]
+fn the_viewer_forgets_destroyed_simulations() {
+    use physics_mcp::seeing::viewer::ask;
+
+    let dir = tempfile::tempdir().unwrap();
+    let ids = ["forgotten_doomed", "forgotten_kept"];
+    let reg = registry_with_spheres(dir.path(), &ids);
     let stop = tokio_util::sync::CancellationToken::new();
     // One ask of each kind that is kept: a timeline, the present, a past moment, a clip, an
     // inspection, and a refusal (an object the simulation never had).
@@ -234,4 +242,48 @@ fn the_viewer_forgets_destroyed_simulations() {
         assert_eq!(n, 0, "the viewer's {cache} cache still keeps answers of a destroyed simulation");
     }
     assert_eq!(ask::kept_of(ids[1]), kept, "destroying one simulation dropped another's answers");
+}
+
+/// An ask re-simulates without the simulation's lock, so it can finish after `destroy` emptied
+/// the viewer's caches: what it caches then is dropped too. The asker is held at the spot where
+/// it caches its clip (a debug build's hold point) while the simulation is destroyed.
+#[cfg(debug_assertions)]
+#[test]
+fn an_ask_finishing_after_destroy_leaves_nothing_cached() {
+    use physics_mcp::seeing::viewer::ask;
+    use std::sync::{mpsc, Mutex};
+
+    let dir = tempfile::tempdir().unwrap();
+    let id = "refilled_doomed";
+    let reg = registry_with_spheres(dir.path(), &[id]);
+    let stop = tokio_util::sync::CancellationToken::new();
+    let (arrived, at_hold) = mpsc::channel::<()>();
+    let (release, go) = mpsc::channel::<()>();
+    // Only the asker below is held, once: other tests' asks pass the point.
+    let hold = Mutex::new(Some((arrived, go)));
+    fail::cfg_callback("viewer_clip_put", move || {
+        if std::thread::current().name() != Some("refill asker") {
+            return;
+        }
+        if let Some((arrived, go)) = hold.lock().unwrap().take() {
+            arrived.send(()).unwrap();
+            go.recv().unwrap();
+        }
+    })
+    .unwrap();
+    std::thread::scope(|s| {
+        let asker = std::thread::Builder::new()
+            .name("refill asker".into())
+            .spawn_scoped(s, || ask::answer_text(&reg, id, "clip", "from_seq=2", &stop))
+            .unwrap();
+        at_hold.recv_timeout(Duration::from_secs(120)).expect("the ask reached the point where it caches its clip");
+        reg.destroy(id).unwrap();
+        release.send(()).unwrap();
+        let answered = asker.join().unwrap();
+        assert!(answered.is_ok(), "the clip was answered: {answered:?}");
+    });
+    fail::remove("viewer_clip_put");
+    for (cache, n) in ask::kept_of(id) {
+        assert_eq!(n, 0, "the viewer's {cache} cache keeps an answer made after its simulation was destroyed");
+    }
 }
