@@ -7,7 +7,9 @@
 //! and the final state hash (the same for any run of one scene, rule and step count). A fourth
 //! argument `noskip` makes every step run each robot's opening forward kinematics, as rapier
 //! 0.36.1 did (the vendored rapier's patch 4 skips it when nothing it reads changed; the state
-//! hash is the same either way), to measure that skip with one binary.
+//! hash is the same either way), to measure that skip with one binary. A fourth argument
+//! `served` loads an MJCF model as load_mjcf does over MCP (its actuators, equality constraints,
+//! ball joints and contact pairs built; controls held at 0), whose actuators are driven every step.
 
 // An example reads its arguments, its files and the clock; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)]
@@ -33,6 +35,7 @@ fn main() {
     let steps: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(2400);
     let rule = EngineRule::try_from(args.get(2).and_then(|s| s.parse().ok()).unwrap_or(2)).expect("a known rule");
     physics_core::world::set_step_threads(1);
+    let served = args.get(3).is_some_and(|a| a == "served");
     if args.get(3).is_some_and(|a| a == "noskip") {
         rapier3d::dynamics::set_skip_unchanged_multibody_kinematics(false);
     }
@@ -74,9 +77,9 @@ fn main() {
                 keyframe: None,
                 parent_filter: true,
                 use_model_options: false,
-                actuators: false,
-                constraints: false,
-                ball_joints_and_pairs: false,
+                actuators: served,
+                constraints: served,
+                ball_joints_and_pairs: served,
                 parsed: Default::default(),
             };
             let out = apply(&mut w, &load);
