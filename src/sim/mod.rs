@@ -847,9 +847,11 @@ impl Registry {
         self.table().sims.get(id).cloned()
     }
 
-    /// Drops a simulation from memory (cluster mode: its lease is gone).
+    /// Drops a simulation from memory (cluster mode: its lease is gone, or it was destroyed),
+    /// with the viewer's answers of it: another node may change or destroy it from now on.
     fn evict(&self, id: &str) {
         self.table().sims.remove(id);
+        crate::seeing::viewer::forget(id);
     }
 
     /// Lists a simulation taken over from another node.

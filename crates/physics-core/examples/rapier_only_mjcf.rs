@@ -14,6 +14,11 @@
 //! cost more here than in physics-mcp (not looked into further), while half_cheetah, hopper, humanoid,
 //! reacher and swimmer cost the same (docs/benchmarks.md "MJCF models").
 //!
+//! Two environment variables change the engine's settings for an experiment (docs/benchmarks.md
+//! item 8): `RAPIER_ONLY_PER_STEP=1` computes multibodies under engine rule 3's
+//! `TreeSparsePerStep` instead of rule 1's `Dense`, and `RAPIER_ONLY_SUBSTEPS=N` takes N substeps a
+//! step (`num_solver_iterations`) instead of rapier's 4.
+//!
 //! ```sh
 //! cargo run --release -p physics-core --example rapier_only_mjcf -- [steps] [runs] [model …]
 //! valgrind --tool=callgrind --toggle-collect='*PhysicsWorld::step*' \
@@ -44,6 +49,12 @@ fn world(model: &str) -> (PhysicsWorld, f32) {
     let mut w = PhysicsWorld { gravity: Vector::new(0.0, 0.0, -9.81), ..Default::default() };
     let dt = parsed.option.timestep as f32;
     w.integration_parameters.dt = dt;
+    if std::env::var_os("RAPIER_ONLY_PER_STEP").is_some() {
+        w.integration_parameters.multibody_dynamics = rapier3d::dynamics::MultibodyDynamics::TreeSparsePerStep;
+    }
+    if let Some(n) = std::env::var("RAPIER_ONLY_SUBSTEPS").ok().and_then(|n| n.parse().ok()) {
+        w.integration_parameters.num_solver_iterations = n;
+    }
     robot.insert_using_multibody_joints(
         &mut w.bodies,
         &mut w.colliders,

@@ -4,12 +4,13 @@
 //! <scene> <steps> <rule>`. Scenes: `iiwa14` and `panda` (tests/fixtures' meshless URDFs, fixed
 //! base, every movable joint on a position motor holding 0.3 with force 100) or a Gymnasium model
 //! of tests/fixtures/mjcf at its own timestep (nothing driving it). Prints the wall time per step
-//! and the final state hash (the same for any run of one scene, rule and step count). A fourth
-//! argument `noskip` makes every step run each robot's opening forward kinematics, as rapier
-//! 0.36.1 did (the vendored rapier's patch 4 skips it when nothing it reads changed; the state
-//! hash is the same either way), to measure that skip with one binary. A fourth argument
-//! `served` loads an MJCF model as load_mjcf does over MCP (its actuators, equality constraints,
-//! ball joints and contact pairs built; controls held at 0), whose actuators are driven every step.
+//! and the final state hash (the same for any run of one scene, rule and step count). Further
+//! arguments, in any order: `noskip` makes every step run each robot's opening forward
+//! kinematics, as rapier 0.36.1 did (the vendored rapier's patch 4 skips it when nothing it reads
+//! changed; the state hash is the same either way), to measure that skip with one binary;
+//! `served` loads a Gymnasium model as load_mjcf does over MCP (its actuators, equality
+//! constraints, ball joints and contact pairs built; controls held at 0, so its actuators are
+//! driven every step with zero effort). The URDF scenes ignore `served`.
 
 // An example reads its arguments, its files and the clock; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)]
@@ -35,8 +36,9 @@ fn main() {
     let steps: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(2400);
     let rule = EngineRule::try_from(args.get(2).and_then(|s| s.parse().ok()).unwrap_or(2)).expect("a known rule");
     physics_core::world::set_step_threads(1);
-    let served = args.get(3).is_some_and(|a| a == "served");
-    if args.get(3).is_some_and(|a| a == "noskip") {
+    let flag = |f: &str| args.iter().skip(3).any(|a| a == f);
+    let served = flag("served");
+    if flag("noskip") {
         rapier3d::dynamics::set_skip_unchanged_multibody_kinematics(false);
     }
     let engine_rule = (rule != EngineRule::Upstream).then_some(rule);
