@@ -3,14 +3,15 @@
 //!
 //! A collider's AABB is recomputed every step for every moving collider. For a convex hull that
 //! is parry's `point_cloud_aabb`: every vertex transformed by the pose (`q * p + t`), then a
-//! running component-wise min and max. A robot whose links are hulls of their meshes (pybullet_data's
-//! KUKA: 8 hulls of a few hundred vertices each) spent 30% of its step there.
+//! running component-wise min and max. A robot whose links are hulls of their meshes
+//! (pybullet_data's KUKA: 8 hulls of a few hundred vertices each) spent 30% of its step there.
 //!
 //! Here, on x86_64, the same per-vertex arithmetic runs on four vertices at once in SSE2
 //! registers, or eight in AVX ones where the CPU has them (each lane performs exactly the
 //! scalar operations glam's scalar-math `Quat * Vec3` performs, in the same order, with no
-//! fused multiply-add, so every rotated vertex has the same bits), the translation is added once at the end instead of per vertex, and the lanes'
-//! extremes are combined at the end. Why the result is the same, bit for bit:
+//! fused multiply-add, so every rotated vertex has the same bits), the translation is added
+//! once at the end instead of per vertex, and the lanes' extremes are combined at the end.
+//! Why the result is the same, bit for bit:
 //! - **Translation once.** Rounding is monotonic: `a ≤ b` implies `fl(a + t) ≤ fl(b + t)`, so
 //!   the extreme of `fl(r + t)` over the vertices is `fl(extreme(r) + t)`. The one way two sums
 //!   compare equal yet differ in bits is a signed zero, which a sum with `t ≠ ±0` never yields as
