@@ -32,6 +32,8 @@ pub use self::rigid_body::{RigidBody, RigidBodyBuilder};
 #[cfg(feature = "alloc")]
 pub use self::rigid_body_set::{BodyPair, RigidBodySet};
 #[cfg(feature = "alloc")]
+pub use self::rigid_body_one_step_forces::OneStepForces;
+#[cfg(feature = "alloc")]
 pub(crate) use self::soft_body::soft_body_crossing_tests;
 #[cfg(feature = "alloc")]
 pub use self::soft_body::*;
@@ -51,6 +53,8 @@ pub(crate) mod solver;
 
 #[cfg(feature = "alloc")]
 mod rigid_body;
+#[cfg(feature = "alloc")]
+mod rigid_body_one_step_forces;
 #[cfg(feature = "alloc")]
 mod rigid_body_set;
 #[cfg(feature = "alloc")]
