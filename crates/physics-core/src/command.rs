@@ -53,7 +53,11 @@ use crate::world::World;
 /// <pair>`s with their friction; get_joint_info and get_simulation_info list an MJCF model's
 /// equality constraints and tendons. Older loads fold as before (ball joints refused, pairs,
 /// constraints and tendons as version 8 left them).
-pub const EVENT_VERSION: u32 = 9;
+/// 10: create_simulation records engine rule 4 (`engine::EngineRule::QuietStepForces`: the
+/// step's one-step forces leave awake bodies unmarked), so step results of new simulations whose
+/// bodies actuators or torque-control motors drive differ from rule 3's in the last bits;
+/// worlds of older roots keep their recorded rule.
+pub const EVENT_VERSION: u32 = 10;
 
 /// The event version from which a chain's root records state hash v2.
 pub const STATE_HASH_V2_SINCE: u32 = 5;

@@ -37,10 +37,18 @@ pub enum EngineRule {
     /// substep (the vendored rapier's `MultibodyDynamics::TreeSparsePerStep`, PATCHES.md patch
     /// 3); free accelerations still per substep; everything else as rule 2. Since event version 9.
     TreeMultibodyPerStep = 3,
+    /// Rule 3 with the one-step forces physics-mcp applies every step (MJCF actuators' joint
+    /// efforts, torque-control motors, external forces and their clearing) written to an awake
+    /// or non-dynamic body without marking it modified (the vendored rapier's
+    /// `RigidBodySet::one_step_forces`, PATCHES.md patch 8). A marked body makes the next step
+    /// rebuild the solver's caches (contact graph, body table, joint colouring) instead of
+    /// reusing them, and the rebuilt order rounds differently; the forces are the same. Since
+    /// event version 10.
+    QuietStepForces = 4,
 }
 
 /// The rule new simulations are created under.
-pub const ENGINE_RULE: EngineRule = EngineRule::TreeMultibodyPerStep;
+pub const ENGINE_RULE: EngineRule = EngineRule::QuietStepForces;
 
 impl EngineRule {
     /// The rule of a root that recorded `recorded` (None: recorded before rules were, rule 1).
@@ -53,8 +61,13 @@ impl EngineRule {
         match self {
             EngineRule::Upstream => rapier3d::dynamics::MultibodyDynamics::Dense,
             EngineRule::TreeMultibody => rapier3d::dynamics::MultibodyDynamics::TreeSparse,
-            EngineRule::TreeMultibodyPerStep => rapier3d::dynamics::MultibodyDynamics::TreeSparsePerStep,
+            EngineRule::TreeMultibodyPerStep | EngineRule::QuietStepForces => rapier3d::dynamics::MultibodyDynamics::TreeSparsePerStep,
         }
+    }
+
+    /// Whether one-step forces on an awake or non-dynamic body leave it unmarked (rule 4).
+    pub fn quiet_step_forces(self) -> bool {
+        self >= EngineRule::QuietStepForces
     }
 }
 
@@ -67,7 +80,8 @@ impl TryFrom<u32> for EngineRule {
             1 => Ok(EngineRule::Upstream),
             2 => Ok(EngineRule::TreeMultibody),
             3 => Ok(EngineRule::TreeMultibodyPerStep),
-            n => Err(format!("engine_rule {n} is not known to this build (it knows 1, 2 and 3)")),
+            4 => Ok(EngineRule::QuietStepForces),
+            n => Err(format!("engine_rule {n} is not known to this build (it knows 1, 2, 3 and 4)")),
         }
     }
 }

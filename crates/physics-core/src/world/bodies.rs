@@ -309,9 +309,8 @@ impl World {
         let pending = std::mem::take(&mut self.tables.pending_wrench);
         for id in pending {
             self.clear_robot_forces(id);
-            if let Some(b) = self.body_mut(id) {
-                b.reset_forces(false);
-                b.reset_torques(false);
+            if let Some(h) = self.tables.objects.get(&id).map(|o| o.body) {
+                self.step_forces(h, |b| b.clear());
             }
         }
     }

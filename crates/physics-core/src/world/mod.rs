@@ -24,6 +24,7 @@ pub mod mjcf_options;
 pub mod mjcf_pairs;
 mod robot;
 pub mod scene;
+mod step_forces;
 mod threads;
 pub mod urdf;
 pub mod xml_guard;

@@ -596,23 +596,14 @@ impl World {
         let Some(c) = self.physics.bodies.get(child) else { return };
         let axis = *c.rotation() * Vector::new(axis[0] as f32, axis[1] as f32, axis[2] as f32);
         let at = c.center_of_mass();
-        let bodies = &mut self.physics.bodies;
         match kind {
             JointKind::Prismatic => {
-                if let Some(b) = bodies.get_mut(child) {
-                    b.add_force(axis * effort, true);
-                }
-                if let Some(b) = bodies.get_mut(parent) {
-                    b.add_force_at_point(-axis * effort, at, true);
-                }
+                self.step_forces(child, |b| b.add_force(axis * effort));
+                self.step_forces(parent, |b| b.add_force_at_point(-axis * effort, at));
             }
             _ => {
-                if let Some(b) = bodies.get_mut(child) {
-                    b.add_torque(axis * effort, true);
-                }
-                if let Some(b) = bodies.get_mut(parent) {
-                    b.add_torque(-axis * effort, true);
-                }
+                self.step_forces(child, |b| b.add_torque(axis * effort));
+                self.step_forces(parent, |b| b.add_torque(-axis * effort));
             }
         }
     }
@@ -848,10 +839,7 @@ impl World {
         let Some(robot) = self.robot(id) else { return };
         let bodies: Vec<RigidBodyHandle> = robot.links.iter().map(|l| l.body).collect();
         for h in bodies {
-            if let Some(b) = self.physics.bodies.get_mut(h) {
-                b.reset_forces(false);
-                b.reset_torques(false);
-            }
+            self.step_forces(h, |b| b.clear());
         }
     }
 }
