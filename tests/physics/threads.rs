@@ -16,7 +16,9 @@
 //! bit). Rules 2 and 3 change only multibodies' arithmetic, so each rule's own reference
 //! (`tests/fixtures/threads_reference_rule2.json`, `threads_reference_rule3.json`, recorded by
 //! the build that introduced the rule and never re-recorded either) holds the arms scene, on 1,
-//! 2 and 4 threads alike.
+//! 2 and 4 threads alike. Rule 4 changes only how the step's one-step forces reach rapier, so
+//! its reference (`threads_reference_rule4.json`) is of the arms with half of them driven by
+//! torque control.
 
 // A test may read its fixture and the environment; the bans in clippy.toml are for the world.
 #![allow(clippy::disallowed_methods)]
@@ -292,8 +294,43 @@ fn rule_3_reproduces_its_reference_on_1_2_and_4_threads() {
     rule_reproduces_its_reference(EngineRule::TreeMultibodyPerStep);
 }
 
-fn rule_reproduces_its_reference(rule: EngineRule) {
+/// Rule 4 (rule 3 with the step's one-step forces leaving awake bodies unmarked) likewise,
+/// against `threads_reference_rule4.json`, on the arms with every other arm's first joint under
+/// torque control instead of a velocity motor (the forces rule 4 changes; falling in stacks,
+/// some arms sleep and are woken by them). The same scene under rule 3 ends elsewhere.
+#[test]
+fn rule_4_reproduces_its_reference_on_1_2_and_4_threads() {
+    rule_reproduces_its_reference(EngineRule::QuietStepForces);
+    let scene = arms_scene(EngineRule::QuietStepForces);
+    let rule3 = run_under(&scene, &Some(pool_of(1)), EngineRule::TreeMultibodyPerStep);
+    let rule4 = run_under(&scene, &Some(pool_of(1)), EngineRule::QuietStepForces);
+    assert_ne!(rule3.last(), rule4.last(), "rule 4 steps the torque-driven arms exactly as rule 3: the rule is not in effect");
+}
+
+/// The 64 arms (`pile::arms_world_under`), with the odd ones' first joint under torque control.
+fn torque_driven_arms(rule: EngineRule) -> World {
+    use physics_mcp::command::{ControlMode, MotorSpec};
+    let mut w = pile::arms_world_under(rule);
+    let arms: Vec<u32> = w.objects().filter(|(id, _)| w.robot(*id).is_some()).map(|(id, _)| id).collect();
+    for (n, id) in arms.into_iter().enumerate().filter(|(n, _)| n % 2 == 1) {
+        let force = if n % 4 == 1 { 0.4 } else { -0.4 };
+        let motor = MotorSpec { mode: ControlMode::TorqueControl, target_position: 0.0, target_velocity: 0.0, force: Some(force), position_gain: 0.1, velocity_gain: 1.0 };
+        apply(&mut w, Command::SetJointMotor { object_id: id, joint_index: 0, motor });
+    }
+    w
+}
+
+/// The arms scene a rule's reference holds: rule 4's drives half of them by torque control.
+fn arms_scene(rule: EngineRule) -> Scene {
     let scene = scenes().into_iter().find(|s| s.name == "urdf_arms_64").unwrap();
+    match rule.quiet_step_forces() {
+        true => Scene { build: torque_driven_arms, ..scene },
+        false => scene,
+    }
+}
+
+fn rule_reproduces_its_reference(rule: EngineRule) {
+    let scene = arms_scene(rule);
     let path = rule_reference_path(rule);
     let runs: Vec<Vec<String>> = [1usize, 2, 4].iter().map(|t| run_under(&scene, &Some(pool_of(*t)), rule)).collect();
     for (hashes, threads) in runs.iter().zip([1, 2, 4]) {
