@@ -79,7 +79,8 @@ fn a_tampered_log_fails_naming_the_event_and_diff_finds_it() {
 }
 
 /// `engine_rule_v6*.sqlite` (recorded by the release that introduced engine rules) and every later
-/// replay (`RULE_2_LOGS`; `RULE_3_LOGS` from event version 9 on, under rule 3) step their
+/// replay (`RULE_2_LOGS`; `RULE_3_LOGS` from event version 9 on, under rule 3; `RULE_4_LOGS`
+/// from version 10 on, under rule 4) step their
 /// robots under rule 2 at every event — the created world, its fork and the saved file loaded
 /// again — while every log recorded before rules folds under rule 1 throughout. A load or a
 /// fork that fell back to rule 1 would still replay to its own hashes; this test tells them
@@ -90,6 +91,8 @@ fn a_tampered_log_fails_naming_the_event_and_diff_finds_it() {
 const RULE_2_LOGS: &[&str] = &["engine_rule_v6", "joint_trajectory_v7", "measures_v8", "mjcf_equality_v8", "mjcf_ball_pair_v9"];
 /// The replays recorded under engine rule 3 (every simulation created from event version 9 on).
 const RULE_3_LOGS: &[&str] = &["engine_rule_v9"];
+/// The replays recorded under engine rule 4 (every simulation created from event version 10 on).
+const RULE_4_LOGS: &[&str] = &["engine_rule_v10"];
 
 #[test]
 fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() {
@@ -97,10 +100,12 @@ fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() 
     use physics_mcp::engine::EngineRule;
     use physics_mcp::log::{fold, sqlite::Log};
     let limits = physics_mcp::limits::Limits::default();
-    let (mut rule_3_roots, mut rule_2_roots, mut rule_1_roots) = (0, 0, 0);
+    let (mut rule_4_roots, mut rule_3_roots, mut rule_2_roots, mut rule_1_roots) = (0, 0, 0, 0);
     for path in recorded() {
         let name = path.file_name().unwrap().to_string_lossy().to_string();
-        let expected = if RULE_3_LOGS.iter().any(|p| name.starts_with(p)) {
+        let expected = if RULE_4_LOGS.iter().any(|p| name.starts_with(p)) {
+            EngineRule::QuietStepForces
+        } else if RULE_3_LOGS.iter().any(|p| name.starts_with(p)) {
             EngineRule::TreeMultibodyPerStep
         } else if RULE_2_LOGS.iter().any(|p| name.starts_with(p)) {
             EngineRule::TreeMultibody
@@ -124,10 +129,11 @@ fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() 
                     EngineRule::Upstream => &mut rule_1_roots,
                     EngineRule::TreeMultibody => &mut rule_2_roots,
                     EngineRule::TreeMultibodyPerStep => &mut rule_3_roots,
+                    EngineRule::QuietStepForces => &mut rule_4_roots,
                 } += 1;
             }
             after.insert(e.seq, world);
         }
     }
-    assert!(rule_3_roots >= 3 && rule_2_roots >= 5 && rule_1_roots >= 10, "{rule_3_roots} rule-3, {rule_2_roots} rule-2, {rule_1_roots} rule-1 roots");
+    assert!(rule_4_roots >= 3 && rule_3_roots >= 3 && rule_2_roots >= 5 && rule_1_roots >= 10, "{rule_4_roots} rule-4, {rule_3_roots} rule-3, {rule_2_roots} rule-2, {rule_1_roots} rule-1 roots");
 }
