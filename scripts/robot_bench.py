@@ -187,7 +187,7 @@ def main():
     print(f"load average at the end: {os.getloadavg()[0]:.1f}\n")
     f = lambda v: "–" if v is None else f"{v:.4f}"
     r = lambda a, b: "–" if a is None or b is None else f"{a / b:.2f}×"
-    print("| scene | reference | ours over MCP (rule 3) | ours in process, rule 3 (rule 2) | reference ms/step (MuJoCo Python loop) | ratio over MCP | ratio in process, rule 3 (rule 2) |")
+    print("| scene | reference | ours over MCP (the server's rule, 4) | ours in process, rule 3 (rule 2) | reference ms/step (MuJoCo Python loop) | ratio over MCP | ratio in process, rule 3 (rule 2) |")
     print("|---|---|---|---|---|---|---|")
     for name, ref_name, mcp, rule3, rule2, ref, ref_py in rows:
         py = f" ({f(ref_py)})" if ref_py is not None else ""
