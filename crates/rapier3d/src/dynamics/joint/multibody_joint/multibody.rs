@@ -928,7 +928,9 @@ impl Multibody {
     pub(crate) fn update_substep_dynamics(&mut self, params: &IntegrationParameters, bodies: &RigidBodySet) {
         match params.multibody_dynamics {
             #[cfg(feature = "dim3")]
-            MultibodyDynamics::TreeSparsePerStep if self.tree_dynamics_active() && self.tree_eligible(bodies) => {
+            // physics-mcp patch 9: `tree_dynamics_active` alone — the step's `update_dynamics`
+            // set it exactly when `tree_eligible` held, and nothing since changed what that reads.
+            MultibodyDynamics::TreeSparsePerStep if self.tree_dynamics_active() => {
                 self.tree_update_substep_acceleration(params.dt, bodies)
             }
             _ => self.update_dynamics(params, bodies),
@@ -1574,6 +1576,27 @@ impl Multibody {
         read_root_pose_from_rigid_body: bool,
         dynamics: MultibodyDynamics,
     ) {
+        #[cfg(feature = "dim3")]
+        let tree = dynamics.is_tree() && self.tree_eligible(bodies);
+        #[cfg(not(feature = "dim3"))]
+        let tree = false;
+        self.forward_kinematics_with(bodies, read_root_pose_from_rigid_body, tree);
+    }
+
+    /// physics-mcp patch 9: [`Self::forward_kinematics_for`] inside a step's substeps, after
+    /// the step's [`Self::update_dynamics`] chose the path: the tree path's jacobians exactly
+    /// when that chose the tree path (`tree_dynamics_active`), which it did exactly when
+    /// `tree_eligible` held, and nothing a step does changes what that reads (the links' local
+    /// mass properties and effective inverse masses), so this is the same choice without
+    /// evaluating the test again for every link at every substep.
+    pub(crate) fn forward_kinematics_in_step(&mut self, bodies: &RigidBodySet, dynamics: MultibodyDynamics) {
+        let tree = dynamics.is_tree() && self.tree_dynamics_active();
+        self.forward_kinematics_with(bodies, false, tree);
+    }
+
+    /// The forward kinematics of [`Self::forward_kinematics_for`], with the tree path's compact
+    /// jacobians (`tree`, 3D only) or the full ones.
+    fn forward_kinematics_with(&mut self, bodies: &RigidBodySet, read_root_pose_from_rigid_body: bool, tree: bool) {
         // Be sure the degrees of freedom match and take the root position if needed.
         self.update_root_type(bodies, read_root_pose_from_rigid_body);
 
@@ -1612,9 +1635,9 @@ impl Multibody {
         /*
          * Compute body jacobians.
          */
-        match dynamics {
+        match tree {
             #[cfg(feature = "dim3")]
-            d if d.is_tree() && self.tree_eligible(bodies) => self.tree_update_jacobians(),
+            true => self.tree_update_jacobians(),
             _ => self.update_body_jacobians(),
         }
     }

@@ -189,7 +189,7 @@ impl VelocitySolver {
                 .rows(multibody.solver_id as usize, multibody.ndofs());
             multibody.velocities.copy_from(&solver_vels);
             multibody.integrate(params.dt);
-            multibody.forward_kinematics_for(bodies, false, params.multibody_dynamics);
+            multibody.forward_kinematics_in_step(bodies, params.multibody_dynamics);
             multibody.update_rigid_bodies_internal(bodies, !is_last_substep, true, false);
             if is_last_substep && crate::dynamics::skip_unchanged_multibody_kinematics() {
                 // physics-mcp patch 4: what these poses were computed from, for the next step's
