@@ -63,8 +63,11 @@ impl NarrowPhase {
         let hints_ptr = &hints_ptr;
 
         let query_dispatcher = &*self.query_dispatcher;
+        // physics-mcp patch 10: the transitions in a locked list rather than a channel, which
+        // allocated its cache-aligned state every step; `apply_pair_transitions` sorts them by
+        // edge (one transition per edge a step), so how they are gathered does not matter.
         #[cfg(feature = "parallel")]
-        let (snd, rcv) = std::sync::mpsc::channel();
+        let transitions_sink = std::sync::Mutex::new(Vec::<PairTransition>::new());
 
         // Edges fully updated this step (bucket membership may have changed) for the
         // incremental maintenance of `solver_contact_graph`; the parallel path
@@ -143,7 +146,7 @@ impl NarrowPhase {
                 &awake_body_mask,
                 hints_ptr,
                 soft_ctx,
-                &snd,
+                &transitions_sink,
             )
         };
 
@@ -288,11 +291,11 @@ impl NarrowPhase {
 
         #[cfg(feature = "parallel")]
         {
-            drop(snd);
-            // The channel yields transitions in worker-completion order: collect
-            // them so the apply pass can sort (it mutates persistent island and
-            // coloring state whose layout must not depend on the schedule).
-            let mut transitions: Vec<PairTransition> = rcv.iter().collect();
+            // The list holds transitions in worker-completion order: the apply pass
+            // sorts them (it mutates persistent island and coloring state whose layout
+            // must not depend on the schedule).
+            let mut transitions: Vec<PairTransition> =
+                transitions_sink.into_inner().unwrap_or_else(|e| e.into_inner());
             self.apply_pair_transitions(&mut transitions, islands, bodies, colliders, events);
         }
 

@@ -85,7 +85,7 @@ pub(super) fn process_pair(
     hints_ptr: &HintsPtr,
     soft: Option<&super::soft_contacts::SoftDetectionCtx>,
     #[cfg(not(feature = "parallel"))] transitions: &mut Vec<PairTransition>,
-    #[cfg(feature = "parallel")] snd: &std::sync::mpsc::Sender<PairTransition>,
+    #[cfg(feature = "parallel")] transitions: &std::sync::Mutex<std::vec::Vec<PairTransition>>,
 ) -> u8 {
     let pair = &mut edge.weight;
     let co1 = &colliders[pair.collider1];
@@ -750,7 +750,10 @@ pub(super) fn process_pair(
         #[cfg(not(feature = "parallel"))]
         transitions.push(transition);
         #[cfg(feature = "parallel")]
-        let _ = snd.send(transition);
+        transitions
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(transition);
     }
 
     // Update the pair's solver-qualification hint from its final state

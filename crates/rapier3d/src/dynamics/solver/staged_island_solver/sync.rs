@@ -63,6 +63,23 @@ impl StageSync {
         }
     }
 
+    /// physics-mcp patch 10: [`Self::new`] in place for a step that has as many workers as the
+    /// last — every counter and cursor back to 0 — so a step allocates no cache-aligned cursor
+    /// array (an aligned allocation and its free were about 1% of a small robot's step).
+    /// Nothing it holds outlives a step, so this is the fresh state `new` would give.
+    pub(super) fn reset(&mut self, num_workers: usize) {
+        if self.cursors.len() != num_workers {
+            *self = Self::new(num_workers);
+            return;
+        }
+        *self.published.get_mut() = 0;
+        *self.advance_ticket.get_mut() = 0;
+        *self.completed.get_mut() = 0;
+        for cursor in &mut self.cursors {
+            *cursor.0.get_mut() = 0;
+        }
+    }
+
     /// Records `count` executed units of `stage` (total `stage_work`, identical across workers).
     /// The completion crossing the total advances the stage right here, so [`Self::sync`] waiters
     /// only *read* `published` — no RMWs while spinning. Sound unconditionally: an incomplete
