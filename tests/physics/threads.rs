@@ -341,9 +341,12 @@ fn rule_reproduces_its_reference(rule: EngineRule) {
             assert!(hashes.contains(&h["restored ".len()..].to_string()), "{rule:?}, {threads} threads: {h} differs from the uninterrupted run");
         }
     }
-    let rule1 = &reference()[scene.name];
-    assert_ne!(rule1.last(), runs[0].last(), "{rule:?} steps the arms exactly as rule 1: the rule is not in effect");
-    if rule != EngineRule::TreeMultibody {
+    // Rule 4's scene is not the one rules 1 and 2 recorded: its own test compares rule 3 on it.
+    if !rule.quiet_step_forces() {
+        let rule1 = &reference()[scene.name];
+        assert_ne!(rule1.last(), runs[0].last(), "{rule:?} steps the arms exactly as rule 1: the rule is not in effect");
+    }
+    if rule == EngineRule::TreeMultibodyPerStep {
         let rule2: BTreeMap<String, Vec<String>> = serde_json::from_slice(&std::fs::read(rule_reference_path(EngineRule::TreeMultibody)).unwrap()).unwrap();
         assert_ne!(rule2[scene.name].last(), runs[0].last(), "{rule:?} steps the arms exactly as rule 2: the rule is not in effect");
     }

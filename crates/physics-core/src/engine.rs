@@ -37,9 +37,10 @@ pub enum EngineRule {
     /// substep (the vendored rapier's `MultibodyDynamics::TreeSparsePerStep`, PATCHES.md patch
     /// 3); free accelerations still per substep; everything else as rule 2. Since event version 9.
     TreeMultibodyPerStep = 3,
-    /// Rule 3 with the one-step forces physics-mcp applies every step (MJCF actuators' joint
-    /// efforts, torque-control motors, external forces and their clearing) written to an awake
-    /// or non-dynamic body without marking it modified (the vendored rapier's
+    /// Rule 3 with the one-step forces the step loop writes (MJCF actuators' joint efforts and
+    /// torque-control motors' torques before a step, the clearing of every one-step force after
+    /// it; apply_force and apply_torque still mark their body) written to an awake or
+    /// non-dynamic body without marking it modified (the vendored rapier's
     /// `RigidBodySet::one_step_forces`, PATCHES.md patch 8). A marked body makes the next step
     /// rebuild the solver's caches (contact graph, body table, joint colouring) instead of
     /// reusing them, and the rebuilt order rounds differently; the forces are the same. Since

@@ -310,7 +310,7 @@ impl World {
         for id in pending {
             self.clear_robot_forces(id);
             if let Some(h) = self.tables.objects.get(&id).map(|o| o.body) {
-                self.step_forces(h, |b| b.clear());
+                self.step_forces(h, super::step_forces::clear);
             }
         }
     }

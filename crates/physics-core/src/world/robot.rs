@@ -839,7 +839,7 @@ impl World {
         let Some(robot) = self.robot(id) else { return };
         let bodies: Vec<RigidBodyHandle> = robot.links.iter().map(|l| l.body).collect();
         for h in bodies {
-            self.step_forces(h, |b| b.clear());
+            self.step_forces(h, super::step_forces::clear);
         }
     }
 }

@@ -20,7 +20,13 @@ pub struct OneStepForces<'a> {
     body: &'a mut RigidBody,
 }
 
-impl OneStepForces<'_> {
+impl<'a> OneStepForces<'a> {
+    /// The same writes on a body the caller already holds mutably (reached through
+    /// [`RigidBodySet::get_mut`], so tracked): one interface for both doors.
+    pub fn on(body: &'a mut RigidBody) -> Self {
+        Self { body }
+    }
+
     /// [`RigidBody::add_force`] with `wake_up`.
     pub fn add_force(&mut self, force: Vector) {
         self.body.add_force(force, true);
@@ -87,7 +93,7 @@ mod one_step_forces_tests {
         let (mut quiet, ball) = world();
         let (mut marked, _) = world();
         for _ in 0..3 {
-            let epoch = quiet.islands.active_set_epoch;
+            let (epoch, marked_epoch) = (quiet.islands.active_set_epoch, marked.islands.active_set_epoch);
             let mut f = quiet.bodies.one_step_forces(ball).expect("an awake dynamic body");
             f.add_force_at_point(Vector::new(3.0, 0.0, 0.0), Vector::new(0.0, 0.1, 0.7));
             f.add_torque(Vector::new(0.0, 0.0, 0.5));
@@ -96,6 +102,7 @@ mod one_step_forces_tests {
             quiet.step();
             marked.step();
             assert_eq!(quiet.islands.active_set_epoch, epoch, "an untracked force started a new epoch");
+            assert_ne!(marked.islands.active_set_epoch, marked_epoch, "get_mut no longer starts an epoch: the test shows nothing");
             assert_eq!(quiet.bodies[ball].angvel(), marked.bodies[ball].angvel());
             assert_eq!(quiet.bodies[ball].translation(), marked.bodies[ball].translation());
             let mut f = quiet.bodies.one_step_forces(ball).unwrap();

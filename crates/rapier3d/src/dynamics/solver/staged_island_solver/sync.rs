@@ -19,7 +19,7 @@ type CursorInt = u32;
 type AtomicCursor = core::sync::atomic::AtomicU32;
 
 /// Bit position of the stage ordinal in a packed cursor; the claim position takes the low half.
-/// A step builds a fresh [`StageSync`] and every worker restarts at stage 0, so the stage half
+/// A step starts from a fresh or reset [`StageSync`] and every worker restarts at stage 0, so the stage half
 /// only has to hold one step's stage count.
 const STAGE_SHIFT: u32 = CursorInt::BITS / 2;
 /// Mask of a packed cursor's position half.
