@@ -296,8 +296,8 @@ fn rule_3_reproduces_its_reference_on_1_2_and_4_threads() {
 
 /// Rule 4 (rule 3 with the step's one-step forces leaving awake bodies unmarked) likewise,
 /// against `threads_reference_rule4.json`, on the arms with every other arm's first joint under
-/// torque control instead of a velocity motor (the forces rule 4 changes; falling in stacks,
-/// some arms sleep and are woken by them). The same scene under rule 3 ends elsewhere.
+/// torque control instead of a velocity motor (the forces rule 4 changes). The same scene under
+/// rule 3 ends elsewhere.
 #[test]
 fn rule_4_reproduces_its_reference_on_1_2_and_4_threads() {
     rule_reproduces_its_reference(EngineRule::QuietStepForces);

@@ -78,13 +78,6 @@ fn a_tampered_log_fails_naming_the_event_and_diff_finds_it() {
     assert!(ok && stdout.lines().count() >= 10 && stdout.contains("apply_force"), "{stdout}");
 }
 
-/// `engine_rule_v6*.sqlite` (recorded by the release that introduced engine rules) and every later
-/// replay (`RULE_2_LOGS`; `RULE_3_LOGS` from event version 9 on, under rule 3; `RULE_4_LOGS`
-/// from version 10 on, under rule 4) step their
-/// robots under rule 2 at every event — the created world, its fork and the saved file loaded
-/// again — while every log recorded before rules folds under rule 1 throughout. A load or a
-/// fork that fell back to rule 1 would still replay to its own hashes; this test tells them
-/// apart.
 /// The replays recorded under engine rule 2 (every simulation created from event version 6 on;
 /// `mjcf_ball_pair_v9` has version-9 events under rule 2, as a rule-2 simulation continued by
 /// this release has).
@@ -94,6 +87,12 @@ const RULE_3_LOGS: &[&str] = &["engine_rule_v9"];
 /// The replays recorded under engine rule 4 (every simulation created from event version 10 on).
 const RULE_4_LOGS: &[&str] = &["engine_rule_v10"];
 
+/// `engine_rule_v6*.sqlite` (recorded by the release that introduced engine rules) and every
+/// later replay step their robots under their root's rule at every event (`RULE_2_LOGS` under
+/// rule 2; `RULE_3_LOGS`, from event version 9 on, under rule 3; `RULE_4_LOGS`, from version 10
+/// on, under rule 4) — the created world, its fork and the saved file loaded again — while
+/// every log recorded before rules folds under rule 1 throughout. A load or a fork that fell
+/// back to rule 1 would still replay to its own hashes; this test tells them apart.
 #[test]
 fn rule_2_logs_keep_rule_2_through_forks_and_loads_and_older_logs_keep_rule_1() {
     use physics_mcp::command::BlobSource;
