@@ -8,9 +8,10 @@
 #   scripts/upstream_regression.sh            # prints Ir of the program and of World::step_here
 #
 # The release copy is this commit's tree in a temporary directory with `[patch.crates-io]`
-# removed; physics-core names the patched API in three places (the engine rule's
-# `multibody_dynamics` and the tree path's augmented mass read), which are stubbed there: the
-# example never builds a multibody, so they are never reached.
+# removed; physics-core names the patched API in four places (the engine rule's
+# `multibody_dynamics`, the tree path's augmented mass read and patch 8's quiet force door),
+# which are stubbed there: the example never builds a multibody and applies no force, so they
+# are never reached.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 tmp=$(mktemp -d)
@@ -37,6 +38,20 @@ s, n = re.subn(r"    /// How the engine computes multibodies[^\n]*\n    pub fn m
 assert n == 1, n
 p.write_text(s)
 edit("crates/physics-core/src/world/robot.rs", "let m = mb.augmented_mass();\n            return (m.nrows() == n && m.ncols() == n).then(|| m * x);", "return None;")
+# Patch 8's quiet door (rule 4): the release has no `one_step_forces`; every write goes through
+# `get_mut`, through a local stand-in for `OneStepForces` (the example applies no forces).
+edit("crates/physics-core/src/world/step_forces.rs", "use rapier3d::dynamics::{OneStepForces, RigidBodyHandle};", """use rapier3d::dynamics::{RigidBody, RigidBodyHandle};
+use rapier3d::math::{AngVector, Vector};
+pub(super) struct OneStepForces<'a>(&'a mut RigidBody);
+impl<'a> OneStepForces<'a> {
+    fn on(b: &'a mut RigidBody) -> Self { Self(b) }
+    pub(super) fn add_force(&mut self, f: Vector) { self.0.add_force(f, true) }
+    pub(super) fn add_force_at_point(&mut self, f: Vector, p: Vector) { self.0.add_force_at_point(f, p, true) }
+    pub(super) fn add_torque(&mut self, t: AngVector) { self.0.add_torque(t, true) }
+    pub(super) fn reset_forces(&mut self) { self.0.reset_forces(false) }
+    pub(super) fn reset_torques(&mut self) { self.0.reset_torques(false) }
+}""")
+edit("crates/physics-core/src/world/step_forces.rs", "if let Some(mut quiet) = bodies.one_step_forces(body) {", "if let Some(mut quiet) = None::<OneStepForces> {")
 PY
 
 build() { (cd "$1" && CARGO_TARGET_DIR="$target" cargo build --release -q -p physics-core --example step_cost) && cp "$target/release/examples/step_cost" "$tmp/step_cost_$2"; }
