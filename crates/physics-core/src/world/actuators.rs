@@ -397,7 +397,7 @@ impl World {
         }
         let ids: Vec<u32> = self.tables.actuation.keys().copied().collect();
         for id in ids {
-            let Some(base) = self.tables.objects.get(&id).map(|o| o.body) else { continue };
+            let Some(base) = self.body_handle(id) else { continue };
             let outputs = self.actuator_outputs(id);
             let (Some(a), Some(robot)) = (self.tables.actuation.get(&id), self.robot(id)) else { continue };
             let mut effort: BTreeMap<u32, f64> = BTreeMap::new();

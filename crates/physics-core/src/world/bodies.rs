@@ -56,7 +56,7 @@ impl World {
             } => {
                 let pose = Pose::from_parts(v3(*position), quat(*orientation));
                 if self.robot(*object_id).is_some() {
-                    if let Some(base) = self.tables.objects.get(object_id).map(|o| o.body) {
+                    if let Some(base) = self.body_handle(*object_id) {
                         self.set_robot_pose(base, pose);
                     }
                 } else if let Some(b) = self.body_mut(*object_id) {
@@ -309,14 +309,19 @@ impl World {
         let pending = std::mem::take(&mut self.tables.pending_wrench);
         for id in pending {
             self.clear_robot_forces(id);
-            if let Some(h) = self.tables.objects.get(&id).map(|o| o.body) {
+            if let Some(h) = self.body_handle(id) {
                 self.step_forces(h, super::step_forces::clear);
             }
         }
     }
 
+    /// The body of object `id` (a robot's base link), if the object exists.
+    pub(super) fn body_handle(&self, id: u32) -> Option<RigidBodyHandle> {
+        self.tables.objects.get(&id).map(|o| o.body)
+    }
+
     fn body_mut(&mut self, id: u32) -> Option<&mut RigidBody> {
-        let h = self.tables.objects.get(&id)?.body;
+        let h = self.body_handle(id)?;
         self.physics.bodies.get_mut(h)
     }
 
@@ -345,7 +350,7 @@ impl World {
 
     /// A robot's free base moves through its multibody's root coordinates, not its body.
     fn set_robot_base_velocity(&mut self, id: u32, lin: Option<[f32; 3]>, ang: Option<[f32; 3]>) {
-        let Some(base) = self.robot(id).and(self.tables.objects.get(&id)).map(|o| o.body) else {
+        let Some(base) = self.robot(id).and(self.body_handle(id)) else {
             return;
         };
         let mbs = &mut self.physics.multibody_joints;
@@ -379,7 +384,7 @@ impl World {
 
     /// The rapier body of an object.
     pub fn body(&self, id: u32) -> Option<&RigidBody> {
-        let h = self.tables.objects.get(&id)?.body;
+        let h = self.body_handle(id)?;
         self.physics.bodies.get(h)
     }
 

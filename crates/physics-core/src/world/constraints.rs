@@ -82,9 +82,8 @@ impl World {
     pub(super) fn insert_constraint(&mut self, spec: &ConstraintSpec) -> ConstraintCreated {
         let id = self.tables.next_constraint_id;
         self.tables.next_constraint_id += 1;
-        let body = |w: &World, id: u32| w.tables.objects.get(&id).map(|o| o.body);
-        let parent = body(self, spec.parent_id).unwrap_or_else(RigidBodyHandle::invalid);
-        let (child, anchor) = match spec.child_id.and_then(|c| body(self, c)) {
+        let parent = self.body_handle(spec.parent_id).unwrap_or_else(RigidBodyHandle::invalid);
+        let (child, anchor) = match spec.child_id.and_then(|c| self.body_handle(c)) {
             Some(c) => (c, None),
             None => {
                 let h = self.physics.insert_body(RigidBodyBuilder::fixed());

@@ -931,7 +931,7 @@ impl World {
                     joint += 1;
                 }
                 rapier3d_mjcf::MjcfDofKind::Free => {
-                    if let (Some(q), Some(base)) = (qpos.get(at..at + 7), self.tables.objects.get(&id).map(|o| o.body)) {
+                    if let (Some(q), Some(base)) = (qpos.get(at..at + 7), self.body_handle(id)) {
                         let rot = Rotation::from_xyzw(q[4] as f32, q[5] as f32, q[6] as f32, q[3] as f32);
                         if rot.length() > 0.0 {
                             let local = Pose::from_parts(Vector::new(q[0] as f32, q[1] as f32, q[2] as f32), rot.normalize());

@@ -476,7 +476,7 @@ impl World {
     /// inertial frame (rotated by the principal-axes frame get_dynamics_info reports), and the
     /// velocity of its centre of mass.
     pub fn link_state(&self, id: u32, link_index: i32) -> Option<crate::outputs::LinkState> {
-        let base = self.tables.objects.get(&id)?.body;
+        let base = self.body_handle(id)?;
         let h = match self.robot(id) {
             Some(r) => r.link_body(base, link_index)?,
             None => base,
